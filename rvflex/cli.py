@@ -1,0 +1,99 @@
+"""The ``rvflex`` command. Thin: parse arguments, call the library, write outputs.
+
+Everything is computed before anything is written, and files are written through a
+temporary name and renamed, so a failed run leaves no half-written output.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+from rvflex import catalog
+from rvflex.spec import ErrorSpec, ReducerSpec, SpecError, load_errors, load_spec
+
+__all__ = ["main", "resolve_reducer"]
+
+
+def resolve_reducer(name: str) -> ReducerSpec:
+    """A built-in catalogue name (``rv40e``) or the path of a reducer spec TOML file."""
+    if name.endswith(".toml") or os.sep in name:
+        path = Path(name)
+        if not path.is_file():
+            raise SpecError("--reducer", name, "file not found")
+        return load_spec(path)
+    return catalog.load(name)
+
+
+def _errors(path: str | None, spec: ReducerSpec) -> ErrorSpec | None:
+    if path is None:
+        return None
+    if not Path(path).is_file():
+        raise SpecError("--errors", path, "file not found")
+    return load_errors(path, spec)
+
+
+def _write_atomic(path: Path, data: bytes) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def _cmd_geometry(args: argparse.Namespace) -> int:
+    from rvflex.geometry.report import geometry_report, plot_profile
+
+    spec = resolve_reducer(args.reducer)
+    errors = _errors(args.errors, spec)
+    report = geometry_report(spec, errors)
+    print(report.text())
+    if args.out:
+        out = Path(args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        tmp = out / f".profile_{os.getpid()}.png"
+        try:
+            plot_profile(spec, tmp, errors)
+            os.replace(tmp, out / "profile.png")
+        finally:
+            tmp.unlink(missing_ok=True)
+        _write_atomic(out / "geometry.json", json.dumps(report.as_json(), indent=2).encode())
+        print(f"wrote {out / 'profile.png'} and {out / 'geometry.json'}")
+    if args.json:
+        _write_atomic(Path(args.json), json.dumps(report.as_json(), indent=2).encode())
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of the ``rvflex`` command."""
+    p = argparse.ArgumentParser(prog="rvflex", description="Rigid–flexible RV reducer models: geometry, TE, lost motion.")
+    sub = p.add_subparsers(dest="command", required=True)
+    g = sub.add_parser("geometry", help="cycloid-stage geometry report and profile plot")
+    g.add_argument("--reducer", required=True, help=f"built-in reducer ({', '.join(catalog.names())}) or a spec TOML path")
+    g.add_argument("--errors", help="ErrorSpec TOML file (omitted keys are zero)")
+    g.add_argument("--json", help="write the report as JSON to this path")
+    g.add_argument("--out", help="directory for profile.png and geometry.json")
+    g.set_defaults(func=_cmd_geometry)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``rvflex`` console script."""
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except SpecError as err:
+        print(f"rvflex: error: {err}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())
