@@ -245,7 +245,7 @@ def closest_point(c, par, herr, hpsi, t0=math.nan):
     warm = not math.isnan(t0)
     t = t0 if warm else _polar_guess(c, par)
     # project c onto the pin-centre curve's tangent: brings t within ~1e-7 of the answer
-    for _ in range(0 if warm else 2):
+    for _ in range(1 if warm else 2):
         ei = complex(math.cos(t), math.sin(t))
         eb = complex(math.cos(zb * t), math.sin(zb * t))
         v = 1j * (R * ei - zb * e * eb)

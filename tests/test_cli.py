@@ -1,0 +1,66 @@
+"""The `rvflex geometry` command: JSON keys, figure, and refusal of bad input without output."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from rvflex.cli import main
+
+KEYS = {"ratio", "K1", "zc", "zb", "min_initial_clearance_um", "max_pressure_angle_deg",
+        "backlash_formula_arcmin", "gap_max_error_m", "gap_eval_us_80_pins"}
+
+
+@pytest.fixture(scope="module")
+def geometry_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("geom")
+    code = main(["geometry", "--reducer", "rv40e", "--json", str(out / "g.json"), "--out", str(out / "plots")])
+    return code, out
+
+
+def test_geometry_json(geometry_run):
+    code, out = geometry_run
+    assert code == 0
+    g = json.loads((out / "g.json").read_text())
+    assert KEYS <= g.keys()
+    assert g["ratio"] == 121.0 and g["K1"] < 1 and (g["zc"], g["zb"]) == (39, 40)
+    assert g["gap_max_error_m"] <= 1e-9
+    # seed 004 modification: tip/root clearance Δr_rp − Δr_p = 8 µm is the smallest
+    assert g["min_initial_clearance_um"] == pytest.approx(8.0, abs=1e-6)
+    # pressure angle over the loaded flank: between the cycloid's minimum (≈ 39°) and 90°
+    assert 39.0 < g["max_pressure_angle_deg"] < 90.0
+    assert g["backlash_formula_arcmin"] == pytest.approx(1.8738, abs=1e-4)
+    assert g["gap_eval_us_80_pins"] > 0
+
+
+def test_geometry_writes_a_real_png(geometry_run):
+    _, out = geometry_run
+    png = out / "plots" / "profile.png"
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert png.stat().st_size > 50_000  # three panels of lines and labels, not an empty canvas
+    assert json.loads((out / "plots" / "geometry.json").read_text()).keys() >= KEYS
+
+
+def test_unknown_reducer_is_refused_and_nothing_written(tmp_path, capsys):
+    code = main(["geometry", "--reducer", "rv41e", "--json", str(tmp_path / "g.json"), "--out", str(tmp_path / "o")])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "--reducer = 'rv41e': unknown reducer; built-in: rv40e, rv80e" in err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_bad_spec_file_is_refused_with_one_message(tmp_path):
+    from importlib import resources
+
+    text = resources.files("rvflex.catalog").joinpath("rv40e.toml").read_text()
+    bad = tmp_path / "mine.toml"
+    bad.write_text(text.replace("pin_circle_radius_m = 0.066 ", "pin_circle_radius_m = 66.0 "))
+    proc = subprocess.run([sys.executable, "-m", "rvflex.cli", "geometry", "--reducer", str(bad),
+                           "--json", str(tmp_path / "g.json")], capture_output=True, text=True)
+    assert proc.returncode == 2
+    lines = proc.stderr.strip().splitlines()
+    assert lines == [f"rvflex: error: {bad}: cycloid.pin_circle_radius_m = 66.0: expected metres, 5 mm to 1 m"]
+    assert not (tmp_path / "g.json").exists()
