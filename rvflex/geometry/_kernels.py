@@ -94,36 +94,28 @@ def _radius(t, par, herr):
         dr += comp * c1 * zc
         ddr += comp * c2 * zc * zc
     # profile error (positive = material added = smaller generating radius)
-    for kk in range(herr.shape[0]):
-        ck = herr[kk, 0]
-        sk = herr[kk, 1]
-        if ck == 0.0 and sk == 0.0:
-            continue
-        c = math.cos(kk * t)
-        sn = math.sin(kk * t)
-        r -= ck * c + sk * sn
-        dr -= kk * (-ck * sn + sk * c)
-        ddr -= -kk * kk * (ck * c + sk * sn)
-    return r, dr, ddr
+    h, h1, h2 = _harmonic(t, herr)
+    return r - h, dr - h1, ddr - h2
 
 
 @_jit
-def _warp(t, hpsi):
-    """Pitch warp angle ψ(t) and its first two derivatives (rad)."""
-    psi = 0.0
+def _harmonic(t, table):
+    """Σ a_k cos(k t) + b_k sin(k t) over the rows (a_k, b_k) of ``table``, with its first
+    two derivatives: the smooth per-tooth interpolants of profile and pitch errors."""
+    v = 0.0
     d1 = 0.0
     d2 = 0.0
-    for kk in range(hpsi.shape[0]):
-        ck = hpsi[kk, 0]
-        sk = hpsi[kk, 1]
+    for kk in range(table.shape[0]):
+        ck = table[kk, 0]
+        sk = table[kk, 1]
         if ck == 0.0 and sk == 0.0:
             continue
         c = math.cos(kk * t)
         sn = math.sin(kk * t)
-        psi += ck * c + sk * sn
+        v += ck * c + sk * sn
         d1 += kk * (-ck * sn + sk * c)
-        d2 += -kk * kk * (ck * c + sk * sn)
-    return psi, d1, d2
+        d2 -= kk * kk * (ck * c + sk * sn)
+    return v, d1, d2
 
 
 @_jit
@@ -153,7 +145,7 @@ def profile_point(t, par, herr, hpsi):
     q = p - r * n
     q1 = v - r1 * n - r * n1
     q2 = a - r2 * n - 2.0 * r1 * n1 - r * n2
-    psi, w1, w2 = _warp(t, hpsi)
+    psi, w1, w2 = _harmonic(t, hpsi)
     if psi == 0.0 and w1 == 0.0 and w2 == 0.0:
         return q, q1, q2
     rot = complex(math.cos(psi), math.sin(psi))
