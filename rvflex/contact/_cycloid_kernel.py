@@ -1,0 +1,198 @@
+"""Numba kernel of the cycloid–pin contact: all pins of one disc in one call.
+
+Coordinates of the disc: q = (x, y, θ) of a planar rigid body (NodeRigidBody2D); the
+profile frame is the body frame turned by a constant ``offset`` (disc phase). Pins are
+fixed circles in the ring (ground) frame.
+
+For each pin i the exact gap g_i(q) (closest point on the profile, see
+:mod:`rvflex.geometry._kernels`) gives the potential-based generalised force
+Q = Σ f_i·∂g_i/∂q with f_i = f(x_i) ≥ 0, x_i = −g_i the penetration; the Jacobian of the
+left-hand side is K = Σ f'_i·∂g_i/∂q ⊗ ∂g_i/∂q − f_i·∂²g_i/∂q² (symmetric without friction)
+and D = Σ c·∂g_i/∂q ⊗ ∂g_i/∂q. A flexible disc adds columns (the contact point's mode-shape
+row projected on the normal) to ∂g_i/∂q; the law layer below is unchanged.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+from rvflex.geometry._kernels import closest_point
+
+LAW_LINEAR, LAW_POWER, LAW_LINE = 0, 1, 2
+# law parameter vector
+L_KIND, L_K, L_EXP, L_C, L_MU, L_VREG, L_WIDTH, L_COMPL1, L_COMPL2 = range(9)
+N_LAW = 9
+# per-pin output columns
+O_GAP, O_FORCE, O_PX, O_PY, O_T, O_FT = range(6)
+N_OUT = 6
+
+_jit = nb.njit(cache=True, nogil=True)
+
+
+@_jit
+def _line_force(delta, rho, r_pin, law):
+    """Force (N) and stiffness dF/dδ (N/m) of the seed-002 line-contact law for approach δ.
+
+    δ(F) = 2F/(πb)·[k1(ln(4|ρ|/c) − ½) + k2(ln(4r/c) − ½)], c² = 4F(k1 + k2)/(πb(1/ρ + 1/r)),
+    inverted by Newton; dδ/dF = δ/F − (k1 + k2)/(πb).
+    """
+    b = law[L_WIDTH]
+    k1 = law[L_COMPL1]
+    k2 = law[L_COMPL2]
+    curv = 1.0 / rho + 1.0 / r_pin
+    if curv <= 0.0:  # conformal (concave flank tighter than the pin): cannot occur on a valid profile
+        curv = 1e-3 / r_pin
+    a = 2.0 / (math.pi * b)
+    bc = 4.0 * (k1 + k2) / (math.pi * b * curv)
+    arho = abs(rho)
+    # start from a linear compliance evaluated at a typical force level
+    f = delta / (a * (k1 + k2) * 5.0)
+    for _ in range(50):
+        c = math.sqrt(bc * f)
+        dl = a * f * (k1 * (math.log(4.0 * arho / c) - 0.5) + k2 * (math.log(4.0 * r_pin / c) - 0.5))
+        ddl = dl / f - 0.5 * a * (k1 + k2)
+        step = (dl - delta) / ddl
+        f_new = f - step
+        if f_new <= 0.0:
+            f_new = 0.5 * f
+        if abs(f_new - f) <= 1e-13 * f:
+            f = f_new
+            break
+        f = f_new
+    c = math.sqrt(bc * f)
+    dl = a * f * (k1 * (math.log(4.0 * arho / c) - 0.5) + k2 * (math.log(4.0 * r_pin / c) - 0.5))
+    return f, 1.0 / (dl / f - 0.5 * a * (k1 + k2))
+
+
+@_jit
+def _normal_law(x, rho, r_pin, law):
+    """Elastic normal force f(x) ≥ 0 (N) and f'(x) for penetration x (m)."""
+    if x <= 0.0:
+        return 0.0, 0.0
+    kind = law[L_KIND]
+    if kind == LAW_LINEAR:
+        return law[L_K] * x, law[L_K]
+    if kind == LAW_POWER:
+        e = law[L_EXP]
+        f = law[L_K] * x**e
+        return f, e * f / x
+    return _line_force(x, rho, r_pin, law)
+
+
+@_jit
+def evaluate(q, qd, offset, pins, radii, par, herr, hpsi, law, t_cache, force, kmat, dmat, out):
+    """Generalised force (3,), LHS Jacobians K, D (3×3) and per-pin outputs (n, N_OUT).
+
+    Returns the largest penetration (m) and the number of closest-point failures.
+    """
+    x0 = q[0]
+    y0 = q[1]
+    th = q[2] + offset
+    ct = math.cos(th)
+    st = math.sin(th)
+    for a in range(3):
+        force[a] = 0.0
+        for b in range(3):
+            kmat[a, b] = 0.0
+            dmat[a, b] = 0.0
+    max_pen = -1e300
+    bad = 0
+    gq = np.empty(3)
+    hq = np.empty((3, 3))
+    gt = np.empty(3)
+    for i in range(pins.shape[0]):
+        # pin centre in the profile frame: c = R(−θ)(P − C)
+        dx = pins[i, 0] - x0
+        dy = pins[i, 1] - y0
+        cx = ct * dx + st * dy
+        cy = -st * dx + ct * dy
+        t, d, qp, nq, kap, ok = closest_point(complex(cx, cy), par, herr, hpsi, t_cache[i])
+        if not ok:
+            bad += 1
+        t_cache[i] = t
+        gap = d - radii[i]
+        pen = -gap
+        if pen > max_pen:
+            max_pen = pen
+        nx = nq.real
+        ny = nq.imag
+        # world normal n = R(θ)N and world contact point (on the disc)
+        wnx = ct * nx - st * ny
+        wny = st * nx + ct * ny
+        px = x0 + ct * qp.real - st * qp.imag
+        py = y0 + st * qp.real + ct * qp.imag
+        out[i, O_GAP] = gap
+        out[i, O_PX] = px
+        out[i, O_PY] = py
+        out[i, O_T] = t
+        out[i, O_FORCE] = 0.0
+        out[i, O_FT] = 0.0
+        if pen <= 0.0:
+            continue
+        # ∂g/∂q: −n for translation, −(c × N) for rotation
+        gq[0] = -wnx
+        gq[1] = -wny
+        gq[2] = -(cx * ny - cy * nx)
+        pen_rate = -(gq[0] * qd[0] + gq[1] * qd[1] + gq[2] * qd[2])
+        rho = 1.0 / kap if kap != 0.0 else 1e300
+        f_el, df_el = _normal_law(pen, rho, radii[i], law)
+        fn = f_el + law[L_C] * pen_rate
+        if fn <= 0.0:  # the damper would pull: the pin leaves the flank
+            continue
+        out[i, O_FORCE] = fn
+        # ∂²g/∂q²: level-set curvature of the distance plus the rotation of c
+        tx = -ny  # profile tangent (disc frame), N = −i·T  ⇒  T = i·N
+        ty = nx
+        keff = kap / (1.0 + kap * d)
+        # columns of ∂c/∂q: a1 = −R(−θ)e_x, a2 = −R(−θ)e_y, a3 = −J c
+        a1x, a1y = -ct, st
+        a2x, a2y = -st, -ct
+        a3x, a3y = cy, -cx
+        s1 = tx * a1x + ty * a1y
+        s2 = tx * a2x + ty * a2y
+        s3 = tx * a3x + ty * a3y
+        sv = (s1, s2, s3)
+        for a in range(3):
+            for b in range(3):
+                hq[a, b] = keff * sv[a] * sv[b]
+        # N·∂²c/∂θ∂x = N·J R(−θ)e_x, N·∂²c/∂θ² = −N·c
+        jx = (st, ct)  # J·R(−θ)e_x with R(−θ)e_x = (ct, −st) and J(v) = (−v_y, v_x)
+        jy = (-ct, st)  # J·R(−θ)e_y with R(−θ)e_y = (st, ct)
+        hx = nx * jx[0] + ny * jx[1]
+        hy = nx * jy[0] + ny * jy[1]
+        hq[0, 2] += hx
+        hq[2, 0] += hx
+        hq[1, 2] += hy
+        hq[2, 1] += hy
+        hq[2, 2] += -(nx * cx + ny * cy)
+        for a in range(3):
+            force[a] += fn * gq[a]
+            for b in range(3):
+                kmat[a, b] += df_el * gq[a] * gq[b] - fn * hq[a, b]
+                dmat[a, b] += law[L_C] * gq[a] * gq[b]
+        mu = law[L_MU]
+        if mu > 0.0:
+            # regularised Coulomb friction at the contact point, opposing the disc's sliding
+            wtx = -wny
+            wty = wnx
+            rx = px - x0
+            ry = py - y0
+            gt[0] = wtx
+            gt[1] = wty
+            gt[2] = rx * wty - ry * wtx
+            vt = gt[0] * qd[0] + gt[1] * qd[1] + gt[2] * qd[2]
+            vr = law[L_VREG]
+            th_v = math.tanh(vt / vr)
+            ft = -mu * fn * th_v
+            out[i, O_FT] = ft
+            sech2 = 1.0 - th_v * th_v
+            for a in range(3):
+                force[a] += ft * gt[a]
+                for b in range(3):
+                    # F_t = −μ·F_n·tanh(v_t/v_reg), F_n = f(x) − c·∂g/∂q·q̇
+                    dmat[a, b] += mu * fn * sech2 / vr * gt[a] * gt[b] - mu * th_v * law[L_C] * gt[a] * gq[b]
+                    kmat[a, b] += mu * th_v * gt[a] * (-df_el * gq[b])
+    return max_pen, bad

@@ -1,0 +1,303 @@
+"""Cycloid–pin contact: one Exudyn object per disc acting on all pins at once.
+
+The element is an ``ObjectGenericODE2`` on the disc's planar rigid node with a force and
+an analytic Jacobian user function; both call one numba kernel
+(:mod:`rvflex.contact._cycloid_kernel`) that evaluates every pin with the exact
+closest-point gap of :mod:`rvflex.geometry` — no polygon, no Python loop over pins. The
+force call stores the Jacobian it computes alongside, so Newton's Jacobian request at the
+same state costs nothing.
+
+Which deformation it carries: the local contact compliance only (the normal law). Global
+deformation of the disc belongs to the flexible body (Craig–Bampton modes), not here.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from rvflex.contact import _cycloid_kernel as K
+from rvflex.geometry.pins import pin_centres, pin_radii
+from rvflex.geometry.profile import CycloidProfile, build_profile
+from rvflex.spec import CycloidStage, ErrorSpec, Material
+
+__all__ = ["ContactError", "ContactLaw", "CycloidPinContact", "PinState", "add_cycloid_pin_contact",
+           "install_penetration_guard", "DEFAULT_MAX_PENETRATION_M"]
+
+DEFAULT_MAX_PENETRATION_M = 50e-6  # beyond any elastic approach of steel pins (a few µm): a run gone wrong
+DEFAULT_INITIAL_INTERFERENCE_M = 1e-6
+
+
+class ContactError(RuntimeError):
+    """A contact penetrates deeper than is physically possible: the run is stopped."""
+
+
+@dataclass(frozen=True)
+class ContactLaw:
+    """Normal force law of a pin contact, damping and optional regularised Coulomb friction.
+
+    Use the constructors :meth:`linear`, :meth:`hertz` and :meth:`line`.
+
+    Attributes
+    ----------
+    kind : {"linear", "power", "line"}
+        Linear penalty F = k·x; power law F = k·x^e (Hertz-type, seed 000); line contact of
+        seed 002 (stiffness from materials, width and local flank curvature).
+    stiffness : float
+        k in N/m (linear) or N/m^e (power); unused for "line".
+    exponent : float
+        e of the power law (–).
+    damping_Ns_m : float
+        c of the damping force c·ẋ, active only while in contact (N·s/m).
+    friction_coefficient : float
+        μ of the regularised Coulomb friction μ·F_n·tanh(v_t/v_reg); 0 switches it off.
+    friction_velocity_m_s : float
+        v_reg, sliding speed over which friction builds up (m/s).
+    width_m : float
+        Contact width b (the disc thickness) for "line" (m).
+    disc_compliance_1_Pa, pin_compliance_1_Pa : float
+        (1 − ν²)/E of disc and pin for "line" (1/Pa).
+    """
+
+    kind: str
+    stiffness: float = 0.0
+    exponent: float = 1.0
+    damping_Ns_m: float = 0.0
+    friction_coefficient: float = 0.0
+    friction_velocity_m_s: float = 1e-4
+    width_m: float = 0.0
+    disc_compliance_1_Pa: float = 0.0
+    pin_compliance_1_Pa: float = 0.0
+
+    def __post_init__(self) -> None:
+        if self.kind not in ("linear", "power", "line"):
+            raise ValueError(f"contact law kind = {self.kind!r}: must be 'linear', 'power' or 'line'")
+        if self.kind != "line" and not self.stiffness > 0:
+            raise ValueError(f"contact law stiffness = {self.stiffness!r}: must be positive")
+        if self.kind == "power" and not 1.0 <= self.exponent <= 3.0:
+            raise ValueError(f"contact law exponent = {self.exponent!r}: must lie in [1, 3]")
+        if self.kind == "line" and not (self.width_m > 0 and self.disc_compliance_1_Pa > 0
+                                        and self.pin_compliance_1_Pa > 0):
+            raise ValueError("line contact law: width_m and both compliances must be positive")
+        for name in ("damping_Ns_m", "friction_coefficient"):
+            if not getattr(self, name) >= 0:
+                raise ValueError(f"contact law {name} = {getattr(self, name)!r}: must not be negative")
+        if not self.friction_velocity_m_s > 0:
+            raise ValueError(f"contact law friction_velocity_m_s = {self.friction_velocity_m_s!r}: must be positive")
+
+    @classmethod
+    def linear(cls, stiffness_N_m: float, damping_Ns_m: float = 0.0, **friction: float) -> "ContactLaw":
+        """Linear penalty F = k·x (+ c·ẋ)."""
+        return cls("linear", stiffness_N_m, 1.0, damping_Ns_m, **friction)
+
+    @classmethod
+    def hertz(cls, stiffness: float, exponent: float = 1.5, damping_Ns_m: float = 0.0,
+              **friction: float) -> "ContactLaw":
+        """Power law F = k·x^e (+ c·ẋ), e = 1.5 as in seed 000; k in N/m^e."""
+        return cls("power", stiffness, exponent, damping_Ns_m, **friction)
+
+    @classmethod
+    def line(cls, width_m: float, disc: Material, pin: Material, damping_Ns_m: float = 0.0,
+             **friction: float) -> "ContactLaw":
+        """Seed 002's line contact: the approach δ(F) of :func:`rvflex.geometry.formulas.hertz_line_deflection`
+        inverted, with the flank curvature at each contact point."""
+        return cls("line", 0.0, 1.0, damping_Ns_m, width_m=width_m,
+                   disc_compliance_1_Pa=(1 - disc.poisson_ratio**2) / disc.youngs_modulus_Pa,
+                   pin_compliance_1_Pa=(1 - pin.poisson_ratio**2) / pin.youngs_modulus_Pa, **friction)
+
+    def vector(self) -> np.ndarray:
+        """Parameter vector of the kernel."""
+        v = np.zeros(K.N_LAW)
+        v[K.L_KIND] = {"linear": K.LAW_LINEAR, "power": K.LAW_POWER, "line": K.LAW_LINE}[self.kind]
+        v[K.L_K], v[K.L_EXP], v[K.L_C] = self.stiffness, self.exponent, self.damping_Ns_m
+        v[K.L_MU], v[K.L_VREG] = self.friction_coefficient, self.friction_velocity_m_s
+        v[K.L_WIDTH], v[K.L_COMPL1], v[K.L_COMPL2] = self.width_m, self.disc_compliance_1_Pa, self.pin_compliance_1_Pa
+        return v
+
+
+@dataclass(frozen=True)
+class PinState:
+    """Per-pin contact state (arrays of one row per pin, pin order).
+
+    gap_m: signed gap (m, negative = penetration); force_N: normal force (N);
+    tangential_force_N: friction force along the flank (N); point_m: contact point on the
+    disc in the ring frame (n, 2) (m); t: profile parameter of the contact point.
+    """
+
+    gap_m: np.ndarray
+    force_N: np.ndarray
+    tangential_force_N: np.ndarray
+    point_m: np.ndarray
+    t: np.ndarray
+
+    @property
+    def in_contact(self) -> np.ndarray:
+        """Pins carrying load."""
+        return self.force_N > 0.0
+
+
+@dataclass(frozen=True, eq=False)
+class CycloidPinContact:
+    """Handle of one disc–pin-ring contact element.
+
+    Attributes
+    ----------
+    object_index : int
+        Exudyn index of the ``ObjectGenericODE2``.
+    node : int
+        The disc's NodeRigidBody2D.
+    profile : CycloidProfile
+        Exact profile of this disc (with its errors).
+    pins_m, radii_m : ndarray
+        Pin centres in the ring frame (n, 2) and radii (n,), errors included (m).
+    offset_rad : float
+        Profile frame angle relative to the node's rotation (disc phase).
+    """
+
+    object_index: int
+    node: int
+    profile: CycloidProfile
+    pins_m: np.ndarray
+    radii_m: np.ndarray
+    law: ContactLaw
+    offset_rad: float
+    reference: np.ndarray
+    max_penetration_m: float
+    _law_vec: np.ndarray = field(repr=False)
+    _t_cache: np.ndarray = field(repr=False)
+    _scratch: dict = field(repr=False)
+
+    def evaluate(self, q: np.ndarray, qd: np.ndarray | None = None):
+        """Force (3,), LHS Jacobians K and D (3×3), per-pin outputs and max penetration at
+        absolute coordinates ``q = (x, y, θ)`` and velocities ``qd``."""
+        qd = np.zeros(3) if qd is None else np.asarray(qd, float)
+        s = self._scratch
+        f, k, d, out = np.empty(3), np.empty((3, 3)), np.empty((3, 3)), np.empty((len(self.radii_m), K.N_OUT))
+        pen, bad = K.evaluate(np.asarray(q, float), qd, self.offset_rad, self.pins_m, self.radii_m,
+                              self.profile.par, self.profile.herr, self.profile.hpsi, self._law_vec,
+                              self._t_cache, f, k, d, out)
+        if bad:
+            s["bad"] = bad
+        return f, k, d, out, pen
+
+    def pin_state(self, mbs) -> PinState:
+        """Per-pin gap, force and contact point at the system's current state."""
+        q = self.reference + np.asarray(mbs.GetNodeOutput(self.node, _exu().OutputVariableType.Coordinates))
+        qd = np.asarray(mbs.GetNodeOutput(self.node, _exu().OutputVariableType.Coordinates_t))
+        _, _, _, out, _ = self.evaluate(q, qd)
+        return PinState(out[:, K.O_GAP].copy(), out[:, K.O_FORCE].copy(), out[:, K.O_FT].copy(),
+                        out[:, [K.O_PX, K.O_PY]].copy(), out[:, K.O_T].copy())
+
+    # ------------------------------------------------------------------ user functions
+    def _force_uf(self, mbs, t, item, q, q_t):
+        qa = self.reference + np.asarray(q)
+        f, k, d, _, pen = self.evaluate(qa, q_t)
+        s = self._scratch
+        s["q"], s["qd"], s["K"], s["D"], s["penetration"] = qa, np.array(q_t), k, d, pen
+        return f
+
+    def check_penetration(self, t: float = math.nan) -> None:
+        """Raise :class:`ContactError` if the last evaluated state penetrates deeper than
+        ``max_penetration_m``. Call it at converged states (see :func:`install_penetration_guard`):
+        Newton's intermediate iterates may overshoot harmlessly."""
+        pen = self._scratch.get("penetration", -math.inf)
+        if pen > self.max_penetration_m:
+            raise ContactError(f"cycloid–pin contact on node {self.node}: penetration {pen * 1e6:.1f} µm exceeds "
+                               f"{self.max_penetration_m * 1e6:.0f} µm at t = {t:g} s (diverged or overloaded run)")
+
+    def _jacobian_uf(self, mbs, t, item, q, q_t, f_ode2, f_ode2_t):
+        qa = self.reference + np.asarray(q)
+        s = self._scratch
+        if "q" in s and np.array_equal(s["q"], qa) and np.array_equal(s["qd"], q_t):
+            k, d = s["K"], s["D"]
+        else:
+            _, k, d, _, _ = self.evaluate(qa, q_t)
+        return f_ode2 * k + f_ode2_t * d
+
+
+def install_penetration_guard(mbs, contacts: list[CycloidPinContact]) -> None:
+    """Stop a dynamic run whose converged state penetrates any contact too deeply.
+
+    Installs the system's post-Newton user function (one Python call per time step for
+    all contacts, not per contact); it checks the state Newton converged to.
+    """
+
+    def post_newton(mbs, t):
+        for c in contacts:
+            c.check_penetration(t)
+        return [0.0, 0.0]
+
+    mbs.SetPostNewtonUserFunction(post_newton)
+
+
+def _exu():
+    import exudyn
+
+    return exudyn
+
+
+def add_cycloid_pin_contact(mbs, disc_node: int, stage: CycloidStage, law: ContactLaw, *, disc: int = 0,
+                            errors: ErrorSpec | None = None, max_penetration_m: float = DEFAULT_MAX_PENETRATION_M,
+                            initial_interference_m: float = DEFAULT_INITIAL_INTERFERENCE_M,
+                            profile: CycloidProfile | None = None) -> CycloidPinContact:
+    """Add the contact between disc ``disc`` of ``stage`` (on ``disc_node``) and the fixed pin ring.
+
+    Parameters
+    ----------
+    mbs : exudyn.MainSystem
+        System to add to.
+    disc_node : int
+        A NodeRigidBody2D carrying the disc body; its rotation coordinate is the disc angle
+        (the profile frame is turned by −ϕ_k/z_c for a disc with eccentric phase ϕ_k).
+    stage : CycloidStage
+        Geometry and modification.
+    law : ContactLaw
+        Normal law, damping and friction.
+    disc : int
+        Disc index (selects the disc phase and the disc errors).
+    errors : ErrorSpec, optional
+        Pin and disc errors (validated against the stage's counts by the caller's spec check).
+    max_penetration_m : float
+        A run whose deepest penetration exceeds this stops with :class:`ContactError`.
+    initial_interference_m : float
+        The initial configuration may interfere by at most this much (m).
+
+    Raises
+    ------
+    ValueError
+        Wrong node type, bad tolerances, or initial interference beyond the tolerance
+        (naming the pin).
+    """
+    node = mbs.GetNode(disc_node)
+    if node.get("nodeType") != "RigidBody2D":
+        raise ValueError(f"disc_node = {disc_node}: must be a NodeRigidBody2D, not {node.get('nodeType')}")
+    if not 0 <= disc < stage.disc_count:
+        raise ValueError(f"disc = {disc}: the stage has {stage.disc_count} discs")
+    for name, v in (("max_penetration_m", max_penetration_m), ("initial_interference_m", initial_interference_m)):
+        if not v > 0:
+            raise ValueError(f"{name} = {v!r}: must be positive")
+    prof = profile or build_profile(stage, errors, disc)
+    pins = np.ascontiguousarray(pin_centres(stage, errors))
+    radii = np.ascontiguousarray(pin_radii(stage, errors))
+    ref = np.asarray(node["referenceCoordinates"], float)
+    init = ref + np.asarray(node.get("initialCoordinates", np.zeros(3)), float)
+    contact = CycloidPinContact(
+        object_index=-1, node=disc_node, profile=prof, pins_m=pins, radii_m=radii, law=law,
+        offset_rad=-stage.disc_phase_rad[disc] / stage.disc_teeth, reference=ref,
+        max_penetration_m=max_penetration_m, _law_vec=law.vector(),
+        _t_cache=np.full(len(radii), np.nan), _scratch={})
+    _, _, _, out, _ = contact.evaluate(init)
+    worst = int(np.argmin(out[:, K.O_GAP]))
+    if -out[worst, K.O_GAP] > initial_interference_m:
+        raise ValueError(f"initial configuration: pin {worst} interferes with disc {disc} by "
+                         f"{-out[worst, K.O_GAP] * 1e6:.3f} µm (tolerance {initial_interference_m * 1e6:g} µm)")
+    from exudyn.itemInterface import ObjectGenericODE2
+
+    idx = mbs.AddObject(ObjectGenericODE2(
+        nodeNumbers=[disc_node], massMatrix=np.zeros((3, 3)), stiffnessMatrix=np.zeros((3, 3)),
+        dampingMatrix=np.zeros((3, 3)), forceUserFunction=contact._force_uf,
+        jacobianUserFunction=contact._jacobian_uf))
+    object.__setattr__(contact, "object_index", int(idx))
+    return contact
