@@ -167,19 +167,18 @@ class CycloidPinContact:
     max_penetration_m: float
     _law_vec: np.ndarray = field(repr=False)
     _t_cache: np.ndarray = field(repr=False)
-    _scratch: dict = field(repr=False)
+    _work: "_Workspace" = field(repr=False)
 
     def evaluate(self, q: np.ndarray, qd: np.ndarray | None = None):
         """Force (3,), LHS Jacobians K and D (3×3), per-pin outputs and max penetration at
         absolute coordinates ``q = (x, y, θ)`` and velocities ``qd``."""
         qd = np.zeros(3) if qd is None else np.asarray(qd, float)
-        s = self._scratch
         f, k, d, out = np.empty(3), np.empty((3, 3)), np.empty((3, 3)), np.empty((len(self.radii_m), K.N_OUT))
         pen, bad = K.evaluate(np.asarray(q, float), qd, self.offset_rad, self.pins_m, self.radii_m,
                               self.profile.par, self.profile.herr, self.profile.hpsi, self._law_vec,
                               self._t_cache, f, k, d, out)
         if bad:
-            s["bad"] = bad
+            raise RuntimeError(f"cycloid–pin contact on node {self.node}: closest-point solve failed for {bad} pins")
         return f, k, d, out, pen
 
     def pin_state(self, mbs) -> PinState:
@@ -192,29 +191,49 @@ class CycloidPinContact:
 
     # ------------------------------------------------------------------ user functions
     def _force_uf(self, mbs, t, item, q, q_t):
-        qa = self.reference + np.asarray(q)
-        f, k, d, _, pen = self.evaluate(qa, q_t)
-        s = self._scratch
-        s["q"], s["qd"], s["K"], s["D"], s["penetration"] = qa, np.array(q_t), k, d, pen
-        return f
+        w = self._work
+        np.add(self.reference, q, out=w.q)
+        w.qd[:] = q_t
+        w.penetration, w.bad = K.evaluate(w.q, w.qd, self.offset_rad, self.pins_m, self.radii_m, self.profile.par,
+                                          self.profile.herr, self.profile.hpsi, self._law_vec, self._t_cache,
+                                          w.f, w.k, w.d, w.out)
+        return w.f
 
     def check_penetration(self, t: float = math.nan) -> None:
         """Raise :class:`ContactError` if the last evaluated state penetrates deeper than
         ``max_penetration_m``. Call it at converged states (see :func:`install_penetration_guard`):
         Newton's intermediate iterates may overshoot harmlessly."""
-        pen = self._scratch.get("penetration", -math.inf)
+        pen = self._work.penetration
         if pen > self.max_penetration_m:
             raise ContactError(f"cycloid–pin contact on node {self.node}: penetration {pen * 1e6:.1f} µm exceeds "
                                f"{self.max_penetration_m * 1e6:.0f} µm at t = {t:g} s (diverged or overloaded run)")
 
     def _jacobian_uf(self, mbs, t, item, q, q_t, f_ode2, f_ode2_t):
-        qa = self.reference + np.asarray(q)
-        s = self._scratch
-        if "q" in s and np.array_equal(s["q"], qa) and np.array_equal(s["qd"], q_t):
-            k, d = s["K"], s["D"]
-        else:
-            _, k, d, _, _ = self.evaluate(qa, q_t)
-        return f_ode2 * k + f_ode2_t * d
+        w = self._work
+        ref = self.reference
+        same = all(w.q[i] == ref[i] + q[i] and w.qd[i] == q_t[i] for i in range(3))
+        if not same:  # Newton asks at a state the force was not evaluated at (rare)
+            self._force_uf(mbs, t, item, q, q_t)
+        return f_ode2 * w.k + f_ode2_t * w.d
+
+
+@dataclass(eq=False)
+class _Workspace:
+    """Buffers of the user functions: the last evaluated state and its force and Jacobians."""
+
+    q: np.ndarray
+    qd: np.ndarray
+    f: np.ndarray
+    k: np.ndarray
+    d: np.ndarray
+    out: np.ndarray
+    penetration: float = -math.inf
+    bad: int = 0
+
+    @classmethod
+    def for_pins(cls, n: int) -> "_Workspace":
+        return cls(np.full(3, np.nan), np.full(3, np.nan), np.zeros(3), np.zeros((3, 3)), np.zeros((3, 3)),
+                   np.zeros((n, K.N_OUT)))
 
 
 def install_penetration_guard(mbs, contacts: list[CycloidPinContact]) -> None:
@@ -287,7 +306,7 @@ def add_cycloid_pin_contact(mbs, disc_node: int, stage: CycloidStage, law: Conta
         object_index=-1, node=disc_node, profile=prof, pins_m=pins, radii_m=radii, law=law,
         offset_rad=-stage.disc_phase_rad[disc] / stage.disc_teeth, reference=ref,
         max_penetration_m=max_penetration_m, _law_vec=law.vector(),
-        _t_cache=np.full(len(radii), np.nan), _scratch={})
+        _t_cache=np.full(len(radii), np.nan), _work=_Workspace.for_pins(len(radii)))
     _, _, _, out, _ = contact.evaluate(init)
     worst = int(np.argmin(out[:, K.O_GAP]))
     if -out[worst, K.O_GAP] > initial_interference_m:

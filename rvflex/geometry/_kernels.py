@@ -209,6 +209,43 @@ def _newton(c, t, par, herr, hpsi, max_step):
 
 
 @_jit
+def _closest_on_offset(c, t, par, max_step):
+    """Closest point when the generating radius is constant (equidistant and moved
+    modifications, no disc errors): the profile is the exact offset of the pin-centre curve
+    p, so both share the closest parameter and normal. Newton runs on p alone (4 trig
+    calls per iteration instead of a full profile evaluation); same outputs as
+    :func:`closest_point`."""
+    R = par[P_R]
+    e = par[P_E]
+    zb = par[P_ZB]
+    r0 = par[P_R0]
+    ok = False
+    for _ in range(NEWTON_MAXIT):
+        ei = complex(math.cos(t), math.sin(t))
+        eb = complex(math.cos(zb * t), math.sin(zb * t))
+        p = R * ei - e * eb
+        v = 1j * (R * ei - zb * e * eb)
+        a = -(R * ei) + zb * zb * e * eb
+        w = p - c
+        f = w.real * v.real + w.imag * v.imag
+        df = v.real * v.real + v.imag * v.imag + w.real * a.real + w.imag * a.imag
+        if df <= 0.0:
+            break
+        step = min(max_step, max(-max_step, -f / df))
+        if abs(step) < NEWTON_TOL_T:
+            ok = True
+            break
+        t += step
+    vv = v.real * v.real + v.imag * v.imag
+    sv = math.sqrt(vv)
+    n = -1j * v / sv
+    kp = (v.real * a.imag - v.imag * a.real) / (vv * sv)
+    dq = c - p
+    d = dq.real * n.real + dq.imag * n.imag + r0
+    return t, d, p - r0 * n, n, kp / (1.0 - r0 * kp), ok
+
+
+@_jit
 def closest_point(c, par, herr, hpsi, t0=math.nan):
     """Exact closest point on the profile to point ``c`` (disc frame).
 
@@ -244,6 +281,11 @@ def closest_point(c, par, herr, hpsi, t0=math.nan):
         w = c - (R * ei - e * eb)
         t += (w.real * v.real + w.imag * v.imag) / (v.real * v.real + v.imag * v.imag)
     pitch = 2.0 * math.pi / par[P_ZC]
+    if (par[P_TIP_A] == 0.0 and par[P_ROOT_A] == 0.0 and par[P_COMP] == 0.0
+            and herr.shape[0] == 0 and hpsi.shape[0] == 0):
+        res = _closest_on_offset(c, t, par, pitch / 8.0)
+        if res[5]:
+            return res
     t, q, q1, q2, ok = _newton(c, t, par, herr, hpsi, pitch / 8.0)
     if not ok:  # far from the curve (not seen for pins within a tooth height): scan, then polish
         best = 1e300
