@@ -134,7 +134,8 @@ class InputStage:
     """Involute first stage: sun on the input shaft, one planet per crank.
 
     ``mesh_stiffness_*`` describe the time-varying mesh stiffness
-    k(t) = mean + amplitude·cos(mesh phase) (seed 003 Table 3).
+    k(t) = mean + amplitude·cos(mesh phase) (seed 003 Table 3). ``backlash_m`` is the
+    circumferential backlash at the pitch circle (the normal backlash is that times cos α).
     """
 
     sun_teeth: int
