@@ -73,6 +73,27 @@ def _cmd_geometry(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_bench_contact(args: argparse.Namespace) -> int:
+    from rvflex.contact.bench import bench_contact
+
+    if args.segments < 100:
+        raise SpecError("--segments", args.segments, "the polygon contact needs at least 100 segments")
+    result = bench_contact(args.segments, progress=lambda msg: print(msg, file=sys.stderr))
+    targets = [
+        ("eval_us_per_call", result["eval_us_per_call"] <= 50.0, "≤ 50 µs"),
+        ("speedup", result["speedup"] >= 10.0, "≥ 10×"),
+        ("geometric error ratio", result["curvecircles_geom_error_m"] >= 100 * result["ours_geom_error_m"], "≥ 100×"),
+    ]
+    for key, value in result.items():
+        if key != "load_case":
+            print(f"{key:32s} {value:.6g}" if isinstance(value, float) else f"{key:32s} {value}")
+    for name, ok, goal in targets:
+        print(f"target {name:24s} {goal:8s} {'met' if ok else 'NOT met'}")
+    if args.json:
+        _write_atomic(Path(args.json), json.dumps(result, indent=2).encode())
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``rvflex`` command."""
     p = argparse.ArgumentParser(prog="rvflex", description="Rigid–flexible RV reducer models: geometry, TE, lost motion.")
@@ -83,6 +104,12 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--json", help="write the report as JSON to this path")
     g.add_argument("--out", help="directory for profile.png and geometry.json")
     g.set_defaults(func=_cmd_geometry)
+    b = sub.add_parser("bench", help="benchmarks")
+    bsub = b.add_subparsers(dest="bench", required=True)
+    bc = bsub.add_parser("contact", help="cycloid–pin contact: rvflex element vs ObjectContactCurveCircles")
+    bc.add_argument("--json", help="write the results as JSON to this path")
+    bc.add_argument("--segments", type=int, default=8000, help="polygon segments of the Exudyn contact (default 8000)")
+    bc.set_defaults(func=_cmd_bench_contact)
     return p
 
 

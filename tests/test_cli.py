@@ -64,3 +64,15 @@ def test_bad_spec_file_is_refused_with_one_message(tmp_path):
     lines = proc.stderr.strip().splitlines()
     assert lines == [f"rvflex: error: {bad}: cycloid.pin_circle_radius_m = 66.0: expected metres, 5 mm to 1 m"]
     assert not (tmp_path / "g.json").exists()
+
+
+def test_bench_contact_json_keys(tmp_path):
+    """The benchmark command end to end (with a coarse polygon to keep it short)."""
+    path = tmp_path / "c.json"
+    assert main(["bench", "contact", "--segments", "2000", "--json", str(path)]) == 0
+    c = json.loads(path.read_text())
+    assert {"eval_us_per_call", "noise_floor_te_pp_arcsec", "ours_steps_per_s", "curvecircles_steps_per_s",
+            "speedup", "ours_geom_error_m", "curvecircles_geom_error_m"} <= c.keys()
+    assert c["noise_floor_te_pp_arcsec"] <= 0.05
+    assert c["ours_geom_error_m"] < 1e-9 < c["curvecircles_geom_error_m"]
+    assert c["speedup"] > 1.0

@@ -21,7 +21,8 @@ import numpy as np
 
 from rvflex.geometry._kernels import closest_point
 
-LAW_LINEAR, LAW_POWER, LAW_LINE = 0, 1, 2
+LAW_LINEAR, LAW_POWER, LAW_LINE, LAW_STRIP = 0, 1, 2, 3
+STRIP_FACTOR = 4.0 * math.sqrt(2.0) / 3.0
 # law parameter vector
 L_KIND, L_K, L_EXP, L_C, L_MU, L_VREG, L_WIDTH, L_COMPL1, L_COMPL2 = range(9)
 N_LAW = 9
@@ -79,6 +80,13 @@ def _normal_law(x, rho, r_pin, law):
         e = law[L_EXP]
         f = law[L_K] * x**e
         return f, e * f / x
+    if kind == LAW_STRIP:
+        # penalty k per unit length along the flank, integrated over the overlap chord of a
+        # circle of relative radius R: (4√2/3)·k·√R·x^1.5 (the fine-segment limit of
+        # Exudyn's ObjectContactCurveCircles, contact model 0)
+        inv_r = 1.0 / r_pin + 1.0 / rho
+        f = STRIP_FACTOR * law[L_K] * math.sqrt(1.0 / inv_r) * x**1.5
+        return f, 1.5 * f / x
     return _line_force(x, rho, r_pin, law)
 
 

@@ -42,11 +42,12 @@ class ContactLaw:
 
     Attributes
     ----------
-    kind : {"linear", "power", "line"}
+    kind : {"linear", "power", "line", "strip"}
         Linear penalty F = k·x; power law F = k·x^e (Hertz-type, seed 000); line contact of
-        seed 002 (stiffness from materials, width and local flank curvature).
+        seed 002 (stiffness from materials, width and local flank curvature); "strip", a
+        penalty per unit flank length (the law ObjectContactCurveCircles converges to).
     stiffness : float
-        k in N/m (linear) or N/m^e (power); unused for "line".
+        k in N/m (linear), N/m^e (power) or N/m² (strip); unused for "line".
     exponent : float
         e of the power law (–).
     damping_Ns_m : float
@@ -72,8 +73,8 @@ class ContactLaw:
     pin_compliance_1_Pa: float = 0.0
 
     def __post_init__(self) -> None:
-        if self.kind not in ("linear", "power", "line"):
-            raise ValueError(f"contact law kind = {self.kind!r}: must be 'linear', 'power' or 'line'")
+        if self.kind not in ("linear", "power", "line", "strip"):
+            raise ValueError(f"contact law kind = {self.kind!r}: must be 'linear', 'power', 'line' or 'strip'")
         if self.kind != "line" and not self.stiffness > 0:
             raise ValueError(f"contact law stiffness = {self.stiffness!r}: must be positive")
         if self.kind == "power" and not 1.0 <= self.exponent <= 3.0:
@@ -99,6 +100,13 @@ class ContactLaw:
         return cls("power", stiffness, exponent, damping_Ns_m, **friction)
 
     @classmethod
+    def strip(cls, stiffness_N_m2: float, damping_Ns_m: float = 0.0, **friction: float) -> "ContactLaw":
+        """A penalty k (N/m²) per unit length of flank, integrated over the overlap chord:
+        F = (4√2/3)·k·√R·x^1.5 with 1/R = 1/r_pin + κ_flank. It is the fine-segment limit of
+        Exudyn's ``ObjectContactCurveCircles`` (contact model 0) and serves the cross-check."""
+        return cls("strip", stiffness_N_m2, 1.5, damping_Ns_m, **friction)
+
+    @classmethod
     def line(cls, width_m: float, disc: Material, pin: Material, damping_Ns_m: float = 0.0,
              **friction: float) -> "ContactLaw":
         """Seed 002's line contact: the approach δ(F) of :func:`rvflex.geometry.formulas.hertz_line_deflection`
@@ -110,7 +118,7 @@ class ContactLaw:
     def vector(self) -> np.ndarray:
         """Parameter vector of the kernel."""
         v = np.zeros(K.N_LAW)
-        v[K.L_KIND] = {"linear": K.LAW_LINEAR, "power": K.LAW_POWER, "line": K.LAW_LINE}[self.kind]
+        v[K.L_KIND] = {"linear": K.LAW_LINEAR, "power": K.LAW_POWER, "line": K.LAW_LINE, "strip": K.LAW_STRIP}[self.kind]
         v[K.L_K], v[K.L_EXP], v[K.L_C] = self.stiffness, self.exponent, self.damping_Ns_m
         v[K.L_MU], v[K.L_VREG] = self.friction_coefficient, self.friction_velocity_m_s
         v[K.L_WIDTH], v[K.L_COMPL1], v[K.L_COMPL2] = self.width_m, self.disc_compliance_1_Pa, self.pin_compliance_1_Pa

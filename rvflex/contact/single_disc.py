@@ -15,11 +15,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rvflex.contact.bearing import add_clearance_bearing
 from rvflex.contact.cycloid_pin import ContactLaw, CycloidPinContact, add_cycloid_pin_contact
 from rvflex.geometry.pins import nominal_disc_pose
-from rvflex.spec import CycloidStage, ErrorSpec
+from rvflex.spec import Bearing, CycloidStage, ErrorSpec
 
-__all__ = ["SingleDisc", "build_single_disc", "quasi_static_te"]
+__all__ = ["SingleDisc", "build_single_disc", "quasi_static_te", "DynamicDisc", "build_dynamic_disc", "run_dynamic",
+           "arc_length_segments"]
 
 REGULARISER_NM_RAD = 0.1
 FIRST_CONTACT_BIAS_RAD = 1e-8  # predictor just past first contact, so the contact has stiffness
@@ -135,3 +137,138 @@ def _first_contact_te(bench: SingleDisc, theta: float) -> float:
     # a positive (resisting) torque turns the disc positive: TE = −turn
     turn = cl.turn_pos_rad + FIRST_CONTACT_BIAS_RAD if torque > 0 else cl.turn_neg_rad - FIRST_CONTACT_BIAS_RAD
     return -turn
+
+
+# ---------------------------------------------------------------------------- dynamic bench
+
+
+@dataclass(frozen=True, eq=False)
+class DynamicDisc:
+    """Handles of the dynamic single-disc bench: a crank turning at constant speed carries
+    the disc on an eccentric (revolute joint); the pins are fixed; a torque resists the
+    disc. ``contact`` is the rvflex element or Exudyn's ObjectContactCurveCircles index."""
+
+    system_container: object
+    mbs: object
+    stage: CycloidStage
+    crank_node: int
+    disc_node: int
+    contact: object
+    crank_speed_rad_s: float
+    sensor_crank: int
+    sensor_disc: int
+
+
+def arc_length_segments(stage: CycloidStage, n_segments: int, disc: int = 0,
+                        errors: ErrorSpec | None = None) -> np.ndarray:
+    """The disc profile as ``n_segments`` chords of equal arc length, rows (x0, y0, x1, y1),
+    counter-clockwise (exterior on the right), for ObjectContactCurveCircles (m)."""
+    from rvflex.geometry.profile import build_profile
+
+    prof = build_profile(stage, errors, disc)
+    t = np.linspace(0.0, 2 * np.pi, 64 * n_segments + 1)
+    _, q1, _ = prof.evaluate(t)
+    speed = np.abs(q1)
+    s = np.concatenate([[0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1]) * np.diff(t))])
+    pts, _, _ = prof.evaluate(np.interp(np.linspace(0.0, s[-1], n_segments + 1), s, t))
+    return np.column_stack([pts.real[:-1], pts.imag[:-1], pts.real[1:], pts.imag[1:]])
+
+
+def build_dynamic_disc(stage: CycloidStage, *, law: ContactLaw | None = None, curve_circles_segments: int = 0,
+                       curve_circles_stiffness_N_m2: float = 0.0, curve_circles_damping_Ns_m2: float = 0.0,
+                       crank_speed_rad_s: float = 2 * np.pi, resisting_torque_Nm: float = 0.0,
+                       start_te_rad: float = 0.0, disc_mass_kg: float = 0.5,
+                       disc_inertia_kg_m2: float = 1e-3, eccentric_bearing: Bearing | None = None,
+                       eccentric_clearance_m: float = 0.0) -> DynamicDisc:
+    """Assemble the dynamic bench with the rvflex contact (``law``) or, when
+    ``curve_circles_segments`` > 0, Exudyn's polygon contact on that many arc-length segments.
+
+    The eccentric carries the disc through a revolute joint, or, with ``eccentric_bearing``,
+    through the clearance bearing (its clearance plus ``eccentric_clearance_m``). The disc
+    starts on its kinematic path at TE = ``start_te_rad`` with consistent velocities.
+    """
+    import exudyn as exu
+    from exudyn.itemInterface import (LoadCoordinate, MarkerBodyPosition, MarkerBodyRigid, MarkerNodeCoordinate,
+                                      NodeGenericData, NodePointGround, NodeRigidBody2D, ObjectConnectorCoordinate,
+                                      ObjectContactCurveCircles, ObjectJointRevolute2D, ObjectRigidBody2D,
+                                      SensorNode)
+
+    from rvflex.geometry.pins import pin_centres, pin_radii
+
+    sc = exu.SystemContainer()
+    mbs = sc.AddSystem()
+    e, zc, w = stage.eccentricity_m, stage.disc_teeth, crank_speed_rad_s
+    ground = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=mbs.AddNode(NodePointGround()), coordinate=0))
+    crank = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[0.0, 0.0, 0.0], initialVelocities=[0.0, 0.0, w]))
+    crank_body = mbs.AddObject(ObjectRigidBody2D(nodeNumber=crank, mass=1.0, inertia=1e-3))
+    for k in range(2):
+        mbs.AddObject(ObjectConnectorCoordinate(markerNumbers=[ground, mbs.AddMarker(
+            MarkerNodeCoordinate(nodeNumber=crank, coordinate=k))]))
+    mbs.AddObject(ObjectConnectorCoordinate(markerNumbers=[ground, mbs.AddMarker(
+        MarkerNodeCoordinate(nodeNumber=crank, coordinate=2))], offset=w, velocityLevel=True))
+    disc = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[e, 0.0, 0.0], initialCoordinates=[0.0, 0.0, -start_te_rad],
+                                       initialVelocities=[0.0, e * w, -w / zc]))
+    disc_body = mbs.AddObject(ObjectRigidBody2D(nodeNumber=disc, mass=disc_mass_kg, inertia=disc_inertia_kg_m2))
+    if eccentric_bearing is None:
+        mbs.AddObject(ObjectJointRevolute2D(markerNumbers=[
+            mbs.AddMarker(MarkerBodyPosition(bodyNumber=crank_body, localPosition=[e, 0.0, 0.0])),
+            mbs.AddMarker(MarkerBodyPosition(bodyNumber=disc_body, localPosition=[0.0, 0.0, 0.0]))]))
+    else:
+        add_clearance_bearing(mbs, mbs.AddMarker(MarkerBodyRigid(bodyNumber=crank_body, localPosition=[e, 0.0, 0.0])),
+                              mbs.AddMarker(MarkerBodyRigid(bodyNumber=disc_body, localPosition=[0.0, 0.0, 0.0])),
+                              eccentric_bearing, extra_clearance_m=eccentric_clearance_m)
+    mbs.AddLoad(LoadCoordinate(markerNumber=mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=disc, coordinate=2)),
+                               load=resisting_torque_Nm))
+    if curve_circles_segments:
+        ring = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[0.0, 0.0, 0.0]))
+        ring_body = mbs.AddObject(ObjectRigidBody2D(nodeNumber=ring, mass=5.0, inertia=0.1))
+        for k in range(3):  # Exudyn wants the circle markers on a body, not on ground
+            mbs.AddObject(ObjectConnectorCoordinate(markerNumbers=[ground, mbs.AddMarker(
+                MarkerNodeCoordinate(nodeNumber=ring, coordinate=k))]))
+        pins = [mbs.AddMarker(MarkerBodyRigid(bodyNumber=ring_body, localPosition=[p[0], p[1], 0.0]))
+                for p in pin_centres(stage)]
+        seg = arc_length_segments(stage, curve_circles_segments)
+        data = mbs.AddNode(NodeGenericData(initialCoordinates=[0.0] * (3 * len(seg)),
+                                           numberOfDataCoordinates=3 * len(seg)))
+        contact = mbs.AddObject(ObjectContactCurveCircles(
+            markerNumbers=[mbs.AddMarker(MarkerBodyRigid(bodyNumber=disc_body))] + pins, nodeNumber=data,
+            circlesRadii=list(pin_radii(stage)), segmentsData=exu.MatrixContainer(seg),
+            contactStiffness=curve_circles_stiffness_N_m2, contactDamping=curve_circles_damping_Ns_m2))
+    else:
+        contact = add_cycloid_pin_contact(mbs, disc, stage, law)
+    s_crank = mbs.AddSensor(SensorNode(nodeNumber=crank, outputVariableType=exu.OutputVariableType.Coordinates,
+                                       storeInternal=True, writeToFile=False))
+    s_disc = mbs.AddSensor(SensorNode(nodeNumber=disc, outputVariableType=exu.OutputVariableType.Coordinates,
+                                      storeInternal=True, writeToFile=False))
+    mbs.Assemble()
+    return DynamicDisc(sc, mbs, stage, crank, disc, contact, w, s_crank, s_disc)
+
+
+def run_dynamic(bench: DynamicDisc, crank_revolutions: float, step_s: float,
+                spectral_radius: float = 0.8) -> tuple[np.ndarray, np.ndarray, float]:
+    """Integrate with generalized-α; returns crank angle (rad), TE (rad) and wall time (s).
+
+    TE = disc angle − (−θ_crank/z_c), counted positive in the disc's direction of motion.
+    """
+    import time
+
+    import exudyn as exu
+
+    mbs = bench.mbs
+    end = crank_revolutions * 2 * np.pi / bench.crank_speed_rad_s
+    ss = exu.SimulationSettings()
+    ss.timeIntegration.numberOfSteps = int(round(end / step_s))
+    ss.timeIntegration.endTime = end
+    ss.timeIntegration.verboseMode = 0
+    ss.timeIntegration.generalizedAlpha.spectralRadius = spectral_radius
+    ss.timeIntegration.newton.relativeTolerance = 1e-10
+    ss.solution.file.write = False
+    ss.solution.sensors.writePeriod = step_s
+    ss.linearSolver.solverType = exu.LinearSolverType.EXUdense
+    t0 = time.perf_counter()
+    mbs.SolveDynamic(ss)
+    wall = time.perf_counter() - t0
+    crank = np.asarray(mbs.GetSensorStoredData(bench.sensor_crank))
+    disc = np.asarray(mbs.GetSensorStoredData(bench.sensor_disc))
+    theta = crank[:, 3]
+    return theta, -(disc[:, 3] + theta / bench.stage.disc_teeth), wall
