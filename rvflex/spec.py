@@ -442,6 +442,7 @@ class ErrorSpec:
     planet_base_eccentricity_phase_rad: tuple[float, ...] = ()
     planet_runout_m: tuple[float, ...] = ()
     planet_pitch_radius_error_m: tuple[float, ...] = ()
+    planet_base_pitch_error_m: tuple[float, ...] = ()
     # pin ring
     pin_radial_m: tuple[float, ...] = ()
     pin_tangential_m: tuple[float, ...] = ()
@@ -491,27 +492,37 @@ class ErrorSpec:
 
     def check_against(self, spec: ReducerSpec) -> None:
         """Raise :class:`SpecError` if a per-item tuple does not match ``spec``'s item counts."""
-        zb, zc = spec.cycloid.pin_count, spec.cycloid.disc_teeth
         nc, nd = spec.cranks.count, spec.cycloid.disc_count
-        expect = {
+        self.check_cycloid(spec.cycloid, spec.name)
+        self._check_counts({
             "planet_base_eccentricity_m": (nc, "crank"), "planet_base_eccentricity_phase_rad": (nc, "crank"),
             "planet_runout_m": (nc, "crank"), "planet_pitch_radius_error_m": (nc, "crank"),
-            "pin_radial_m": (zb, "pin"), "pin_tangential_m": (zb, "pin"), "pin_radius_individual_m": (zb, "pin"),
+            "planet_base_pitch_error_m": (nc, "crank"),
             "carrier_bore_eccentricity_m": (nc, "crank"), "carrier_bore_eccentricity_phase_rad": (nc, "crank"),
             "crank_eccentricity_error_m": (nc, "crank"), "crank_phase_error_rad": (nc, "crank"),
             "crank_support_clearance_m": (nc, "crank"), "eccentric_bearing_clearance_m": (nc * nd, "crank×disc"),
-            "disc_bore_distance_error_m": (nd, "disc"), "disc_moved_error_m": (nd, "disc"),
-            "disc_equidistant_error_m": (nd, "disc"),
+            "disc_bore_distance_error_m": (nd, "disc"),
+        }, spec.name)
+
+    def check_cycloid(self, stage: CycloidStage, name: str = "the stage") -> None:
+        """Raise :class:`SpecError` if the pin and disc errors do not match ``stage``'s pins,
+        discs and teeth."""
+        zb, zc, nd = stage.pin_count, stage.disc_teeth, stage.disc_count
+        self._check_counts({
+            "pin_radial_m": (zb, "pin"), "pin_tangential_m": (zb, "pin"), "pin_radius_individual_m": (zb, "pin"),
+            "disc_moved_error_m": (nd, "disc"), "disc_equidistant_error_m": (nd, "disc"),
             "disc_pitch_error_m": (nd, "disc"), "disc_profile_error_m": (nd, "disc"),
-        }
-        for name, (n, what) in expect.items():
-            v = getattr(self, name)
-            if v and len(v) != n:
-                raise SpecError(name, v, f"needs {n} values (one per {what} of {spec.name}) or none")
-        for name in ("disc_pitch_error_m", "disc_profile_error_m"):
-            for k, row in enumerate(getattr(self, name)):
+        }, name)
+        for field_name in ("disc_pitch_error_m", "disc_profile_error_m"):
+            for k, row in enumerate(getattr(self, field_name)):
                 if len(row) != zc:
-                    raise SpecError(f"{name}[{k}]", row, f"needs {zc} values, one per tooth of the disc")
+                    raise SpecError(f"{field_name}[{k}]", row, f"needs {zc} values, one per tooth of the disc")
+
+    def _check_counts(self, expect: dict[str, tuple[int, str]], name: str) -> None:
+        for field_name, (n, what) in expect.items():
+            v = getattr(self, field_name)
+            if v and len(v) != n:
+                raise SpecError(field_name, v, f"needs {n} values (one per {what} of {name}) or none")
 
 
 # --------------------------------------------------------------------------- TOML

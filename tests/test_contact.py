@@ -148,6 +148,10 @@ def test_bad_input_is_refused(rv40e):
     turned = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[centre[0], centre[1], angle - 5e-4]))
     with pytest.raises(ValueError, match=r"initial configuration: pin \d+ interferes with disc 0 by \d+\.\d+ µm"):
         add_cycloid_pin_contact(mbs, turned, stage, ContactLaw.linear(1e8))
+    from rvflex.spec import ErrorSpec
+
+    with pytest.raises(ValueError, match=r"pin_radial_m = .*needs 40 values \(one per pin of the stage\) or none"):
+        add_cycloid_pin_contact(mbs, turned, stage, ContactLaw.linear(1e8), errors=ErrorSpec(pin_radial_m=(1e-6,) * 39))
     with pytest.raises(ValueError, match=r"stiffness = -1.0: must be positive"):
         ContactLaw.linear(-1.0)
     with pytest.raises(ValueError, match=r"damping_Ns_m = -5.0: must not be negative"):

@@ -436,7 +436,8 @@ def test_analytic_jacobian_matches_finite_differences(stage):
     against the 10 nm smoothing, large against rounding."""
     errors = ErrorSpec(sun_base_eccentricity_m=10 * UM, sun_base_eccentricity_phase_rad=0.4, sun_runout_m=5 * UM,
                        planet_base_eccentricity_m=(10 * UM,), planet_base_eccentricity_phase_rad=(2.0,),
-                       planet_runout_m=(3 * UM,), sun_pitch_radius_error_m=-5 * UM)
+                       planet_runout_m=(3 * UM,), sun_pitch_radius_error_m=-5 * UM,
+                       planet_base_pitch_error_m=(4 * UM,))
     sc = exu.SystemContainer()
     mbs = sc.AddSystem()
     a0 = stage.centre_distance_m
@@ -560,3 +561,23 @@ def test_bad_input_is_refused_naming_the_parameter(stage):
     far = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[stage.centre_distance_m + 2 * stage.module_m, 0, 0]))
     with pytest.raises(ValueError, match="planet_node.*centre distance"):
         add_gear_mesh(mbs, ns, far, stage)
+
+
+def test_base_pitch_error_gives_a_once_per_tooth_transmission_error(stage):
+    """Planet base-pitch error f_pb = 4 µm (seed 002's E_bp), constant stiffness, no backlash,
+    constant sun torque, planet locked at 16 positions over one tooth pitch: the sun angle
+    carries e_pb/r_bs = ½f_pb·cos φ/r_bs on top of the constant elastic lag."""
+    s = _perfect(stage)
+    s = dc.replace(s, mesh_stiffness_amplitude_N_m=0.0)
+    rbs, _ = _radii(s)
+    errors = ErrorSpec(planet_base_pitch_error_m=(4 * UM, 0.0))
+    rig = _rig(s, errors=errors)
+    torque = 2.0
+    lag = torque / (rbs * s.mesh_stiffness_mean_N_m) / rbs
+    for j in range(16):
+        psi = j * 2 * math.pi / ZS / 16
+        th_s, _, st = _solve(rig, planet=-psi * ZS / ZP, sun_torque=torque, guess=(psi, -psi * ZS / ZP))
+        phi = ZS * th_s
+        # sun ahead of the rigid position by the elastic lag plus the pitch excitation
+        expected = psi + lag + 0.5 * 4 * UM * math.cos(phi) / rbs
+        assert th_s == pytest.approx(expected, abs=1e-9 / rbs)  # 1 nm along the line of action

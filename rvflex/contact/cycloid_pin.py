@@ -294,8 +294,8 @@ def add_cycloid_pin_contact(mbs, disc_node: int, stage: CycloidStage, law: Conta
     Raises
     ------
     ValueError
-        Wrong node type, bad tolerances, or initial interference beyond the tolerance
-        (naming the pin).
+        Wrong node type, a pin or disc error set that does not match the stage (SpecError),
+        bad tolerances, or initial interference beyond the tolerance (naming the pin).
     """
     node = mbs.GetNode(disc_node)
     if node.get("nodeType") != "RigidBody2D":
@@ -305,6 +305,8 @@ def add_cycloid_pin_contact(mbs, disc_node: int, stage: CycloidStage, law: Conta
     for name, v in (("max_penetration_m", max_penetration_m), ("initial_interference_m", initial_interference_m)):
         if not v > 0:
             raise ValueError(f"{name} = {v!r}: must be positive")
+    if errors is not None:
+        errors.check_cycloid(stage)
     prof = profile or build_profile(stage, errors, disc)
     pins = np.ascontiguousarray(pin_centres(stage, errors))
     radii = np.ascontiguousarray(pin_radii(stage, errors))

@@ -56,8 +56,10 @@ Errors (``ErrorSpec``), all exact geometry; first-order effect on the flank over
 * Pitch-radius errors Δr_s, Δr_p (positive = larger gear) act as tooth-thickness changes,
   like a profile shift: each flank stands proud by Δr·sin α, so both overlaps grow by
   (Δr_s + Δr_p)·sin α (backlash shrinks by twice that; a constant mesh shift under load).
-* Base-pitch error is not modelled: ``ErrorSpec`` has no field for it and a single-contact
-  mesh has no per-tooth-pair state to place it on.
+* Base-pitch error f_pb of the planet (seed 002's E_bp, ``planet_base_pitch_error_m``):
+  a once-per-tooth mesh displacement along the line of action, e_pb = ½·f_pb·cos φ with the
+  mesh phase φ = z_s(θ_s − γ): the tooth-transfer step of a single-pair mesh reduced to its
+  fundamental (peak-to-peak f_pb). It shifts the transmission deflection, δ → δ − e_pb.
 
 Force law (from a potential, so the stiffness Jacobian is symmetric)
 --------------------------------------------------------------------
@@ -128,8 +130,8 @@ SMOOTHING_M = 1e-8  # m; ≪ the 20 nm geometry budget of DESIGN.md, ≫ Newton'
 
 # parameter vector of the kernel
 (P_RBS, P_RBP, P_RB, P_INV_A, P_RHO0, P_HALF_B, P_KM, P_KA, P_ZS, P_C, P_W,
- P_XS0, P_YS0, P_TS0, P_XP0, P_YP0, P_TP0, P_G0, P_ESX, P_ESY, P_EPX, P_EPY) = range(22)
-N_PAR = 22
+ P_XS0, P_YS0, P_TS0, P_XP0, P_YP0, P_TP0, P_G0, P_ESX, P_ESY, P_EPX, P_EPY, P_EPB) = range(23)
+N_PAR = 23
 # kernel state vector (see MeshState)
 (S_DELTA, S_GP, S_GM, S_FP, S_FM, S_K, S_PHI, S_A, S_GAMMA, S_ALPHA) = range(10)
 N_STATE = 10
@@ -186,6 +188,14 @@ def _kernel(q, qt, par, f, dfdq, dfdqt, state, with_jacobian):
     sa = math.sqrt(1.0 - ca * ca)  # NaN if the base circles overlap: the solver then fails loudly
     alpha = math.atan2(sa, ca)
     rho = -rb * (sa / ca - alpha - par[P_INV_A]) + par[P_RHO0]
+    zs = par[P_ZS]
+    phi = zs * (ths - gam)
+    # base-pitch excitation e = ½f_pb·cos φ shifts the transmission deflection: δ → δ − e
+    epb = par[P_EPB]
+    e0 = epb * math.cos(phi)
+    e1 = -epb * math.sin(phi)  # de/dφ
+    e2 = -e0  # d²e/dφ²
+    delta -= e0
     gp = delta + rho - par[P_HALF_B]
     gm = -delta + rho - par[P_HALF_B]
 
@@ -208,16 +218,14 @@ def _kernel(q, qt, par, f, dfdq, dfdqt, state, with_jacobian):
     Ga[3] = ux
     Ga[4] = uy
     Ga[5] = uep
-    Jt = -rb * Gg
+    Gf = -zs * Gg
+    Gf[2] += zs
+    Jt = -rb * Gg - e1 * Gf
     Jt[2] += rbs
     Jt[5] += rbp
     Jr = -sa * Ga
     Jp = Jt + Jr
     Jm = Jr - Jt
-    zs = par[P_ZS]
-    phi = zs * (ths - gam)
-    Gf = -zs * Gg
-    Gf[2] += zs
     cphi = math.cos(phi)
     sphi = math.sin(phi)
     k = par[P_KM] + par[P_KA] * cphi
@@ -270,7 +278,8 @@ def _kernel(q, qt, par, f, dfdq, dfdqt, state, with_jacobian):
     Hr = np.empty((6, 6))  # ∂²ρ/∂q²
     for i in range(6):
         for j in range(6):
-            Ht[i, j] = -rb * Hg[i, j]
+            # ∂²(δ − e)/∂q², with ∂²φ/∂q² = −z_s·Hγ
+            Ht[i, j] = -rb * Hg[i, j] - e2 * Gf[i] * Gf[j] + e1 * zs * Hg[i, j]
             Hr[i, j] = drho2 * Ga[i] * Ga[j] - sa * Ha[i, j]
     # H·q̇ for the damping terms
     hp = np.zeros(6)
@@ -469,6 +478,7 @@ def add_gear_mesh(mbs, sun_node: int, planet_node: int, stage: InputStage, *, pl
     ecc_p = _planet_entry(errors, "planet_base_eccentricity_m", planet_index)
     phase_p = _planet_entry(errors, "planet_base_eccentricity_phase_rad", planet_index)
     runout_p = _planet_entry(errors, "planet_runout_m", planet_index)
+    pitch_error = _planet_entry(errors, "planet_base_pitch_error_m", planet_index)
     pitch_p = _planet_entry(errors, "planet_pitch_radius_error_m", planet_index)
     ep = ecc_p * np.array([math.cos(phase_p), math.sin(phase_p)]) + runout_p * np.array([1.0, 0.0])
     rho0 = (errors.sun_pitch_radius_error_m + pitch_p) * math.sin(alpha)
@@ -478,6 +488,7 @@ def add_gear_mesh(mbs, sun_node: int, planet_node: int, stage: InputStage, *, pl
     par[P_INV_A] = math.tan(alpha) - alpha
     par[P_RHO0] = rho0
     par[P_HALF_B] = 0.5 * normal_backlash_m(stage)
+    par[P_EPB] = 0.5 * pitch_error
     par[P_KM] = stage.mesh_stiffness_mean_N_m
     par[P_KA] = stage.mesh_stiffness_amplitude_N_m
     par[P_ZS] = stage.sun_teeth
