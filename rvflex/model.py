@@ -1,0 +1,128 @@
+"""``build_reducer``: one Exudyn system of the whole RV reducer, then only read.
+
+Planar rigid fidelity: every part is a ``NodeRigidBody2D`` in the xy plane (z the reducer
+axis); the housing and pin ring are ground. The sun's angle is prescribed; the carrier is the
+output, on its main bearing, loaded by the output torque. Cranks sit in the carrier on
+clearance bearings, mesh with the sun and carry the discs on clearance (needle) bearings; the
+discs mesh with the pins through the exact contact element. Every ErrorSpec field reaches the
+geometry or connector it belongs to (see the part modules).
+
+Reference configuration: input and output angles 0, every crank at relative angle 0, each
+disc where its eccentrics put it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from rvflex.contact.cycloid_pin import ContactLaw
+from rvflex.parts import carrier as carrier_part
+from rvflex.parts import crankshaft, cycloid_disc, input_stage, pin_ring
+from rvflex.spec import ErrorSpec, ReducerSpec
+
+__all__ = ["ReducerModel", "build_reducer", "default_contact_law", "FIDELITIES"]
+
+FIDELITIES = ("rigid",)
+
+
+def default_contact_law(spec: ReducerSpec) -> ContactLaw:
+    """Seed 002's line contact: disc and pin materials, disc thickness as the width; 500 N·s/m
+    damping in contact (seed 003 Table 3)."""
+    m = spec.materials
+    return ContactLaw.line(spec.cycloid.disc_thickness_m, m.gears_cranks_discs, m.pins, damping_Ns_m=500.0)
+
+
+@dataclass(frozen=True, eq=False)
+class ReducerModel:
+    """An assembled reducer: the Exudyn system and the handles of every part."""
+
+    spec: ReducerSpec
+    errors: ErrorSpec
+    fidelity: str
+    system_container: object
+    mbs: object
+    sun: input_stage.InputHandles
+    carrier: carrier_part.CarrierHandles
+    cranks: crankshaft.CrankHandles
+    discs: cycloid_disc.DiscHandles
+    pins: pin_ring.PinRingHandles
+    reference: np.ndarray  # absolute reference coordinates of all ODE2 coordinates
+    crank_axes: np.ndarray
+    disc_centres: np.ndarray
+
+    @property
+    def ratio(self) -> float:
+        """Kinematic ratio i = θ_in/θ_out (–)."""
+        return self.spec.nominal_ratio
+
+    def node_slices(self) -> dict[str, slice]:
+        """ODE2 coordinate ranges of the sun, carrier, each crank and each disc."""
+        idx = {"sun": self.sun.node, "carrier": self.carrier.node}
+        idx.update({f"crank{k}": n for k, n in enumerate(self.cranks.nodes)})
+        idx.update({f"disc{d}": n for d, n in enumerate(self.discs.nodes)})
+        out = {}
+        for name, node in idx.items():
+            i = self.mbs.GetNodeODE2Index(node)
+            out[name] = slice(i, i + 3)
+        return out
+
+    def kinematic_coordinates(self, theta_in: float) -> np.ndarray:
+        """Absolute ODE2 coordinates of the ideal (rigid, error-free kinematics) reducer at input angle θ_in."""
+        q = self.reference.copy()
+        sl = self.node_slices()
+        th_c = theta_in / self.ratio
+        alpha = -self.spec.cycloid.pin_count * th_c  # crank angle relative to the carrier
+        rot = np.array([[math.cos(th_c), -math.sin(th_c)], [math.sin(th_c), math.cos(th_c)]])
+        q[sl["sun"]][2] = theta_in
+        q[sl["carrier"]][2] = th_c
+        for k in range(len(self.cranks.nodes)):
+            s = sl[f"crank{k}"]
+            q[s][:2] = rot @ self.crank_axes[k]
+            q[s][2] = th_c + alpha
+        cy = self.spec.cycloid
+        for d in range(len(self.discs.nodes)):
+            s = sl[f"disc{d}"]
+            ecc = cy.eccentricity_m * np.array([math.cos(alpha + cy.disc_phase_rad[d]),
+                                                math.sin(alpha + cy.disc_phase_rad[d])])
+            base = self.disc_centres[d] - cy.eccentricity_m * np.array([math.cos(cy.disc_phase_rad[d]),
+                                                                        math.sin(cy.disc_phase_rad[d])])
+            q[s][:2] = rot @ (base + ecc)
+            q[s][2] = th_c
+        return q
+
+
+def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None, fidelity: str = "rigid", *,
+                  law: ContactLaw | None = None) -> ReducerModel:
+    """Assemble the reducer of ``spec`` with ``errors`` at ``fidelity``.
+
+    Raises
+    ------
+    ValueError
+        Unknown fidelity; error counts that do not match the spec (SpecError).
+    """
+    import exudyn as exu
+    from exudyn.itemInterface import MarkerNodeCoordinate, NodePointGround, ObjectGround
+
+    if fidelity not in FIDELITIES:
+        raise ValueError(f"fidelity = {fidelity!r}: available {', '.join(FIDELITIES)} (flexible comes with the FE issue)")
+    errors = errors or ErrorSpec()
+    errors.check_against(spec)
+    law = law or default_contact_law(spec)
+    sc = exu.SystemContainer()
+    mbs = sc.AddSystem()
+    ground_body = mbs.AddObject(ObjectGround())
+    ground_coord = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=mbs.AddNode(NodePointGround()), coordinate=0))
+    pins = pin_ring.build(mbs, spec, errors, fidelity=fidelity)
+    sun = input_stage.build(mbs, spec, ground_coord, fidelity=fidelity)
+    carrier = carrier_part.build(mbs, spec, errors, ground_body, ground_coord, fidelity=fidelity)
+    axes = carrier_part.crank_axis_positions(spec, errors)
+    cranks = crankshaft.build(mbs, spec, errors, carrier, sun.node, axes, fidelity=fidelity)
+    ecc = crankshaft.eccentric_offsets(spec, errors)
+    discs = cycloid_disc.build(mbs, spec, errors, cranks, law, ecc, axes, fidelity=fidelity)
+    mbs.Assemble()
+    ref = np.asarray(mbs.systemData.GetODE2Coordinates(configuration=exu.ConfigurationType.Reference))
+    centres = np.array([np.asarray(mbs.GetNode(n)["referenceCoordinates"])[:2] for n in discs.nodes])
+    return ReducerModel(spec, errors, fidelity, sc, mbs, sun, carrier, cranks, discs, pins, ref, axes, centres)

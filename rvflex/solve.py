@@ -1,0 +1,135 @@
+"""Solvers on an assembled :class:`~rvflex.model.ReducerModel`.
+
+Quasi-static stepping: the input angle is prescribed step by step with the output torque
+applied; each step is a static equilibrium (Exudyn's static solver) started from the
+previous one advanced by the ideal kinematics. The first loaded step is reached by load
+continuation from the unloaded, regularised state (DESIGN.md: clearances make the bodies
+float; weak springs carry a negligible share — see :mod:`rvflex.parts.bearings` and
+:data:`rvflex.parts.carrier.OUTPUT_REGULARISER_NM_RAD`).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from rvflex.model import ReducerModel
+
+__all__ = ["QuasiStaticResult", "SolveError", "quasi_static", "static_settings"]
+
+LOAD_CONTINUATION = (0.001, 0.01, 0.03, 0.1, 0.3, 0.6, 1.0)
+
+
+class SolveError(RuntimeError):
+    """A step did not converge; ``result`` holds the steps that did."""
+
+    def __init__(self, message: str, result: "QuasiStaticResult"):
+        super().__init__(message)
+        self.result = result
+
+
+@dataclass(frozen=True)
+class QuasiStaticResult:
+    """Quasi-static run: one row per converged step (SI: rad, N·m, N, m).
+
+    theta_in, theta_out: input and output angles; te_rad = θ_out − θ_in/i;
+    pin_force_N: (steps, discs, pins) normal forces; pin_gap_m likewise;
+    torque_out_Nm: the output torque (resisting, positive); wall_s: solve time.
+    """
+
+    theta_in: np.ndarray
+    theta_out: np.ndarray
+    te_rad: np.ndarray
+    pin_force_N: np.ndarray
+    pin_gap_m: np.ndarray
+    torque_out_Nm: float
+    ratio: float
+    wall_s: float
+
+
+def static_settings():
+    """Static-solver settings for the reducer: tight relative tolerance, no adaptive initial
+    residual (a loose first residual would loosen the answer), dense solver (18–24 unknowns)."""
+    import exudyn as exu
+
+    ss = exu.SimulationSettings()
+    ss.staticSolver.verboseMode = 0
+    ss.staticSolver.newton.relativeTolerance = 1e-9
+    ss.staticSolver.newton.absoluteTolerance = 1e-6
+    ss.staticSolver.newton.maxIterations = 50
+    ss.staticSolver.adaptiveStep = True
+    ss.solution.file.write = False
+    ss.linearSolver.solverType = exu.LinearSolverType.EXUdense
+    return ss
+
+
+def _solve_at(model: ReducerModel, ss, theta_in: float, q_abs: np.ndarray) -> np.ndarray:
+    import exudyn as exu
+
+    mbs = model.mbs
+    mbs.SetObjectParameter(model.sun.drive, "offset", theta_in)
+    mbs.SetObjectParameter(model.carrier.regulariser, "offset", theta_in / model.ratio)
+    mbs.systemData.SetODE2Coordinates(q_abs - model.reference, configuration=exu.ConfigurationType.Initial)
+    if not mbs.SolveStatic(ss):
+        raise RuntimeError("static solver did not converge")
+    for c in model.discs.contacts:
+        c.check_penetration()
+    return np.asarray(mbs.systemData.GetODE2Coordinates()) + model.reference
+
+
+def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float = 0.0, *,
+                 progress=None) -> QuasiStaticResult:
+    """Static equilibria at the input angles ``theta_in`` (rad, increasing) under the output
+    torque ``torque_out_Nm`` resisting the motion (N·m).
+
+    Raises
+    ------
+    SolveError
+        A step failed: the message names the step, the input angle and the largest
+        residual; ``error.result`` holds the converged steps.
+    """
+    mbs = model.mbs
+    ss = static_settings()
+    sl = model.node_slices()
+    car = sl["carrier"].start + 2
+    theta_in = np.asarray(theta_in, float)
+    n, nd, npins = len(theta_in), len(model.discs.nodes), model.spec.cycloid.pin_count
+    out = np.full(n, np.nan)
+    forces = np.zeros((n, nd, npins))
+    gaps = np.zeros((n, nd, npins))
+    t0 = time.perf_counter()
+    q = model.kinematic_coordinates(theta_in[0])
+    done = 0
+
+    def result() -> QuasiStaticResult:
+        m = done
+        th_out = out[:m]
+        return QuasiStaticResult(theta_in[:m], th_out, th_out - theta_in[:m] / model.ratio, forces[:m], gaps[:m],
+                                 torque_out_Nm, model.ratio, time.perf_counter() - t0)
+
+    steps = [(theta_in[0], f) for f in LOAD_CONTINUATION] if torque_out_Nm else [(theta_in[0], 1.0)]
+    steps += [(th, 1.0) for th in theta_in[1:]]
+    prev_th = theta_in[0]
+    for j, (th, factor) in enumerate(steps):
+        mbs.SetLoadParameter(model.carrier.load, "load", -factor * torque_out_Nm)
+        guess = q + model.kinematic_coordinates(th) - model.kinematic_coordinates(prev_th)
+        try:
+            q = _solve_at(model, ss, th, guess)
+        except Exception as err:  # Exudyn raises its own error types; report the step
+            res = np.asarray(mbs.systemData.GetODE2Coordinates())
+            raise SolveError(f"quasi-static step {done} (input angle {th:.6f} rad, load factor {factor:g}) did not "
+                             f"converge: {err}; largest coordinate change {np.abs(res + model.reference - guess).max():.3e}",
+                             result()) from None
+        prev_th = th
+        if factor == 1.0:
+            out[done] = q[car]
+            for d, c in enumerate(model.discs.contacts):
+                st = c.pin_state(mbs)
+                forces[done, d] = st.force_N
+                gaps[done, d] = st.gap_m
+            done += 1
+            if progress is not None:
+                progress(done, n)
+    return result()
