@@ -73,6 +73,47 @@ def _cmd_geometry(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_te(args: argparse.Namespace) -> int:
+    import time
+
+    from tqdm import tqdm
+
+    from rvflex.scenarios.loaded_te import LoadedTE, perfect_spec, run_loaded_te, write_te_outputs
+
+    if args.fidelity != "rigid":
+        raise SpecError("--fidelity", args.fidelity, "only 'rigid' is available until the FE-reduced parts land")
+    if args.mode != "quasi-static":
+        raise SpecError("--mode", args.mode, "only 'quasi-static' is available in this version")
+    spec = resolve_reducer(args.reducer)
+    errors = None if args.perfect else _errors(args.errors, spec)
+    if args.perfect:
+        spec = perfect_spec(spec)
+    from rvflex.spec import ErrorSpec
+
+    scenario = LoadedTE(spec, errors or ErrorSpec(), spec.rated_torque_Nm if args.load is None else args.load,
+                        args.revs, args.positions, 1 if args.direction == "forward" else -1)
+    t0 = time.perf_counter()
+    n = int(round(args.positions * args.revs))
+    with tqdm(total=n, desc="loaded TE", unit="step", file=sys.stderr, mininterval=0.5) as bar:
+        res, met = run_loaded_te(scenario, progress=lambda done, total: bar.update(1))
+    wall = time.perf_counter() - t0
+    doc = {
+        "te_pp_arcsec": met.te_pp_arcsec, "te_min_arcsec": met.te_min_arcsec, "te_max_arcsec": met.te_max_arcsec,
+        "mean_windup_arcsec": met.mean_windup_arcsec,
+        "orders": [{"order": o, "amplitude_arcsec": a} for o, a in met.orders],
+        "n_positions": len(res.te_rad), "wall_s": wall,
+    }
+    print(f"TE peak-to-peak {met.te_pp_arcsec:.3f}″ (min {met.te_min_arcsec:.2f}″, max {met.te_max_arcsec:.2f}″), "
+          f"mean wind-up {met.mean_windup_arcsec:.2f}″, {len(res.te_rad)} positions in {wall:.1f} s")
+    print("strongest orders: " + ", ".join(f"{o}: {a:.3f}″" for o, a in met.orders[:5]))
+    if args.out:
+        for path in write_te_outputs(Path(args.out), res, met, scenario):
+            print(f"wrote {path}")
+    if args.json:
+        _write_atomic(Path(args.json), json.dumps(doc, indent=2).encode())
+    return 0
+
+
 def _cmd_bench_contact(args: argparse.Namespace) -> int:
     from rvflex.contact.bench import bench_contact
 
@@ -104,6 +145,20 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--json", help="write the report as JSON to this path")
     g.add_argument("--out", help="directory for profile.png and geometry.json")
     g.set_defaults(func=_cmd_geometry)
+    t = sub.add_parser("te", help="loaded transmission error (quasi-static)")
+    t.add_argument("--reducer", required=True, help=f"built-in reducer ({', '.join(catalog.names())}) or a spec TOML path")
+    t.add_argument("--fidelity", default="rigid", help="rigid (flexible comes with the FE issue)")
+    t.add_argument("--mode", default="quasi-static", help="quasi-static (dynamic comes later)")
+    t.add_argument("--load", type=float, help="output torque resisting the motion, N·m (default: rated)")
+    t.add_argument("--revs", type=float, default=1.0, help="output revolutions (default 1)")
+    t.add_argument("--positions", type=int, default=2048, help="positions per output revolution (default 2048)")
+    t.add_argument("--direction", choices=("forward", "reverse"), default="forward")
+    t.add_argument("--errors", help="ErrorSpec TOML file (omitted keys are zero)")
+    t.add_argument("--perfect", action="store_true",
+                   help="theoretical geometry: no modification, backlash, clearances or errors")
+    t.add_argument("--json", help="write the metrics as JSON to this path")
+    t.add_argument("--out", help="directory for te.csv, te.png and load_sharing.png")
+    t.set_defaults(func=_cmd_te)
     b = sub.add_parser("bench", help="benchmarks")
     bsub = b.add_subparsers(dest="bench", required=True)
     bc = bsub.add_parser("contact", help="cycloid–pin contact: rvflex element vs ObjectContactCurveCircles")

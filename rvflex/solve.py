@@ -2,9 +2,9 @@
 
 Quasi-static stepping: the input angle is prescribed step by step with the output torque
 applied; each step is a static equilibrium (Exudyn's static solver) started from the
-previous one advanced by the ideal kinematics. The first loaded step is reached by load
-continuation from the unloaded, regularised state (DESIGN.md: clearances make the bodies
-float; weak springs carry a negligible share — see :mod:`rvflex.parts.bearings` and
+previous one advanced by the ideal kinematics. The first loaded step is reached by
+continuation from a stiffly held output (DESIGN.md: clearances make the bodies float; weak
+springs carry a negligible share — see :mod:`rvflex.parts.bearings` and
 :data:`rvflex.parts.carrier.OUTPUT_REGULARISER_NM_RAD`).
 """
 
@@ -16,10 +16,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from rvflex.model import ReducerModel
+from rvflex.parts.carrier import OUTPUT_REGULARISER_NM_RAD
 
 __all__ = ["QuasiStaticResult", "SolveError", "quasi_static", "static_settings"]
 
-LOAD_CONTINUATION = (0.001, 0.01, 0.03, 0.1, 0.3, 0.6, 1.0)
+# the first loaded state is reached by a homotopy in the output regulariser: a stiff spring
+# to the kinematic output angle (1e6 N·m/rad: 412 N·m turn the output ~85″) holds the
+# floating output while the contacts close, then softens tenfold per step to its working value
+REGULARISER_CONTINUATION_NM_RAD = (1e6, 1e5, 1e4, 1e3, 1e2, 1e1)
 
 
 class SolveError(RuntimeError):
@@ -81,8 +85,9 @@ def _solve_at(model: ReducerModel, ss, theta_in: float, q_abs: np.ndarray) -> np
 
 def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float = 0.0, *,
                  progress=None) -> QuasiStaticResult:
-    """Static equilibria at the input angles ``theta_in`` (rad, increasing) under the output
-    torque ``torque_out_Nm`` resisting the motion (N·m).
+    """Static equilibria at the input angles ``theta_in`` (rad; increasing runs forward,
+    decreasing runs reverse) under the output torque ``torque_out_Nm`` (N·m, ≥ 0) resisting
+    the motion.
 
     Raises
     ------
@@ -109,21 +114,25 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
         return QuasiStaticResult(theta_in[:m], th_out, th_out - theta_in[:m] / model.ratio, forces[:m], gaps[:m],
                                  torque_out_Nm, model.ratio, time.perf_counter() - t0)
 
-    steps = [(theta_in[0], f) for f in LOAD_CONTINUATION] if torque_out_Nm else [(theta_in[0], 1.0)]
-    steps += [(th, 1.0) for th in theta_in[1:]]
+    direction = -1.0 if len(theta_in) > 1 and theta_in[-1] < theta_in[0] else 1.0
+    k_work = OUTPUT_REGULARISER_NM_RAD
+    steps = [(theta_in[0], k) for k in REGULARISER_CONTINUATION_NM_RAD] if torque_out_Nm else []
+    steps += [(th, k_work) for th in theta_in]
     prev_th = theta_in[0]
-    for j, (th, factor) in enumerate(steps):
-        mbs.SetLoadParameter(model.carrier.load, "load", -factor * torque_out_Nm)
+    mbs.SetLoadParameter(model.carrier.load, "load", -direction * torque_out_Nm)
+    for th, k_reg in steps:
+        mbs.SetObjectParameter(model.carrier.regulariser, "stiffness", k_reg)
         guess = q + model.kinematic_coordinates(th) - model.kinematic_coordinates(prev_th)
         try:
             q = _solve_at(model, ss, th, guess)
         except Exception as err:  # Exudyn raises its own error types; report the step
             res = np.asarray(mbs.systemData.GetODE2Coordinates())
-            raise SolveError(f"quasi-static step {done} (input angle {th:.6f} rad, load factor {factor:g}) did not "
+            raise SolveError(f"quasi-static step {done} (input angle {th:.6f} rad, output regulariser {k_reg:g} N·m/rad) "
+                             f"did not "
                              f"converge: {err}; largest coordinate change {np.abs(res + model.reference - guess).max():.3e}",
                              result()) from None
         prev_th = th
-        if factor == 1.0:
+        if k_reg == k_work:
             out[done] = q[car]
             for d, c in enumerate(model.discs.contacts):
                 st = c.pin_state(mbs)

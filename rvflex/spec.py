@@ -379,6 +379,7 @@ class ReducerSpec:
     description: str
     ratio: float
     rated_torque_Nm: float
+    momentary_max_torque_Nm: float
     rated_output_speed_rpm: float
     input_stage: InputStage
     cycloid: CycloidStage
@@ -392,6 +393,9 @@ class ReducerSpec:
             raise SpecError("name", self.name, "must be a non-empty identifier (letters, digits, - or _)")
         _positive("rated_torque_Nm", self.rated_torque_Nm, "N·m")
         _positive("rated_output_speed_rpm", self.rated_output_speed_rpm, "rpm")
+        if not self.momentary_max_torque_Nm >= self.rated_torque_Nm:
+            raise SpecError("momentary_max_torque_Nm", self.momentary_max_torque_Nm,
+                            f"must be at least the rated torque {self.rated_torque_Nm:g} N·m")
         if abs(self.ratio - self.nominal_ratio) > 1e-9 * self.nominal_ratio:
             s = self.input_stage
             raise SpecError("ratio", self.ratio,

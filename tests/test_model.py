@@ -1,0 +1,58 @@
+"""The assembled planar RV reducer and quasi-static stepping (reduced resolution)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from rvflex import catalog
+from rvflex.cli import main
+from rvflex.geometry.formulas import ARCSEC_PER_RAD
+from rvflex.scenarios.loaded_te import LoadedTE, perfect_spec, run_loaded_te, seed001_errors
+from rvflex.spec import ErrorSpec, SpecError
+
+
+@pytest.fixture(scope="module")
+def rv40e():
+    return catalog.load("rv40e")
+
+
+def test_perfect_geometry_no_load_is_exactly_kinematic(rv40e):
+    """Theoretical geometry, no clearances, no load, one output revolution at 128 positions:
+    TE peak-to-peak ≤ 0.05″ and the mean ratio exact to 1e-9 (DESIGN.md)."""
+    res, met = run_loaded_te(LoadedTE(perfect_spec(rv40e), ErrorSpec(), 0.0, positions_per_rev=128))
+    assert met.te_pp_arcsec <= 0.05
+    slope = np.polyfit(res.theta_in, res.theta_out, 1)[0]
+    assert abs(slope * res.ratio - 1.0) < 1e-9
+
+
+def test_windup_is_nearly_proportional_to_load_and_mirrors_in_reverse(rv40e):
+    """Perfect geometry (no clearance): the elastic wind-up at rated torque is about twice that
+    at half of it — bearings and mesh are linear, the line-contact law stiffens only
+    logarithmically (so within 10 %) — and the reverse run mirrors the forward one (1 %)."""
+    spec = perfect_spec(rv40e)
+    half = run_loaded_te(LoadedTE(spec, ErrorSpec(), 206.0, revolutions=0.05, positions_per_rev=320))[1]
+    full = run_loaded_te(LoadedTE(spec, ErrorSpec(), 412.0, revolutions=0.05, positions_per_rev=320))[1]
+    back = run_loaded_te(LoadedTE(spec, ErrorSpec(), 412.0, revolutions=0.05, positions_per_rev=320, direction=-1))[1]
+    assert full.mean_windup_arcsec < 0 < back.mean_windup_arcsec  # the output lags the motion both ways
+    assert full.mean_windup_arcsec / half.mean_windup_arcsec == pytest.approx(2.0, rel=0.1)
+    assert back.mean_windup_arcsec == pytest.approx(-full.mean_windup_arcsec, rel=0.01)
+
+
+def test_seed001_errors_run_and_raise_te_above_the_perfect_unit(rv40e):
+    """All seed 001 Table 2 errors with the 12 µm bearing clearance converge at rated load and
+    give a TE well above the error-free catalogue unit's (same modification)."""
+    clean = run_loaded_te(LoadedTE(rv40e, ErrorSpec(), 412.0, revolutions=0.1, positions_per_rev=640))[1]
+    worn = run_loaded_te(LoadedTE(rv40e, seed001_errors(rv40e), 412.0, revolutions=0.1, positions_per_rev=640))[1]
+    assert worn.te_pp_arcsec > 10 * clean.te_pp_arcsec
+
+
+def test_bad_te_input_is_refused(rv40e, tmp_path, capsys):
+    with pytest.raises(SpecError, match=r"--load = 3000.0: must lie in \[0, 2058\] N·m"):
+        LoadedTE(rv40e, ErrorSpec(), 3000.0)
+    assert main(["te", "--reducer", "rv40e", "--load", "-5", "--json", str(tmp_path / "t.json")]) == 2
+    assert "--load = -5.0: must lie in [0, 2058] N·m" in capsys.readouterr().err
+    assert main(["te", "--reducer", "rv40e", "--mode", "dynamic", "--json", str(tmp_path / "t.json")]) == 2
+    assert not (tmp_path / "t.json").exists()
