@@ -114,6 +114,43 @@ def _cmd_te(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_lost_motion(args: argparse.Namespace) -> int:
+    import time
+
+    from tqdm import tqdm
+
+    from rvflex.scenarios.loaded_te import perfect_spec
+    from rvflex.scenarios.lost_motion import LostMotion, run_lost_motion, write_lost_motion_outputs
+    from rvflex.solve import hysteresis_cycle
+    from rvflex.spec import ErrorSpec
+
+    if args.fidelity != "rigid":
+        raise SpecError("--fidelity", args.fidelity, "only 'rigid' is available until the FE-reduced parts land")
+    spec = resolve_reducer(args.reducer)
+    errors = None if args.perfect else _errors(args.errors, spec)
+    if args.perfect:
+        spec = perfect_spec(spec)
+    sc = LostMotion(spec, errors or ErrorSpec(), spec.rated_torque_Nm if args.torque is None else args.torque,
+                    args.steps)
+    t0 = time.perf_counter()
+    with tqdm(total=len(hysteresis_cycle(sc.torque_Nm, sc.steps)), desc="hysteresis", unit="step", file=sys.stderr,
+              mininterval=0.5) as bar:
+        res, met = run_lost_motion(sc, progress=lambda done, total: bar.update(1))
+    wall = time.perf_counter() - t0
+    doc = {"lost_motion_arcmin": met.lost_motion_arcmin, "hysteresis_loss_arcmin": met.hysteresis_loss_arcmin,
+           "torsional_stiffness_Nm_per_arcmin": met.torsional_stiffness_Nm_per_arcmin,
+           "backlash_arcmin": met.backlash_arcmin, "wall_s": wall}
+    print(f"lost motion {met.lost_motion_arcmin:.4f}′, hysteresis loss {met.hysteresis_loss_arcmin:.4f}′, "
+          f"torsional stiffness {met.torsional_stiffness_Nm_per_arcmin:.2f} N·m/arcmin, "
+          f"backlash {met.backlash_arcmin:.4f}′ ({len(res.torque_Nm)} steps in {wall:.1f} s)")
+    if args.out:
+        for path in write_lost_motion_outputs(Path(args.out), res, met, sc):
+            print(f"wrote {path}")
+    if args.json:
+        _write_atomic(Path(args.json), json.dumps(doc, indent=2).encode())
+    return 0
+
+
 def _cmd_bench_contact(args: argparse.Namespace) -> int:
     from rvflex.contact.bench import bench_contact
 
@@ -159,6 +196,16 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--json", help="write the metrics as JSON to this path")
     t.add_argument("--out", help="directory for te.csv, te.png and load_sharing.png")
     t.set_defaults(func=_cmd_te)
+    lm = sub.add_parser("lost-motion", help="torsional hysteresis: lost motion, stiffness, backlash")
+    lm.add_argument("--reducer", required=True, help=f"built-in reducer ({', '.join(catalog.names())}) or a spec TOML path")
+    lm.add_argument("--fidelity", default="rigid", help="rigid (flexible comes with the FE issue)")
+    lm.add_argument("--torque", type=float, help="torque amplitude, N·m (default: rated)")
+    lm.add_argument("--steps", type=int, default=200, help="torque steps over the cycle (default 200)")
+    lm.add_argument("--errors", help="ErrorSpec TOML file (omitted keys are zero)")
+    lm.add_argument("--perfect", action="store_true", help="theoretical geometry: no modification, backlash, clearances")
+    lm.add_argument("--json", help="write the metrics as JSON to this path")
+    lm.add_argument("--out", help="directory for hysteresis.csv and hysteresis.png")
+    lm.set_defaults(func=_cmd_lost_motion)
     b = sub.add_parser("bench", help="benchmarks")
     bsub = b.add_subparsers(dest="bench", required=True)
     bc = bsub.add_parser("contact", help="cycloid–pin contact: rvflex element vs ObjectContactCurveCircles")

@@ -12,7 +12,7 @@ import numpy as np
 
 from rvflex.geometry.formulas import ARCSEC_PER_RAD
 
-__all__ = ["TEMetrics", "te_metrics", "order_spectrum"]
+__all__ = ["HysteresisMetrics", "TEMetrics", "hysteresis_metrics", "te_metrics", "order_spectrum"]
 
 
 @dataclass(frozen=True)
@@ -47,3 +47,51 @@ def te_metrics(te_rad: np.ndarray, revolutions: float, n_orders: int = 10) -> TE
     idx = np.argsort(amp[integer])[::-1][:n_orders]
     top = [(int(round(orders[integer][i])), float(amp[integer][i])) for i in idx]
     return TEMetrics(float(np.ptp(te)), float(te.min()), float(te.max()), float(te.mean()), top)
+
+
+@dataclass(frozen=True)
+class HysteresisMetrics:
+    """Catalogue figures of a torque cycle 0 → +T_r → −T_r → 0 with the input locked.
+
+    lost_motion_arcmin: width between the branch midpoints at ±3 % T_r; hysteresis_loss_arcmin:
+    width between the branches at zero torque; torsional_stiffness_Nm_per_arcmin: slope between
+    50 % and 100 % T_r (mean of both signs); backlash_arcmin: distance at zero torque between
+    the two elastic lines (50–100 % T_r, each sign) extrapolated.
+    """
+
+    lost_motion_arcmin: float
+    hysteresis_loss_arcmin: float
+    torsional_stiffness_Nm_per_arcmin: float
+    backlash_arcmin: float
+
+
+def _branch_angle(torque: np.ndarray, angle: np.ndarray, at: float) -> float:
+    order = np.argsort(torque)
+    return float(np.interp(at, torque[order], angle[order]))
+
+
+def hysteresis_metrics(torque_Nm: np.ndarray, theta_out_rad: np.ndarray, rated_Nm: float) -> HysteresisMetrics:
+    """Evaluate a cycle from :func:`rvflex.solve.hysteresis_cycle` (angles in rad)."""
+    t = np.asarray(torque_Nm, float)
+    a = np.asarray(theta_out_rad, float) * ARCSEC_PER_RAD / 60.0
+    k_max, k_min = int(np.argmax(t)), int(np.argmin(t))
+    # descending branch: +T → −T; ascending branch: −T → 0 joined with the first 0 → +T
+    desc_t, desc_a = t[k_max:k_min + 1], a[k_max:k_min + 1]
+    asc_t = np.concatenate([t[k_min:], t[:k_max + 1]])
+    asc_a = np.concatenate([a[k_min:], a[:k_max + 1]])
+    keep = np.r_[True, np.diff(asc_t) > 0]
+    asc_t, asc_a = asc_t[keep], asc_a[keep]
+
+    def mid(at: float) -> float:
+        return 0.5 * (_branch_angle(desc_t, desc_a, at) + _branch_angle(asc_t, asc_a, at))
+
+    lost = mid(0.03 * rated_Nm) - mid(-0.03 * rated_Nm)
+    loss = abs(_branch_angle(desc_t, desc_a, 0.0) - _branch_angle(asc_t, asc_a, 0.0))
+    lines = []
+    for sign in (1.0, -1.0):
+        sel = (sign * t >= 0.5 * rated_Nm - 1e-9) & (sign * t <= rated_Nm + 1e-9)
+        slope, intercept = np.polyfit(a[sel], t[sel], 1)  # N·m per arcmin, and T at angle 0
+        lines.append((slope, -intercept / slope))  # angle at zero torque
+    stiffness = 0.5 * (lines[0][0] + lines[1][0])
+    backlash = lines[0][1] - lines[1][1]
+    return HysteresisMetrics(float(lost), float(loss), float(stiffness), float(backlash))

@@ -142,3 +142,64 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
             if progress is not None:
                 progress(done, n)
     return result()
+
+
+@dataclass(frozen=True)
+class TorqueStepResult:
+    """Input locked, output torque stepped: torque (N·m, on the output, positive in the forward
+    direction), output angle (rad), one row per converged step."""
+
+    torque_Nm: np.ndarray
+    theta_out: np.ndarray
+    wall_s: float
+
+
+HYSTERESIS_FINE_FRACTIONS = (0.005, 0.01, 0.02, 0.03, 0.04)  # of T: the lost-motion points and the free play
+
+
+def hysteresis_cycle(rated_Nm: float, steps: int = 200) -> np.ndarray:
+    """Torque path 0 → +T → −T → 0 (N·m): ``steps`` equal increments, plus the torques
+    ±HYSTERESIS_FINE_FRACTIONS·T on every passage, so the ±3 % points of the lost motion are
+    solved, not interpolated across the free play."""
+    quarter = max(steps // 4, 2)
+    fine = np.concatenate([[0.0], np.array(HYSTERESIS_FINE_FRACTIONS), -np.array(HYSTERESIS_FINE_FRACTIONS)]) * rated_Nm
+
+    def leg(a: float, b: float) -> np.ndarray:
+        pts = np.linspace(a, b, quarter * round(abs(b - a) / rated_Nm) + 1)
+        lo, hi = min(a, b), max(a, b)
+        pts = np.union1d(pts, fine[(fine > lo) & (fine < hi)])
+        return pts if b > a else pts[::-1]
+
+    return np.concatenate([leg(0.0, rated_Nm), leg(rated_Nm, -rated_Nm)[1:], leg(-rated_Nm, 0.0)[1:]])
+
+
+def torque_stepping(model: ReducerModel, torques_Nm: np.ndarray, *, progress=None) -> TorqueStepResult:
+    """Input locked at angle 0, output torque stepped along ``torques_Nm`` (each step a static
+    equilibrium from the previous one): the torsional hysteresis test of the catalogues.
+
+    Raises
+    ------
+    SolveError
+        A step failed (message names the step and torque); ``error.result`` has the converged steps.
+    """
+    mbs = model.mbs
+    ss = static_settings()
+    car = model.node_slices()["carrier"].start + 2
+    torques = np.asarray(torques_Nm, float)
+    out = np.full(len(torques), np.nan)
+    t0 = time.perf_counter()
+    q = model.kinematic_coordinates(0.0)
+    done = 0
+    mbs.SetObjectParameter(model.carrier.regulariser, "stiffness", OUTPUT_REGULARISER_NM_RAD)
+    for j, torque in enumerate(torques):
+        mbs.SetLoadParameter(model.carrier.load, "load", float(torque))
+        try:
+            q = _solve_at(model, ss, 0.0, q)
+        except Exception as err:
+            raise SolveError(f"torque step {j} ({torque:.3f} N·m) did not converge: {err}",
+                             TorqueStepResult(torques[:done], out[:done], time.perf_counter() - t0)) from None
+        out[j] = q[car]
+        done = j + 1
+        if progress is not None:
+            progress(done, len(torques))
+    return TorqueStepResult(torques, out, time.perf_counter() - t0)

@@ -56,3 +56,22 @@ def test_bad_te_input_is_refused(rv40e, tmp_path, capsys):
     assert "--load = -5.0: must lie in [0, 2058] N·m" in capsys.readouterr().err
     assert main(["te", "--reducer", "rv40e", "--mode", "dynamic", "--json", str(tmp_path / "t.json")]) == 2
     assert not (tmp_path / "t.json").exists()
+
+
+def test_model_backlash_matches_the_backlash_formula(rv40e):
+    """Catalogue RV-40E, pure clearances (its modification and gear backlash, no errors): the
+    zero-torque backlash of the hysteresis test (elastic lines at 50–100 % T_r extrapolated)
+    against seed 002's ε. The issue asks for 15 %; the rigid planar model gives 1 %."""
+    from rvflex.geometry.formulas import reducer_backlash_arcmin
+    from rvflex.scenarios.lost_motion import LostMotion, run_lost_motion
+
+    res, met = run_lost_motion(LostMotion(rv40e, ErrorSpec(), 412.0, steps=80))
+    eps = reducer_backlash_arcmin(rv40e)["total"]
+    assert met.backlash_arcmin == pytest.approx(eps, rel=0.15)
+    assert met.backlash_arcmin == pytest.approx(eps, rel=0.01)
+    # without friction the loop closes: no hysteresis loss; lost motion exceeds the backlash by
+    # the elastic turn at ±3 % T_r
+    assert met.hysteresis_loss_arcmin < 1e-6
+    assert met.backlash_arcmin < met.lost_motion_arcmin < met.backlash_arcmin + 2 * 0.03 * 412.0 / 50.0
+    # a rigid-disc model is stiffer than the catalogue's ~113 N·m/arcmin for the whole unit
+    assert 113.0 < met.torsional_stiffness_Nm_per_arcmin < 400.0
