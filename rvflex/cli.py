@@ -37,6 +37,18 @@ def _errors(path: str | None, spec: ReducerSpec) -> ErrorSpec | None:
     return load_errors(path, spec)
 
 
+def _model_inputs(args: argparse.Namespace) -> tuple[ReducerSpec, ErrorSpec]:
+    """Spec and errors of a model command (``--reducer``, ``--fidelity``, ``--errors``, ``--perfect``)."""
+    from rvflex.scenarios.loaded_te import perfect_spec
+
+    if args.fidelity != "rigid":
+        raise SpecError("--fidelity", args.fidelity, "only 'rigid' is available until the FE-reduced parts land")
+    spec = resolve_reducer(args.reducer)
+    if args.perfect:
+        return perfect_spec(spec), ErrorSpec()
+    return spec, _errors(args.errors, spec) or ErrorSpec()
+
+
 def _write_atomic(path: Path, data: bytes) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
@@ -78,19 +90,12 @@ def _cmd_te(args: argparse.Namespace) -> int:
 
     from tqdm import tqdm
 
-    from rvflex.scenarios.loaded_te import LoadedTE, perfect_spec, run_loaded_te, write_te_outputs
+    from rvflex.scenarios.loaded_te import LoadedTE, run_loaded_te, write_te_outputs
 
-    if args.fidelity != "rigid":
-        raise SpecError("--fidelity", args.fidelity, "only 'rigid' is available until the FE-reduced parts land")
     if args.mode != "quasi-static":
         raise SpecError("--mode", args.mode, "only 'quasi-static' is available in this version")
-    spec = resolve_reducer(args.reducer)
-    errors = None if args.perfect else _errors(args.errors, spec)
-    if args.perfect:
-        spec = perfect_spec(spec)
-    from rvflex.spec import ErrorSpec
-
-    scenario = LoadedTE(spec, errors or ErrorSpec(), spec.rated_torque_Nm if args.load is None else args.load,
+    spec, errors = _model_inputs(args)
+    scenario = LoadedTE(spec, errors, spec.rated_torque_Nm if args.load is None else args.load,
                         args.revs, args.positions, 1 if args.direction == "forward" else -1)
     t0 = time.perf_counter()
     n = int(round(args.positions * args.revs))
@@ -119,18 +124,11 @@ def _cmd_lost_motion(args: argparse.Namespace) -> int:
 
     from tqdm import tqdm
 
-    from rvflex.scenarios.loaded_te import perfect_spec
     from rvflex.scenarios.lost_motion import LostMotion, run_lost_motion, write_lost_motion_outputs
     from rvflex.solve import hysteresis_cycle
-    from rvflex.spec import ErrorSpec
 
-    if args.fidelity != "rigid":
-        raise SpecError("--fidelity", args.fidelity, "only 'rigid' is available until the FE-reduced parts land")
-    spec = resolve_reducer(args.reducer)
-    errors = None if args.perfect else _errors(args.errors, spec)
-    if args.perfect:
-        spec = perfect_spec(spec)
-    sc = LostMotion(spec, errors or ErrorSpec(), spec.rated_torque_Nm if args.torque is None else args.torque,
+    spec, errors = _model_inputs(args)
+    sc = LostMotion(spec, errors, spec.rated_torque_Nm if args.torque is None else args.torque,
                     args.steps)
     t0 = time.perf_counter()
     with tqdm(total=len(hysteresis_cycle(sc.torque_Nm, sc.steps)), desc="hysteresis", unit="step", file=sys.stderr,
