@@ -37,6 +37,28 @@ def _errors(path: str | None, spec: ReducerSpec) -> ErrorSpec | None:
     return load_errors(path, spec)
 
 
+def _with_progress(total: int, desc: str, run):
+    """Call ``run(progress)`` under a progress bar on stderr; returns its result and the wall time (s)."""
+    import time
+
+    from tqdm import tqdm
+
+    t0 = time.perf_counter()
+    with tqdm(total=total, desc=desc, unit="step", file=sys.stderr, mininterval=0.5) as bar:
+        result = run(lambda done, n: bar.update(done - bar.n))
+    return result, time.perf_counter() - t0
+
+
+def _emit(args: argparse.Namespace, doc: dict, write_outputs) -> int:
+    """Write ``--out`` files (``write_outputs(dir) -> paths``) and the ``--json`` document."""
+    if args.out:
+        for path in write_outputs(Path(args.out)):
+            print(f"wrote {path}")
+    if args.json:
+        _write_atomic(Path(args.json), json.dumps(doc, indent=2).encode())
+    return 0
+
+
 def _model_inputs(args: argparse.Namespace) -> tuple[ReducerSpec, ErrorSpec]:
     """Spec and errors of a model command (``--reducer``, ``--fidelity``, ``--errors``, ``--perfect``)."""
     from rvflex.scenarios.loaded_te import perfect_spec
@@ -86,10 +108,6 @@ def _cmd_geometry(args: argparse.Namespace) -> int:
 
 
 def _cmd_te(args: argparse.Namespace) -> int:
-    import time
-
-    from tqdm import tqdm
-
     from rvflex.scenarios.loaded_te import LoadedTE, run_loaded_te, write_te_outputs
 
     if args.mode != "quasi-static":
@@ -97,11 +115,8 @@ def _cmd_te(args: argparse.Namespace) -> int:
     spec, errors = _model_inputs(args)
     scenario = LoadedTE(spec, errors, spec.rated_torque_Nm if args.load is None else args.load,
                         args.revs, args.positions, 1 if args.direction == "forward" else -1)
-    t0 = time.perf_counter()
-    n = int(round(args.positions * args.revs))
-    with tqdm(total=n, desc="loaded TE", unit="step", file=sys.stderr, mininterval=0.5) as bar:
-        res, met = run_loaded_te(scenario, progress=lambda done, total: bar.update(1))
-    wall = time.perf_counter() - t0
+    (res, met), wall = _with_progress(int(round(args.positions * args.revs)), "loaded TE",
+                                      lambda progress: run_loaded_te(scenario, progress=progress))
     doc = {
         "te_pp_arcsec": met.te_pp_arcsec, "te_min_arcsec": met.te_min_arcsec, "te_max_arcsec": met.te_max_arcsec,
         "mean_windup_arcsec": met.mean_windup_arcsec,
@@ -111,42 +126,25 @@ def _cmd_te(args: argparse.Namespace) -> int:
     print(f"TE peak-to-peak {met.te_pp_arcsec:.3f}″ (min {met.te_min_arcsec:.2f}″, max {met.te_max_arcsec:.2f}″), "
           f"mean wind-up {met.mean_windup_arcsec:.2f}″, {len(res.te_rad)} positions in {wall:.1f} s")
     print("strongest orders: " + ", ".join(f"{o}: {a:.3f}″" for o, a in met.orders[:5]))
-    if args.out:
-        for path in write_te_outputs(Path(args.out), res, met, scenario):
-            print(f"wrote {path}")
-    if args.json:
-        _write_atomic(Path(args.json), json.dumps(doc, indent=2).encode())
-    return 0
+    return _emit(args, doc, lambda out: write_te_outputs(out, res, met, scenario))
 
 
 def _cmd_lost_motion(args: argparse.Namespace) -> int:
-    import time
-
-    from tqdm import tqdm
-
     from rvflex.scenarios.lost_motion import LostMotion, run_lost_motion, write_lost_motion_outputs
     from rvflex.solve import hysteresis_cycle
 
     spec, errors = _model_inputs(args)
     sc = LostMotion(spec, errors, spec.rated_torque_Nm if args.torque is None else args.torque,
                     args.steps)
-    t0 = time.perf_counter()
-    with tqdm(total=len(hysteresis_cycle(sc.torque_Nm, sc.steps)), desc="hysteresis", unit="step", file=sys.stderr,
-              mininterval=0.5) as bar:
-        res, met = run_lost_motion(sc, progress=lambda done, total: bar.update(1))
-    wall = time.perf_counter() - t0
+    (res, met), wall = _with_progress(len(hysteresis_cycle(sc.torque_Nm, sc.steps)), "hysteresis",
+                                      lambda progress: run_lost_motion(sc, progress=progress))
     doc = {"lost_motion_arcmin": met.lost_motion_arcmin, "hysteresis_loss_arcmin": met.hysteresis_loss_arcmin,
            "torsional_stiffness_Nm_per_arcmin": met.torsional_stiffness_Nm_per_arcmin,
            "backlash_arcmin": met.backlash_arcmin, "wall_s": wall}
     print(f"lost motion {met.lost_motion_arcmin:.4f}′, hysteresis loss {met.hysteresis_loss_arcmin:.4f}′, "
           f"torsional stiffness {met.torsional_stiffness_Nm_per_arcmin:.2f} N·m/arcmin, "
           f"backlash {met.backlash_arcmin:.4f}′ ({len(res.torque_Nm)} steps in {wall:.1f} s)")
-    if args.out:
-        for path in write_lost_motion_outputs(Path(args.out), res, met, sc):
-            print(f"wrote {path}")
-    if args.json:
-        _write_atomic(Path(args.json), json.dumps(doc, indent=2).encode())
-    return 0
+    return _emit(args, doc, lambda out: write_lost_motion_outputs(out, res, met, sc))
 
 
 def _cmd_bench_contact(args: argparse.Namespace) -> int:
