@@ -2,14 +2,12 @@
 
 from __future__ import annotations
 
-import math
 
 import numpy as np
 import pytest
 
 from rvflex import catalog
 from rvflex.cli import main
-from rvflex.geometry.formulas import ARCSEC_PER_RAD
 from rvflex.scenarios.loaded_te import LoadedTE, perfect_spec, run_loaded_te, seed001_errors
 from rvflex.spec import ErrorSpec, SpecError
 
