@@ -110,11 +110,10 @@ def _cmd_geometry(args: argparse.Namespace) -> int:
 def _cmd_te(args: argparse.Namespace) -> int:
     from rvflex.scenarios.loaded_te import LoadedTE, run_loaded_te, write_te_outputs
 
-    if args.mode != "quasi-static":
-        raise SpecError("--mode", args.mode, "only 'quasi-static' is available in this version")
     spec, errors = _model_inputs(args)
     scenario = LoadedTE(spec, errors, spec.rated_torque_Nm if args.load is None else args.load,
-                        args.revs, args.positions, 1 if args.direction == "forward" else -1)
+                        args.revs, args.positions, 1 if args.direction == "forward" else -1, args.mode,
+                        spec.rated_output_speed_rpm if args.speed_out is None else args.speed_out)
     (res, met), wall = _with_progress(int(round(args.positions * args.revs)), "loaded TE",
                                       lambda progress: run_loaded_te(scenario, progress=progress))
     doc = {
@@ -181,7 +180,9 @@ def build_parser() -> argparse.ArgumentParser:
     t = sub.add_parser("te", help="loaded transmission error (quasi-static)")
     t.add_argument("--reducer", required=True, help=f"built-in reducer ({', '.join(catalog.names())}) or a spec TOML path")
     t.add_argument("--fidelity", default="rigid", help="rigid (flexible comes with the FE issue)")
-    t.add_argument("--mode", default="quasi-static", help="quasi-static (dynamic comes later)")
+    t.add_argument("--mode", default="quasi-static", choices=("quasi-static", "dynamic"),
+                   help="quasi-static stepping or a generalized-α run (default quasi-static)")
+    t.add_argument("--speed-out", type=float, help="output speed in dynamic mode, rpm (default: rated)")
     t.add_argument("--load", type=float, help="output torque resisting the motion, N·m (default: rated)")
     t.add_argument("--revs", type=float, default=1.0, help="output revolutions (default 1)")
     t.add_argument("--positions", type=int, default=2048, help="positions per output revolution (default 2048)")

@@ -17,7 +17,7 @@ import numpy as np
 from rvflex.geometry.formulas import ARCSEC_PER_RAD
 from rvflex.metrics import TEMetrics, order_spectrum, te_metrics
 from rvflex.model import build_reducer
-from rvflex.solve import QuasiStaticResult, quasi_static
+from rvflex.solve import QuasiStaticResult, dynamic, quasi_static
 from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
 
 __all__ = ["LoadedTE", "perfect_spec", "run_loaded_te", "seed001_errors", "write_te_outputs"]
@@ -34,6 +34,9 @@ class LoadedTE:
     revolutions: float = 1.0
     positions_per_rev: int = 2048
     direction: int = 1
+    mode: str = "quasi-static"
+    speed_out_rpm: float = 15.0
+    step_s: float = 1e-4
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.load_Nm <= self.spec.momentary_max_torque_Nm:
@@ -45,6 +48,12 @@ class LoadedTE:
             raise SpecError("--positions", self.positions_per_rev, "must be at least 16 per output revolution")
         if self.direction not in (1, -1):
             raise SpecError("direction", self.direction, "must be +1 (forward) or -1 (reverse)")
+        if self.mode not in ("quasi-static", "dynamic"):
+            raise SpecError("--mode", self.mode, "must be 'quasi-static' or 'dynamic'")
+        if self.mode == "dynamic" and not self.speed_out_rpm > 0:
+            raise SpecError("--speed-out", self.speed_out_rpm, "must be positive in dynamic mode (rpm at the output)")
+        if self.mode == "dynamic" and self.direction < 0:
+            raise SpecError("--direction", "reverse", "dynamic runs go forward (reverse: quasi-static)")
 
 
 def perfect_spec(spec: ReducerSpec) -> ReducerSpec:
@@ -60,8 +69,22 @@ def perfect_spec(spec: ReducerSpec) -> ReducerSpec:
 
 
 def run_loaded_te(scenario: LoadedTE, progress=None) -> tuple[QuasiStaticResult, TEMetrics]:
-    """Quasi-static loaded TE over whole output revolutions."""
+    """Loaded TE over whole output revolutions, quasi-static or dynamic (the constant-speed part
+    after the ramp, resampled at ``positions_per_rev``)."""
     model = build_reducer(scenario.spec, scenario.errors)
+    if scenario.mode == "dynamic":
+        ramp = 0.2
+        dyn = dynamic(model, scenario.speed_out_rpm, scenario.revolutions, scenario.load_Nm, step_s=scenario.step_s,
+                      ramp_s=ramp)
+        n = int(round(scenario.positions_per_rev * scenario.revolutions))
+        th_start = float(np.interp(ramp, dyn.time_s, dyn.theta_in))  # constant speed from here on
+        theta = th_start + np.linspace(0.0, 2 * math.pi * scenario.revolutions * model.ratio, n, endpoint=False)
+        te = np.interp(theta, dyn.theta_in, dyn.te_rad)
+        res = QuasiStaticResult(theta, te + theta / model.ratio, te, np.zeros((n, 0, 0)), np.zeros((n, 0, 0)),
+                                scenario.load_Nm, model.ratio, dyn.wall_s)
+        if progress is not None:
+            progress(n, n)
+        return res, te_metrics(res.te_rad, scenario.revolutions)
     n = int(round(scenario.positions_per_rev * scenario.revolutions))
     theta = np.linspace(0.0, 2 * math.pi * scenario.revolutions * model.ratio, n, endpoint=False)
     if scenario.direction < 0:
@@ -90,7 +113,7 @@ def write_te_outputs(out: Path, res: QuasiStaticResult, metrics: TEMetrics, scen
     a0.set_xlabel("output angle (°)")
     a0.set_ylabel("TE = θ_out − θ_in/i (arcsec)")
     direction = "forward" if scenario.direction > 0 else "reverse"
-    a0.set_title(f"{scenario.spec.name}: loaded TE at {scenario.load_Nm:g} N·m, {direction}, "
+    a0.set_title(f"{scenario.spec.name}: loaded TE at {scenario.load_Nm:g} N·m, {direction}, {scenario.mode}, "
                  f"peak-to-peak {metrics.te_pp_arcsec:.2f}″")
     a0.grid(alpha=0.3)
     a0.legend(fontsize=8)
@@ -104,6 +127,8 @@ def write_te_outputs(out: Path, res: QuasiStaticResult, metrics: TEMetrics, scen
     te_png = out / "te.png"
     fig.savefig(te_png, dpi=120)
     plt.close(fig)
+    if res.pin_force_N.size == 0:  # dynamic runs record the angles only
+        return [csv, te_png]
     fig, ax = plt.subplots(figsize=(7, 4.2), layout="constrained")
     zb = res.pin_force_N.shape[2]
     for d in range(res.pin_force_N.shape[1]):

@@ -8,6 +8,7 @@ import pytest
 
 from rvflex import catalog
 from rvflex.cli import main
+from rvflex.geometry.formulas import ARCSEC_PER_RAD
 from rvflex.scenarios.loaded_te import LoadedTE, perfect_spec, run_loaded_te, seed001_errors
 from rvflex.spec import ErrorSpec, SpecError
 
@@ -52,7 +53,9 @@ def test_bad_te_input_is_refused(rv40e, tmp_path, capsys):
         LoadedTE(rv40e, ErrorSpec(), 3000.0)
     assert main(["te", "--reducer", "rv40e", "--load", "-5", "--json", str(tmp_path / "t.json")]) == 2
     assert "--load = -5.0: must lie in [0, 2058] N·m" in capsys.readouterr().err
-    assert main(["te", "--reducer", "rv40e", "--mode", "dynamic", "--json", str(tmp_path / "t.json")]) == 2
+    assert main(["te", "--reducer", "rv40e", "--mode", "dynamic", "--speed-out", "0",
+                 "--json", str(tmp_path / "t.json")]) == 2
+    assert "--speed-out = 0.0: must be positive in dynamic mode" in capsys.readouterr().err
     assert not (tmp_path / "t.json").exists()
 
 
@@ -73,3 +76,20 @@ def test_model_backlash_matches_the_backlash_formula(rv40e):
     assert met.backlash_arcmin < met.lost_motion_arcmin < met.backlash_arcmin + 2 * 0.03 * 412.0 / 50.0
     # a rigid-disc model is stiffer than the catalogue's ~113 N·m/arcmin for the whole unit
     assert 113.0 < met.torsional_stiffness_Nm_per_arcmin < 400.0
+
+
+def test_dynamic_at_low_speed_agrees_with_quasi_static(rv40e):
+    """RV-40E at 412 N·m: a generalized-α run (0.1 ms step, smooth 0.2 s ramp to 15 rpm at the
+    output, 0.02 output revolutions at speed) against quasi-static equilibria at the same input
+    angles: peak-to-peak of the difference ≤ 0.5″ (the issue's consistency check)."""
+    from rvflex.model import build_reducer
+    from rvflex.solve import dynamic, quasi_static
+
+    dyn = dynamic(build_reducer(rv40e), 15.0, 0.02, 412.0, step_s=1e-4)
+    steady = dyn.time_s > 0.25
+    th = dyn.theta_in[steady][::40]
+    te_dyn = dyn.te_rad[steady][::40]
+    qs = quasi_static(build_reducer(rv40e), th, 412.0)
+    diff = (te_dyn - qs.te_rad) * ARCSEC_PER_RAD
+    assert np.ptp(diff) <= 0.5
+    assert abs(diff.mean()) <= 0.5

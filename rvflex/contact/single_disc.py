@@ -252,19 +252,11 @@ def run_dynamic(bench: DynamicDisc, crank_revolutions: float, step_s: float,
     """
     import time
 
-    import exudyn as exu
+    from rvflex.solve import generalized_alpha_settings
 
     mbs = bench.mbs
     end = crank_revolutions * 2 * np.pi / bench.crank_speed_rad_s
-    ss = exu.SimulationSettings()
-    ss.timeIntegration.numberOfSteps = int(round(end / step_s))
-    ss.timeIntegration.endTime = end
-    ss.timeIntegration.verboseMode = 0
-    ss.timeIntegration.generalizedAlpha.spectralRadius = spectral_radius
-    ss.timeIntegration.newton.relativeTolerance = 1e-10
-    ss.solution.file.write = False
-    ss.solution.sensors.writePeriod = step_s
-    ss.linearSolver.solverType = exu.LinearSolverType.EXUdense
+    ss = generalized_alpha_settings(end, step_s, spectral_radius, relative_tolerance=1e-10)
     t0 = time.perf_counter()
     mbs.SolveDynamic(ss)
     wall = time.perf_counter() - t0
