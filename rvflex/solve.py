@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rvflex.contact.cycloid_pin import install_penetration_guard
 from rvflex.model import ReducerModel
 from rvflex.parts.carrier import OUTPUT_REGULARISER_NM_RAD
 
@@ -253,7 +254,8 @@ def dynamic(model: ReducerModel, speed_out_rpm: float, output_revolutions: float
     from the static loaded state at input angle 0 and covers the ramp plus
     ``output_revolutions`` at constant speed.
 
-    The input drive is one Python offset function per time step (not per contact).
+    The input drive and the penetration guard are one Python call each per time step (not
+    per contact).
     """
     import exudyn as exu
 
@@ -266,6 +268,7 @@ def dynamic(model: ReducerModel, speed_out_rpm: float, output_revolutions: float
     omega_in = speed_out_rpm * 2 * np.pi / 60.0 * model.ratio
     mbs.SetObjectParameter(model.sun.drive, "offsetUserFunction",
                            lambda mbs_, t, item, lOffset: input_angle(t, omega_in, ramp_s))
+    install_penetration_guard(mbs, list(model.discs.contacts))
     from exudyn.itemInterface import SensorNode
 
     s_in = mbs.AddSensor(SensorNode(nodeNumber=model.sun.node, outputVariableType=exu.OutputVariableType.Coordinates,

@@ -434,6 +434,8 @@ class ErrorSpec:
     outward; tangential errors positive counter-clockwise (arc length at the pin circle);
     disc profile errors positive where material is added (the flank moves toward the pin);
     disc pitch errors are cumulative, arc length at the pin circle, positive CCW.
+    ``eccentric_bearing_clearance_m`` is ordered crank-major: entry k·disc_count + d is the
+    bearing of crank k in disc d.
     """
 
     # first stage
