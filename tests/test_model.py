@@ -93,3 +93,20 @@ def test_dynamic_at_low_speed_agrees_with_quasi_static(rv40e):
     diff = (te_dyn - qs.te_rad) * ARCSEC_PER_RAD
     assert np.ptp(diff) <= 0.5
     assert abs(diff.mean()) <= 0.5
+
+
+def test_error_groups_partition_every_error_source(rv40e):
+    """Every ErrorSpec field belongs to exactly one group of the decomposition, and the seed 001
+    set splits into groups that add back up to the whole set."""
+    import dataclasses as dc
+
+    from rvflex.scenarios.error_decomposition import ERROR_GROUPS, split_errors
+
+    for f in dc.fields(ErrorSpec):
+        owners = [g for g, prefixes in ERROR_GROUPS.items() if f.name.startswith(prefixes)]
+        assert len(owners) == 1, (f.name, owners)
+    full = seed001_errors(rv40e)
+    merged = {}
+    for part in split_errors(full).values():
+        merged.update({f.name: getattr(part, f.name) for f in dc.fields(part) if getattr(part, f.name) != f.default})
+    assert ErrorSpec(**merged) == full
