@@ -146,6 +146,21 @@ def _cmd_lost_motion(args: argparse.Namespace) -> int:
     return _emit(args, doc, lambda out: write_lost_motion_outputs(out, res, met, sc))
 
 
+def _cmd_backlash(args: argparse.Namespace) -> int:
+    import time
+
+    from rvflex.scenarios.reversal_backlash import (DEFAULT_LOAD_FRACTION, ReversalBacklash, run_reversal_backlash,
+                                                    write_backlash_outputs)
+
+    spec, errors = _model_inputs(args)
+    sc = ReversalBacklash(spec, errors, DEFAULT_LOAD_FRACTION * spec.rated_torque_Nm if args.load is None else args.load)
+    t0 = time.perf_counter()
+    lost, fwd, rev = run_reversal_backlash(sc)
+    doc = {"reversal_backlash_arcmin": lost, "wall_s": time.perf_counter() - t0}
+    print(f"reversal backlash {lost:.4f}′ at ±{sc.load_Nm:g} N·m ({doc['wall_s']:.1f} s)")
+    return _emit(args, doc, lambda out: write_backlash_outputs(out, lost, fwd, rev, sc))
+
+
 def _cmd_bench_contact(args: argparse.Namespace) -> int:
     from rvflex.contact.bench import bench_contact
 
@@ -203,6 +218,15 @@ def build_parser() -> argparse.ArgumentParser:
     lm.add_argument("--json", help="write the metrics as JSON to this path")
     lm.add_argument("--out", help="directory for hysteresis.csv and hysteresis.png")
     lm.set_defaults(func=_cmd_lost_motion)
+    bl = sub.add_parser("backlash", help="reversal backlash: output angle lost when the input reverses")
+    bl.add_argument("--reducer", required=True, help=f"built-in reducer ({', '.join(catalog.names())}) or a spec TOML path")
+    bl.add_argument("--fidelity", default="rigid", help="rigid (flexible comes with the FE issue)")
+    bl.add_argument("--load", type=float, help="load resisting the motion, N·m (default: 3 %% of rated)")
+    bl.add_argument("--errors", help="ErrorSpec TOML file (omitted keys are zero)")
+    bl.add_argument("--perfect", action="store_true", help="theoretical geometry: no modification, backlash, clearances")
+    bl.add_argument("--json", help="write the result as JSON to this path")
+    bl.add_argument("--out", help="directory for backlash.csv and backlash.png")
+    bl.set_defaults(func=_cmd_backlash)
     b = sub.add_parser("bench", help="benchmarks")
     bsub = b.add_subparsers(dest="bench", required=True)
     bc = bsub.add_parser("contact", help="cycloid–pin contact: rvflex element vs ObjectContactCurveCircles")

@@ -414,6 +414,14 @@ class ReducerSpec:
             raise SpecError("cranks.eccentric_axial_positions_m", self.cranks.eccentric_axial_positions_m,
                             f"needs one eccentric per disc ({self.cycloid.disc_count})")
 
+    def check_torque(self, field_name: str, value: float, *, allow_zero: bool = False) -> None:
+        """Refuse an output torque outside (0, momentary maximum] N·m ([0, …] with ``allow_zero``)."""
+        lo_ok = value >= 0.0 if allow_zero else value > 0.0
+        if not (lo_ok and value <= self.momentary_max_torque_Nm):
+            bracket = "[0" if allow_zero else "(0"
+            raise SpecError(field_name, value, f"must lie in {bracket}, {self.momentary_max_torque_Nm:g}] N·m "
+                                               f"(the momentary maximum torque of {self.name})")
+
     @property
     def nominal_ratio(self) -> float:
         """Ratio input/output of the kinematic chain, 1 + (z2/z1)·z_b (–)."""

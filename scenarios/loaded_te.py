@@ -39,9 +39,7 @@ class LoadedTE:
     step_s: float = 1e-4
 
     def __post_init__(self) -> None:
-        if not 0.0 <= self.load_Nm <= self.spec.momentary_max_torque_Nm:
-            raise SpecError("--load", self.load_Nm, f"must lie in [0, {self.spec.momentary_max_torque_Nm:g}] N·m "
-                                                    f"(the momentary maximum torque of {self.spec.name})")
+        self.spec.check_torque("--load", self.load_Nm, allow_zero=True)
         if not self.revolutions > 0:
             raise SpecError("--revs", self.revolutions, "must be positive (output revolutions)")
         if not self.positions_per_rev >= 16:

@@ -32,9 +32,7 @@ class LostMotion:
     steps: int = 200
 
     def __post_init__(self) -> None:
-        if not 0.0 < self.torque_Nm <= self.spec.momentary_max_torque_Nm:
-            raise SpecError("--torque", self.torque_Nm, f"must lie in (0, {self.spec.momentary_max_torque_Nm:g}] N·m "
-                                                        f"(the momentary maximum torque of {self.spec.name})")
+        self.spec.check_torque("--torque", self.torque_Nm)
         if not self.steps >= 40:
             raise SpecError("--steps", self.steps, "must be at least 40 torque steps")
 

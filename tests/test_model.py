@@ -127,3 +127,19 @@ def test_compensated_modification_reduces_backlash_by_the_compensated_approach(r
     expected = 2 * delta / (rv40e.cycloid.eccentricity_m * rv40e.cycloid.disc_teeth) * ARCMIN_PER_RAD
     assert trad.backlash_arcmin - comp.backlash_arcmin == pytest.approx(expected, rel=0.1)
     assert comp.torsional_stiffness_Nm_per_arcmin >= trad.torsional_stiffness_Nm_per_arcmin * (1 - 1e-3)
+
+
+def test_reversal_backlash_equals_the_lost_motion_at_the_same_load(rv40e, tmp_path):
+    """Two procedures, one quantity: reversing the input under a ±3 % T_r resisting load loses the
+    output angle that the locked-input torque cycle measures as lost motion at ±3 % T_r (1 %);
+    the command writes its JSON key."""
+    import json
+
+    from rvflex.scenarios.lost_motion import LostMotion, run_lost_motion
+    from rvflex.scenarios.reversal_backlash import ReversalBacklash, run_reversal_backlash
+
+    lost, _, _ = run_reversal_backlash(ReversalBacklash(rv40e, ErrorSpec(), 0.03 * 412.0))
+    lm = run_lost_motion(LostMotion(rv40e, ErrorSpec(), 412.0, steps=80))[1]
+    assert lost == pytest.approx(lm.lost_motion_arcmin, rel=0.01)
+    assert main(["backlash", "--reducer", "rv40e", "--json", str(tmp_path / "b.json")]) == 0
+    assert json.loads((tmp_path / "b.json").read_text())["reversal_backlash_arcmin"] == pytest.approx(lost, rel=1e-9)
