@@ -143,3 +143,17 @@ def test_reversal_backlash_equals_the_lost_motion_at_the_same_load(rv40e, tmp_pa
     assert lost == pytest.approx(lm.lost_motion_arcmin, rel=0.01)
     assert main(["backlash", "--reducer", "rv40e", "--json", str(tmp_path / "b.json")]) == 0
     assert json.loads((tmp_path / "b.json").read_text())["reversal_backlash_arcmin"] == pytest.approx(lost, rel=1e-9)
+
+
+@pytest.mark.parametrize(("errors", "order"), [
+    (ErrorSpec(planet_base_eccentricity_m=(10e-6, 0.0)), 40),  # z_b: the crank turns against the carrier
+    (ErrorSpec(pin_radial_m=(8e-6,) + (0.0,) * 39), 78),  # 2·z_c: the load zones sweep the fixed pins
+    (ErrorSpec(pin_ring_runout_m=5e-6), 78),
+    (ErrorSpec(disc_profile_error_m=((2e-6,) + (0.0,) * 38, (0.0,) * 39)), 40),  # z_b: the load zone sweeps the disc
+], ids=["planet eccentricity", "one pin", "pin-ring runout", "one disc tooth"])
+def test_each_error_source_excites_its_predicted_order(rv40e, errors, order):
+    """docs/te_orders.md: injected alone at rated load, each source's strongest added TE order
+    (spectrum with the error minus the error-free unit's) is the kinematically predicted one."""
+    from rvflex.scenarios.te_orders import added_orders
+
+    assert added_orders(rv40e, errors, 412.0, top=1)[0][0] == order
