@@ -30,11 +30,14 @@ def resolve_reducer(name: str) -> ReducerSpec:
 
 
 def _errors(path: str | None, spec: ReducerSpec) -> ErrorSpec | None:
+    """An ErrorSpec TOML file, or a built-in error set name (``rv40e_seed001``)."""
     if path is None:
         return None
-    if not Path(path).is_file():
-        raise SpecError("--errors", path, "file not found")
-    return load_errors(path, spec)
+    if Path(path).is_file():
+        return load_errors(path, spec)
+    if not path.endswith(".toml") and os.sep not in path:
+        return catalog.load_error_set(path, spec)
+    raise SpecError("--errors", path, "file not found")
 
 
 def _with_progress(total: int, desc: str, run):
@@ -188,7 +191,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", required=True)
     g = sub.add_parser("geometry", help="cycloid-stage geometry report and profile plot")
     g.add_argument("--reducer", required=True, help=f"built-in reducer ({', '.join(catalog.names())}) or a spec TOML path")
-    g.add_argument("--errors", help="ErrorSpec TOML file (omitted keys are zero)")
+    g.add_argument("--errors", help="ErrorSpec TOML file (omitted keys are zero) or a built-in set (rv40e_seed001)")
     g.add_argument("--json", help="write the report as JSON to this path")
     g.add_argument("--out", help="directory for profile.png and geometry.json")
     g.set_defaults(func=_cmd_geometry)
@@ -202,7 +205,7 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--revs", type=float, default=1.0, help="output revolutions (default 1)")
     t.add_argument("--positions", type=int, default=2048, help="positions per output revolution (default 2048)")
     t.add_argument("--direction", choices=("forward", "reverse"), default="forward")
-    t.add_argument("--errors", help="ErrorSpec TOML file (omitted keys are zero)")
+    t.add_argument("--errors", help="ErrorSpec TOML file (omitted keys are zero) or a built-in set (rv40e_seed001)")
     t.add_argument("--perfect", action="store_true",
                    help="theoretical geometry: no modification, backlash, clearances or errors")
     t.add_argument("--json", help="write the metrics as JSON to this path")
@@ -213,7 +216,7 @@ def build_parser() -> argparse.ArgumentParser:
     lm.add_argument("--fidelity", default="rigid", help="rigid (flexible comes with the FE issue)")
     lm.add_argument("--torque", type=float, help="torque amplitude, N·m (default: rated)")
     lm.add_argument("--steps", type=int, default=200, help="torque steps over the cycle (default 200)")
-    lm.add_argument("--errors", help="ErrorSpec TOML file (omitted keys are zero)")
+    lm.add_argument("--errors", help="ErrorSpec TOML file (omitted keys are zero) or a built-in set (rv40e_seed001)")
     lm.add_argument("--perfect", action="store_true", help="theoretical geometry: no modification, backlash, clearances")
     lm.add_argument("--json", help="write the metrics as JSON to this path")
     lm.add_argument("--out", help="directory for hysteresis.csv and hysteresis.png")
@@ -222,7 +225,7 @@ def build_parser() -> argparse.ArgumentParser:
     bl.add_argument("--reducer", required=True, help=f"built-in reducer ({', '.join(catalog.names())}) or a spec TOML path")
     bl.add_argument("--fidelity", default="rigid", help="rigid (flexible comes with the FE issue)")
     bl.add_argument("--load", type=float, help="load resisting the motion, N·m (default: 3 %% of rated)")
-    bl.add_argument("--errors", help="ErrorSpec TOML file (omitted keys are zero)")
+    bl.add_argument("--errors", help="ErrorSpec TOML file (omitted keys are zero) or a built-in set (rv40e_seed001)")
     bl.add_argument("--perfect", action="store_true", help="theoretical geometry: no modification, backlash, clearances")
     bl.add_argument("--json", help="write the result as JSON to this path")
     bl.add_argument("--out", help="directory for backlash.csv and backlash.png")

@@ -157,3 +157,10 @@ def test_each_error_source_excites_its_predicted_order(rv40e, errors, order):
     from rvflex.scenarios.te_orders import added_orders
 
     assert added_orders(rv40e, errors, 412.0, top=1)[0][0] == order
+
+
+def test_builtin_seed001_error_set_is_the_scenario_set(rv40e):
+    """The shipped rv40e_seed001 error file is exactly seed001_errors(rv40e) (regenerate it with
+    that function when the reading of seed 001 changes)."""
+    assert catalog.load_error_set("rv40e_seed001", rv40e) == seed001_errors(rv40e)
+    assert "rv40e_seed001" not in catalog.names()
