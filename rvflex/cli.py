@@ -164,6 +164,39 @@ def _cmd_backlash(args: argparse.Namespace) -> int:
     return _emit(args, doc, lambda out: write_backlash_outputs(out, lost, fwd, rev, sc))
 
 
+def _cmd_sweep(args: argparse.Namespace) -> int:
+    import csv
+
+    from tqdm import tqdm
+
+    from rvflex.sweep import design_points, load_design, range_table, sweep
+
+    design = load_design(args.design)
+    out = Path(args.out or Path("out") / "sweeps" / design.name)
+    n = len(design_points(design))
+    with tqdm(total=n, desc=f"sweep {design.name}", unit="point", file=sys.stderr, mininterval=0.5) as bar:
+        res = sweep(design, out / f"{design.name}.sqlite", executor=args.executor, workers=args.workers,
+                    progress=lambda: bar.update(1))
+    metric = "te_pp_arcsec" if design.scenario == "te" else "lost_motion_arcmin"
+    ranking = (range_table(design, res.rows, metric) if design.kind not in ("lhs", "sobol", "monte-carlo") else [])
+    keys = sorted({k for r in res.rows for k in r})
+    with open(out / "table.csv", "w", newline="", encoding="utf-8") as fh:
+        w = csv.DictWriter(fh, fieldnames=keys)
+        w.writeheader()
+        w.writerows(res.rows)
+    unit = "arcsec" if design.scenario == "te" else "arcmin"
+    doc = {"points": n, "finished": res.finished, "failed": res.failed, "wall_s": res.wall_s,
+           "executor": res.executor, "workers": res.workers,
+           "ranking": [{"factor": r["factor"], f"range_{unit}": r["range"]} for r in ranking]}
+    print(f"{res.finished} of {n} points finished, {res.failed} failed, {res.wall_s:.1f} s "
+          f"({res.executor}, {res.workers} workers); table in {out / 'table.csv'}")
+    for r in ranking:
+        print(f"  {r['factor']:32s} range {r['range']:.4f} {unit}")
+    if args.json:
+        _write_atomic(Path(args.json), json.dumps(doc, indent=2).encode())
+    return 0
+
+
 def _cmd_bench_contact(args: argparse.Namespace) -> int:
     from rvflex.contact.bench import bench_contact
 
@@ -230,6 +263,13 @@ def build_parser() -> argparse.ArgumentParser:
     bl.add_argument("--json", help="write the result as JSON to this path")
     bl.add_argument("--out", help="directory for backlash.csv and backlash.png")
     bl.set_defaults(func=_cmd_backlash)
+    sw = sub.add_parser("sweep", help="parameter sweep / tolerance design from a design TOML")
+    sw.add_argument("design", help="design TOML (see scenarios/designs/smoke.toml)")
+    sw.add_argument("--executor", default="process", choices=("serial", "process"), help="default: process")
+    sw.add_argument("--workers", type=int, help="process workers (default: CPU count)")
+    sw.add_argument("--json", help="write the summary as JSON to this path")
+    sw.add_argument("--out", help="directory for the store and table.csv (default out/sweeps/NAME)")
+    sw.set_defaults(func=_cmd_sweep)
     b = sub.add_parser("bench", help="benchmarks")
     bsub = b.add_subparsers(dest="bench", required=True)
     bc = bsub.add_parser("contact", help="cycloid–pin contact: rvflex element vs ObjectContactCurveCircles")

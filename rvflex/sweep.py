@@ -1,0 +1,346 @@
+"""Parameter sweeps and tolerance designs over full model runs.
+
+``sweep(design, executor=...)`` evaluates every design point — a full spec/errors variant
+made with :func:`dataclasses.replace` — by building its own model in its worker, and writes
+each finished point at once to the sweep's SQLite store. Rerunning the same design resumes:
+finished points are skipped; a failed point records its error and the sweep goes on; a point
+whose worker died is retried once in a fresh pool. Results do not depend on the executor.
+
+Designs: single factor, orthogonal arrays (L9, L16(4^5), L27), Latin hypercube and Sobol
+(scipy.stats.qmc), Monte Carlo tolerance stacks (seeded normal or uniform).
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+import hashlib
+import json
+import math
+import os
+import sqlite3
+import time
+import tomllib
+from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
+
+__all__ = ["FACTORS", "Design", "SweepResult", "load_design", "design_points", "evaluate_point", "sweep",
+           "orthogonal_array", "range_table"]
+
+
+# ----------------------------------------------------------------------------- factors
+
+def _cycloid(spec, errors, **kw):
+    return dc.replace(spec, cycloid=dc.replace(spec.cycloid, **kw)), errors
+
+
+def _modification(spec, errors, **kw):
+    c = spec.cycloid
+    return dc.replace(spec, cycloid=dc.replace(c, modification=dc.replace(c.modification, **kw))), errors
+
+
+def _per(spec, errors, field: str, value: float, count: int):
+    return spec, dc.replace(errors, **{field: (value,) * count})
+
+
+FACTORS = {
+    # name: (description, unit, apply(spec, errors, deviation) -> (spec, errors))
+    "eccentricity": ("crank eccentricity e (both cranks)", "m",
+                     lambda s, e, v: _cycloid(s, e, eccentricity_m=s.cycloid.eccentricity_m + v)),
+    "moved_modification": ("moved modification Δr_p", "m",
+                           lambda s, e, v: _modification(s, e, moved_m=s.cycloid.modification.moved_m + v)),
+    "equidistant_modification": ("equidistant modification Δr_rp", "m",
+                                 lambda s, e, v: _modification(s, e, equidistant_m=s.cycloid.modification.equidistant_m + v)),
+    "pin_circle_radius": ("pin-circle radius r_b", "m", lambda s, e, v: (s, dc.replace(e, pin_circle_radius_error_m=v))),
+    "pin_radius": ("pin radius r_r", "m", lambda s, e, v: (s, dc.replace(e, pin_radius_error_m=v))),
+    "sun_pitch_radius": ("sun pitch radius r1", "m", lambda s, e, v: (s, dc.replace(e, sun_pitch_radius_error_m=v))),
+    "planet_pitch_radius": ("planet pitch radius r2", "m",
+                            lambda s, e, v: _per(s, e, "planet_pitch_radius_error_m", v, s.cranks.count)),
+    "disc_bore_distance": ("disc crank-bore distance a_c", "m",
+                           lambda s, e, v: _per(s, e, "disc_bore_distance_error_m", v, s.cycloid.disc_count)),
+    "input_carrier_hole_distance": ("input-end carrier hole distance a_k", "m",
+                                    lambda s, e, v: (s, dc.replace(e, input_carrier_hole_distance_error_m=v))),
+    "output_carrier_hole_distance": ("output-end carrier hole distance a_k", "m",
+                                     lambda s, e, v: (s, dc.replace(e, output_carrier_hole_distance_error_m=v))),
+    "eccentric_bearing_clearance": ("radial clearance of every eccentric bearing", "m",
+                                    lambda s, e, v: _per(s, e, "eccentric_bearing_clearance_m", v,
+                                                         s.cranks.count * s.cycloid.disc_count)),
+}
+"""Design factors: each a deviation (SI) applied to the nominal spec or errors."""
+
+DESIGN_KINDS = ("single-factor", "L9", "L16", "L27", "lhs", "sobol", "monte-carlo")
+SCENARIOS = ("te", "lost-motion")
+
+
+# ----------------------------------------------------------------------------- designs
+
+def orthogonal_array(name: str) -> np.ndarray:
+    """Standard orthogonal array as 0-based levels: L9(3^4), L16(4^5), L27(3^13)."""
+    if name == "L9":
+        a = np.array([[i, j, (i + j) % 3, (i + 2 * j) % 3] for i in range(3) for j in range(3)])
+        return a
+    if name == "L16":  # GF(4) construction: columns x, y, x+y, x+2y, x+3y
+        add = np.array([[0, 1, 2, 3], [1, 0, 3, 2], [2, 3, 0, 1], [3, 2, 1, 0]])
+        mul = np.array([[0, 0, 0, 0], [0, 1, 2, 3], [0, 2, 3, 1], [0, 3, 1, 2]])
+        return np.array([[x, y, add[x, y], add[x, mul[2, y]], add[x, mul[3, y]]] for x in range(4) for y in range(4)])
+    if name == "L27":  # GF(3): columns a, b, c and their combinations (13 columns)
+        rows = []
+        for a_ in range(3):
+            for b_ in range(3):
+                for c_ in range(3):
+                    v = (a_, b_, c_)
+                    cols = []
+                    for coeff in ((1, 0, 0), (0, 1, 0), (1, 1, 0), (1, 2, 0), (0, 0, 1), (1, 0, 1), (1, 0, 2),
+                                  (0, 1, 1), (1, 1, 1), (1, 2, 2), (0, 1, 2), (1, 2, 1), (1, 1, 2)):
+                        cols.append(sum(k * x for k, x in zip(coeff, v)) % 3)
+                    rows.append(cols)
+        return np.array(rows)
+    raise ValueError(f"orthogonal array {name!r}: available L9, L16, L27")
+
+
+@dataclass(frozen=True)
+class Factor:
+    """A design factor: registry name and its levels (deviations, SI) or range/tolerance."""
+
+    name: str
+    levels: tuple[float, ...] = ()
+    low: float = math.nan
+    high: float = math.nan
+    sigma: float = math.nan
+
+
+@dataclass(frozen=True)
+class Design:
+    """A sweep definition (see ``scenarios/designs/smoke.toml``)."""
+
+    name: str
+    reducer: str
+    scenario: str
+    kind: str
+    factors: tuple[Factor, ...]
+    load_Nm: float
+    positions_per_rev: int = 256
+    revolutions: float = 1.0
+    samples: int = 8
+    seed: int = 1
+    distribution: str = "uniform"
+    source: str = "<design>"
+
+    @property
+    def digest(self) -> str:
+        """Content hash of everything that defines the points and their evaluation."""
+        d = dc.asdict(self)
+        d.pop("source")
+        return hashlib.sha256(json.dumps(d, sort_keys=True, default=str).encode()).hexdigest()[:16]
+
+
+def load_design(path: str | Path) -> Design:
+    """Read and validate a design TOML file (one message naming the field and the rule)."""
+    path = Path(path)
+    src = str(path)
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (OSError, tomllib.TOMLDecodeError) as err:
+        raise SpecError("design", src, f"cannot be read as TOML: {err}") from None
+    sw = data.get("sweep", {})
+    for key in ("name", "reducer", "scenario", "kind", "load_Nm"):
+        if key not in sw:
+            raise SpecError(f"[sweep].{key}", None, "missing key", src)
+    if sw["scenario"] not in SCENARIOS:
+        raise SpecError("[sweep].scenario", sw["scenario"], f"must be one of {', '.join(SCENARIOS)}", src)
+    if sw["kind"] not in DESIGN_KINDS:
+        raise SpecError("[sweep].kind", sw["kind"], f"must be one of {', '.join(DESIGN_KINDS)}", src)
+    factors = []
+    for k, f in enumerate(data.get("factor", [])):
+        name = f.get("name")
+        if name not in FACTORS:
+            raise SpecError(f"factor[{k}].name", name, f"unknown factor; valid: {', '.join(FACTORS)}", src)
+        fac = Factor(name, tuple(float(x) for x in f.get("levels", ())), float(f.get("low", math.nan)),
+                     float(f.get("high", math.nan)), float(f.get("sigma", math.nan)))
+        for v in fac.levels + tuple(x for x in (fac.low, fac.high) if not math.isnan(x)):
+            if abs(v) > 1e-3:
+                raise SpecError(f"factor[{k}]", v, "expected a deviation in metres, at most ±1 mm", src)
+            if name == "eccentric_bearing_clearance" and v < 0:
+                raise SpecError(f"factor[{k}]", v, "a clearance cannot be negative", src)
+        factors.append(fac)
+    if not factors:
+        raise SpecError("factor", None, "a design needs at least one [[factor]]", src)
+    known = {f.name for f in dc.fields(Design)} - {"factors", "source"}
+    extra = set(sw) - known
+    if extra:
+        raise SpecError(f"[sweep].{sorted(extra)[0]}", sw[sorted(extra)[0]], "unknown key", src)
+    return Design(factors=tuple(factors), source=src, **sw)
+
+
+def design_points(design: Design) -> list[dict[str, float]]:
+    """The design's points: one dict factor → deviation per point."""
+    names = [f.name for f in design.factors]
+    kind = design.kind
+    if kind == "single-factor":
+        pts = []
+        for f in design.factors:
+            for v in f.levels:
+                p = dict.fromkeys(names, 0.0)
+                p[f.name] = v
+                pts.append(p)
+        return pts
+    if kind in ("L9", "L16", "L27"):
+        oa = orthogonal_array(kind)
+        if len(names) > oa.shape[1]:
+            raise SpecError("factor", len(names), f"{kind} has {oa.shape[1]} columns")
+        for f in design.factors:
+            if len(f.levels) != oa.max() + 1:
+                raise SpecError(f"factor {f.name}.levels", f.levels, f"{kind} needs {oa.max() + 1} levels")
+        return [{f.name: f.levels[row[j]] for j, f in enumerate(design.factors)} for row in oa]
+    rng = np.random.default_rng(design.seed)
+    if kind in ("lhs", "sobol"):
+        from scipy.stats import qmc
+
+        sampler = (qmc.LatinHypercube(d=len(names), seed=rng) if kind == "lhs"
+                   else qmc.Sobol(d=len(names), scramble=True, seed=rng))
+        u = sampler.random(design.samples)
+        lo = np.array([f.low for f in design.factors])
+        hi = np.array([f.high for f in design.factors])
+        return [dict(zip(names, map(float, lo + row * (hi - lo)))) for row in u]
+    # Monte Carlo tolerance stack
+    pts = []
+    for _ in range(design.samples):
+        p = {}
+        for f in design.factors:
+            if design.distribution == "normal":
+                p[f.name] = float(rng.normal(0.0, f.sigma))
+            else:
+                p[f.name] = float(rng.uniform(f.low, f.high))
+        pts.append(p)
+    return pts
+
+
+# ----------------------------------------------------------------------------- evaluation
+
+def evaluate_point(args: tuple[str, str, float, int, float, dict[str, float]]) -> dict[str, float]:
+    """Evaluate one point in the current process (a worker): build the variant, its model, run."""
+    reducer, scenario, load, positions, revs, point = args
+    from rvflex.cli import resolve_reducer
+
+    spec: ReducerSpec = resolve_reducer(reducer)
+    errors = ErrorSpec()
+    for name, value in point.items():
+        spec, errors = FACTORS[name][2](spec, errors, value)
+    if scenario == "te":
+        from rvflex.scenarios.loaded_te import LoadedTE, run_loaded_te
+
+        met = run_loaded_te(LoadedTE(spec, errors, load, revs, positions))[1]
+        return {"te_pp_arcsec": met.te_pp_arcsec, "mean_windup_arcsec": met.mean_windup_arcsec}
+    from rvflex.scenarios.lost_motion import LostMotion, run_lost_motion
+
+    met = run_lost_motion(LostMotion(spec, errors, load, max(positions, 40)))[1]
+    return dc.asdict(met)
+
+
+@dataclass(frozen=True)
+class SweepResult:
+    """Rows (point index, factor values, metrics or error) and run facts."""
+
+    rows: list[dict]
+    finished: int
+    failed: int
+    wall_s: float
+    executor: str
+    workers: int
+
+
+class _Store:
+    """One SQLite file per sweep: the design digest and one row per finished point."""
+
+    def __init__(self, path: Path, design: Design, n_points: int):
+        path.parent.mkdir(parents=True, exist_ok=True)
+        self.db = sqlite3.connect(path, timeout=30.0)
+        self.db.execute("CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT)")
+        self.db.execute("CREATE TABLE IF NOT EXISTS points (id INTEGER PRIMARY KEY, point TEXT, result TEXT, "
+                        "error TEXT)")
+        row = self.db.execute("SELECT value FROM meta WHERE key = 'digest'").fetchone()
+        if row is None:
+            self.db.execute("INSERT INTO meta VALUES ('digest', ?), ('design', ?), ('points', ?)",
+                            (design.digest, design.name, str(n_points)))
+            self.db.commit()
+        elif row[0] != design.digest:
+            raise SpecError("store", str(path), f"was written by a different design (digest {row[0]}, this one "
+                                                f"{design.digest}): use another --out or delete it")
+
+    def done(self) -> dict[int, tuple[str | None, str | None]]:
+        return {i: (r, e) for i, r, e in self.db.execute("SELECT id, result, error FROM points")}
+
+    def write(self, index: int, point: dict, result: dict | None, error: str | None) -> None:
+        self.db.execute("INSERT OR REPLACE INTO points VALUES (?, ?, ?, ?)",
+                        (index, json.dumps(point), None if result is None else json.dumps(result), error))
+        self.db.commit()
+
+
+def sweep(design: Design, store_path: str | Path, *, executor: str = "process", workers: int | None = None,
+          progress=None) -> SweepResult:
+    """Evaluate every point of ``design`` (skipping those already in the store)."""
+    if executor not in ("serial", "process"):
+        raise SpecError("--executor", executor, "must be 'serial' or 'process' (Dask comes later)")
+    points = design_points(design)
+    store = _Store(Path(store_path), design, len(points))
+    done = store.done()
+    todo = [i for i in range(len(points)) if i not in done or done[i][0] is None and done[i][1] == "worker died"]
+    args = {i: (design.reducer, design.scenario, design.load_Nm, design.positions_per_rev, design.revolutions,
+                points[i]) for i in todo}
+    workers = 1 if executor == "serial" else (workers or os.cpu_count() or 1)
+    t0 = time.perf_counter()
+
+    def record(i, fn):
+        try:
+            store.write(i, points[i], fn(), None)
+        except BrokenProcessPool:
+            raise
+        except Exception as err:  # a failing point is recorded, the sweep goes on
+            store.write(i, points[i], None, f"{type(err).__name__}: {err}")
+        if progress is not None:
+            progress()
+
+    if executor == "serial":
+        for i in todo:
+            record(i, lambda i=i: evaluate_point(args[i]))
+    else:
+        remaining, retried = list(todo), False
+        while remaining:
+            try:
+                with ProcessPoolExecutor(max_workers=workers) as pool:
+                    futures = {i: pool.submit(evaluate_point, args[i]) for i in remaining}
+                    for i, fut in futures.items():
+                        record(i, fut.result)
+                        remaining.remove(i)
+            except BrokenProcessPool:
+                if retried:  # the same points killed a second pool: record and stop retrying
+                    for i in remaining:
+                        store.write(i, points[i], None, "worker died")
+                    remaining = []
+                retried = True
+    rows = []
+    for i, (res, err) in sorted(store.done().items()):
+        row = {"point": i, **points[i]}
+        row.update(json.loads(res) if res else {"error": err})
+        rows.append(row)
+    failed = sum(1 for r in rows if "error" in r)
+    return SweepResult(rows, len(rows) - failed, failed, time.perf_counter() - t0, executor, workers)
+
+
+def range_table(design: Design, rows: list[dict], metric: str) -> list[dict]:
+    """Level means K1…Kn and range R per factor (seed 004 Table 8 style) for an orthogonal or
+    single-factor design."""
+    out = []
+    for f in design.factors:
+        means = []
+        for level in f.levels:
+            vals = [r[metric] for r in rows if metric in r and r[f.name] == level]
+            means.append(float(np.mean(vals)) if vals else math.nan)
+        finite = [m for m in means if not math.isnan(m)]
+        out.append({"factor": f.name, "K": means, "range": (max(finite) - min(finite)) if finite else math.nan})
+    return sorted(out, key=lambda r: -r["range"])
