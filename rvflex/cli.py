@@ -176,7 +176,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     n = len(design_points(design))
     with tqdm(total=n, desc=f"sweep {design.name}", unit="point", file=sys.stderr, mininterval=0.5) as bar:
         res = sweep(design, out / f"{design.name}.sqlite", executor=args.executor, workers=args.workers,
-                    progress=lambda: bar.update(1))
+                    scheduler=args.scheduler, progress=lambda: bar.update(1))
     metric = "te_pp_arcsec" if design.scenario == "te" else "lost_motion_arcmin"
     ranking = (range_table(design, res.rows, metric) if design.kind not in ("lhs", "sobol", "monte-carlo") else [])
     keys = sorted({k for r in res.rows for k in r})
@@ -265,7 +265,8 @@ def build_parser() -> argparse.ArgumentParser:
     bl.set_defaults(func=_cmd_backlash)
     sw = sub.add_parser("sweep", help="parameter sweep / tolerance design from a design TOML")
     sw.add_argument("design", help="design TOML (see scenarios/designs/smoke.toml)")
-    sw.add_argument("--executor", default="process", choices=("serial", "process"), help="default: process")
+    sw.add_argument("--executor", default="process", choices=("serial", "process", "dask"), help="default: process")
+    sw.add_argument("--scheduler", help="Dask scheduler address tcp://HOST:PORT (default: a LocalCluster)")
     sw.add_argument("--workers", type=int, help="process workers (default: CPU count)")
     sw.add_argument("--json", help="write the summary as JSON to this path")
     sw.add_argument("--out", help="directory for the store and table.csv (default out/sweeps/NAME)")

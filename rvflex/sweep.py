@@ -7,11 +7,13 @@ finished points are skipped; a failed point records its error and the sweep goes
 whose worker died is retried once in a fresh pool. Results do not depend on the executor.
 
 Designs: single factor, orthogonal arrays (L9, L16(4^5), L27), Latin hypercube and Sobol
-(scipy.stats.qmc), Monte Carlo tolerance stacks (seeded normal or uniform).
+(scipy.stats.qmc), Monte Carlo tolerance stacks (seeded normal or uniform). Executors: serial,
+a local process pool, or Dask (a LocalCluster, or an existing cluster by address).
 """
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses as dc
 import hashlib
 import json
@@ -282,17 +284,28 @@ class _Store:
 
 
 def sweep(design: Design, store_path: str | Path, *, executor: str = "process", workers: int | None = None,
-          progress=None) -> SweepResult:
-    """Evaluate every point of ``design`` (skipping those already in the store)."""
-    if executor not in ("serial", "process"):
-        raise SpecError("--executor", executor, "must be 'serial' or 'process' (Dask comes later)")
+          scheduler: str | None = None, progress=None) -> SweepResult:
+    """Evaluate every point of ``design`` (skipping those already in the store).
+
+    ``executor``: "serial", "process" (a local process pool) or "dask" (a LocalCluster of
+    ``workers`` single-threaded worker processes, or the cluster at ``scheduler``,
+    ``tcp://HOST:PORT``)."""
+    if executor not in ("serial", "process", "dask"):
+        raise SpecError("--executor", executor, "must be 'serial', 'process' or 'dask'")
     points = design_points(design)
-    store = _Store(Path(store_path), design, len(points))
+    workers = 1 if executor == "serial" else (workers or os.cpu_count() or 1)
+    with contextlib.ExitStack() as stack:
+        # connect before the store exists: a dead scheduler leaves nothing behind
+        client = stack.enter_context(_dask_client(workers, scheduler)) if executor == "dask" else None
+        return _sweep(design, points, Path(store_path), executor, workers, client, progress)
+
+
+def _sweep(design, points, store_path, executor, workers, client, progress) -> SweepResult:
+    store = _Store(store_path, design, len(points))
     done = store.done()
     todo = [i for i in range(len(points)) if i not in done or done[i][0] is None and done[i][1] == "worker died"]
     args = {i: (design.reducer, design.scenario, design.load_Nm, design.positions_per_rev, design.revolutions,
                 points[i]) for i in todo}
-    workers = 1 if executor == "serial" else (workers or os.cpu_count() or 1)
     t0 = time.perf_counter()
 
     def record(i, fn):
@@ -308,6 +321,8 @@ def sweep(design: Design, store_path: str | Path, *, executor: str = "process", 
     if executor == "serial":
         for i in todo:
             record(i, lambda i=i: evaluate_point(args[i]))
+    elif executor == "dask":
+        _run_dask(client, todo, args, record)
     else:
         remaining, retried = list(todo), False
         while remaining:
@@ -330,6 +345,38 @@ def sweep(design: Design, store_path: str | Path, *, executor: str = "process", 
         rows.append(row)
     failed = sum(1 for r in rows if "error" in r)
     return SweepResult(rows, len(rows) - failed, failed, time.perf_counter() - t0, executor, workers)
+
+
+DASK_CONNECT_TIMEOUT_S = 5.0
+
+
+@contextlib.contextmanager
+def _dask_client(workers: int, scheduler: str | None):
+    """A Dask client on a LocalCluster of single-threaded worker processes, or on the cluster at
+    ``scheduler``; an address that does not answer is refused within DASK_CONNECT_TIMEOUT_S."""
+    from dask.distributed import Client, LocalCluster
+
+    if scheduler:
+        try:
+            client = Client(scheduler, timeout=f"{DASK_CONNECT_TIMEOUT_S}s")
+        except (OSError, TimeoutError) as err:
+            raise SpecError("--scheduler", scheduler, f"does not answer within {DASK_CONNECT_TIMEOUT_S:g} s "
+                                                      f"({type(err).__name__})") from None
+        with client:
+            yield client
+        return
+    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        with Client(cluster) as client:
+            yield client
+
+
+def _run_dask(client, todo, args, record) -> None:
+    """Evaluate on the Dask cluster; each finished point is recorded as it arrives."""
+    from dask.distributed import as_completed
+
+    futures = {client.submit(evaluate_point, args[i], pure=False, retries=1): i for i in todo}
+    for fut in as_completed(futures):
+        record(futures[fut], fut.result)
 
 
 def range_table(design: Design, rows: list[dict], metric: str) -> list[dict]:

@@ -78,3 +78,21 @@ def test_sweep_command_json(tmp_path):
     assert {"points", "finished", "failed", "wall_s", "executor", "workers", "ranking"} <= doc.keys()
     assert doc["finished"] == doc["points"] == 6 and doc["failed"] == 0
     assert (tmp_path / "o" / "table.csv").exists()
+
+
+def test_dask_local_cluster_gives_the_serial_table(tmp_path):
+    """The Dask path (a LocalCluster of 2 worker processes) reproduces the serial table."""
+    design = load_design(SMOKE)
+    serial = sweep(design, tmp_path / "s.sqlite", executor="serial")
+    dask = sweep(design, tmp_path / "d.sqlite", executor="dask", workers=2)
+    assert dask.rows == serial.rows and dask.executor == "dask"
+
+
+def test_dead_scheduler_is_refused_quickly_and_leaves_no_store(tmp_path):
+    import time
+
+    t0 = time.perf_counter()
+    with pytest.raises(SpecError, match=r"--scheduler = 'tcp://127.0.0.1:1': does not answer within 5 s"):
+        sweep(load_design(SMOKE), tmp_path / "x.sqlite", executor="dask", scheduler="tcp://127.0.0.1:1")
+    assert time.perf_counter() - t0 < 15.0
+    assert not (tmp_path / "x.sqlite").exists()
