@@ -169,7 +169,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
 
     from tqdm import tqdm
 
-    from rvflex.sweep import design_points, load_design, range_table, sweep
+    from rvflex.sweep import classify, design_points, load_design, plot_main_effects, range_table, sweep
 
     design = load_design(args.design)
     out = Path(args.out or Path("out") / "sweeps" / design.name)
@@ -185,13 +185,23 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         w.writeheader()
         w.writerows(res.rows)
     unit = "arcsec" if design.scenario == "te" else "arcmin"
+    classes = classify(ranking)
     doc = {"points": n, "finished": res.finished, "failed": res.failed, "wall_s": res.wall_s,
            "executor": res.executor, "workers": res.workers,
-           "ranking": [{"factor": r["factor"], f"range_{unit}": r["range"]} for r in ranking]}
+           "ranking": [{"factor": r["factor"], f"range_{unit}": r["range"], "class": classes[r["factor"]]}
+                       for r in ranking]}
     print(f"{res.finished} of {n} points finished, {res.failed} failed, {res.wall_s:.1f} s "
           f"({res.executor}, {res.workers} workers); table in {out / 'table.csv'}")
+    if ranking:
+        with open(out / "range_table.csv", "w", newline="", encoding="utf-8") as fh:
+            w = csv.writer(fh)
+            k = max(len(r["K"]) for r in ranking)
+            w.writerow(["factor"] + [f"K{j + 1}" for j in range(k)] + ["R", "class"])
+            for r in ranking:
+                w.writerow([r["factor"]] + r["K"] + [""] * (k - len(r["K"])) + [r["range"], classes[r["factor"]]])
+        print(f"main effects in {plot_main_effects(design, ranking, metric, out / 'main_effects.png')}")
     for r in ranking:
-        print(f"  {r['factor']:32s} range {r['range']:.4f} {unit}")
+        print(f"  {r['factor']:32s} range {r['range']:.4f} {unit}  {classes[r['factor']]}")
     if args.json:
         _write_atomic(Path(args.json), json.dumps(doc, indent=2).encode())
     return 0

@@ -32,7 +32,9 @@ import numpy as np
 from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
 
 __all__ = ["FACTORS", "Design", "SweepResult", "load_design", "design_points", "evaluate_point", "sweep",
-           "orthogonal_array", "range_table"]
+           "orthogonal_array", "range_table", "classify", "plot_main_effects"]
+
+
 
 
 # ----------------------------------------------------------------------------- factors
@@ -391,3 +393,43 @@ def range_table(design: Design, rows: list[dict], metric: str) -> list[dict]:
         finite = [m for m in means if not math.isnan(m)]
         out.append({"factor": f.name, "K": means, "range": (max(finite) - min(finite)) if finite else math.nan})
     return sorted(out, key=lambda r: -r["range"])
+
+
+def classify(ranking: list[dict]) -> dict[str, str]:
+    """Sensitive / insensitive per factor: the ranges, sorted, split where two consecutive ones
+    differ by the largest ratio (the natural break on a log scale); the upper group is
+    sensitive. A single factor is sensitive."""
+    ranked = sorted((r for r in ranking if not math.isnan(r["range"])), key=lambda r: -r["range"])
+    if len(ranked) < 2:
+        return {r["factor"]: "sensitive" for r in ranked}
+    ratios = [a["range"] / max(b["range"], 1e-300) for a, b in zip(ranked, ranked[1:])]
+    cut = int(np.argmax(ratios)) + 1
+    return {r["factor"]: ("sensitive" if k < cut else "insensitive") for k, r in enumerate(ranked)}
+
+
+def plot_main_effects(design: Design, ranking: list[dict], metric: str, path: Path) -> Path:
+    """Main-effect plot: level means of ``metric`` against each factor's deviation (µm)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    n = len(ranking)
+    cols = min(n, 5)
+    rows_ = math.ceil(n / cols)
+    fig, axes = plt.subplots(rows_, cols, figsize=(3.0 * cols, 2.6 * rows_), layout="constrained", squeeze=False,
+                             sharey=True)
+    levels = {f.name: f.levels for f in design.factors}
+    cls = classify(ranking)
+    for ax, r in zip(axes.flat, ranking):
+        ax.plot(np.asarray(levels[r["factor"]]) * 1e6, r["K"], "o-")
+        ax.set_title(f"{r['factor']}\nR = {r['range']:.4g} ({cls[r['factor']]})", fontsize=8)
+        ax.set_xlabel("deviation (µm)", fontsize=8)
+        ax.grid(alpha=0.3)
+    for ax in list(axes.flat)[n:]:
+        ax.set_visible(False)
+    axes[0, 0].set_ylabel(metric)
+    fig.suptitle(f"{design.name}: main effects ({design.kind}, {design.reducer})")
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path

@@ -96,3 +96,12 @@ def test_dead_scheduler_is_refused_quickly_and_leaves_no_store(tmp_path):
         sweep(load_design(SMOKE), tmp_path / "x.sqlite", executor="dask", scheduler="tcp://127.0.0.1:1")
     assert time.perf_counter() - t0 < 15.0
     assert not (tmp_path / "x.sqlite").exists()
+
+
+def test_classification_splits_at_the_largest_ratio():
+    from rvflex.sweep import classify
+
+    ranking = [{"factor": f, "range": r} for f, r in
+               [("a", 0.38), ("b", 0.30), ("c", 0.21), ("d", 0.19), ("e", 0.063), ("f", 0.037), ("g", 0.013)]]
+    cls = classify(ranking)
+    assert [f for f, c in cls.items() if c == "sensitive"] == ["a", "b", "c", "d"]
