@@ -207,6 +207,23 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_bench_sweep(args: argparse.Namespace) -> int:
+    import tempfile as tf
+
+    from rvflex.sweep import bench_sweep
+
+    with tf.TemporaryDirectory() as tmp:
+        res = bench_sweep(Path(tmp) / "stores", args.points, args.speedup_points,
+                          progress=lambda m: print(m, file=sys.stderr))
+    for key, value in res.items():
+        print(f"{key:20s} {value:.4g}" if isinstance(value, float) else f"{key:20s} {value}")
+    print(f"target 100-point MC ≤ 600 s: {'met' if res['mc_wall_s'] <= 600 else 'NOT met'}; "
+          f"speed-up 1→2 workers ≥ 1.8: {'met' if res['speedup'] >= 1.8 else 'NOT met'}")
+    if args.json:
+        _write_atomic(Path(args.json), json.dumps(res, indent=2).encode())
+    return 0
+
+
 def _cmd_bench_contact(args: argparse.Namespace) -> int:
     from rvflex.contact.bench import bench_contact
 
@@ -287,6 +304,11 @@ def build_parser() -> argparse.ArgumentParser:
     bc.add_argument("--json", help="write the results as JSON to this path")
     bc.add_argument("--segments", type=int, default=8000, help="polygon segments of the Exudyn contact (default 8000)")
     bc.set_defaults(func=_cmd_bench_contact)
+    bs = bsub.add_parser("sweep", help="Monte Carlo sweep time and the 1→2 worker speed-up")
+    bs.add_argument("--points", type=int, default=100, help="Monte Carlo points (default 100)")
+    bs.add_argument("--speedup-points", type=int, default=16, help="points for the speed-up measurement (default 16)")
+    bs.add_argument("--json", help="write the results as JSON to this path")
+    bs.set_defaults(func=_cmd_bench_sweep)
     return p
 
 

@@ -85,6 +85,23 @@ def _solve_at(model: ReducerModel, ss, theta_in: float, q_abs: np.ndarray) -> np
     return np.asarray(mbs.systemData.GetODE2Coordinates()) + model.reference
 
 
+SUBSTEP_LEVELS = 3  # a step that fails is retried in 2, 4, then 8 sub-steps from the last converged state
+
+
+def _advance(model: ReducerModel, ss, q: np.ndarray, th0: float, th1: float, level: int = 0) -> np.ndarray:
+    """Static equilibrium at input angle ``th1`` from the converged state ``q`` at ``th0``;
+    on failure, bisect the step (contact sets that change within one step can stall Newton)."""
+    guess = q + model.kinematic_coordinates(th1) - model.kinematic_coordinates(th0)
+    try:
+        return _solve_at(model, ss, th1, guess)
+    except Exception:
+        if level >= SUBSTEP_LEVELS:
+            raise
+        mid = 0.5 * (th0 + th1)
+        q_mid = _advance(model, ss, q, th0, mid, level + 1)
+        return _advance(model, ss, q_mid, mid, th1, level + 1)
+
+
 def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float = 0.0, *,
                  progress=None) -> QuasiStaticResult:
     """Static equilibria at the input angles ``theta_in`` (rad; increasing runs forward,
@@ -124,15 +141,14 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
     mbs.SetLoadParameter(model.carrier.load, "load", -direction * torque_out_Nm)
     for th, k_reg in steps:
         mbs.SetObjectParameter(model.carrier.regulariser, "stiffness", k_reg)
-        guess = q + model.kinematic_coordinates(th) - model.kinematic_coordinates(prev_th)
         try:
-            q = _solve_at(model, ss, th, guess)
+            q = _advance(model, ss, q, prev_th, th)
         except Exception as err:  # Exudyn raises its own error types; report the step
             res = np.asarray(mbs.systemData.GetODE2Coordinates())
+            guess = q + model.kinematic_coordinates(th) - model.kinematic_coordinates(prev_th)
             raise SolveError(f"quasi-static step {done} (input angle {th:.6f} rad, output regulariser {k_reg:g} N·m/rad) "
-                             f"did not "
-                             f"converge: {err}; largest coordinate change {np.abs(res + model.reference - guess).max():.3e}",
-                             result()) from None
+                             f"did not converge even in {2 ** SUBSTEP_LEVELS} sub-steps: {err}; largest coordinate "
+                             f"change {np.abs(res + model.reference - guess).max():.3e}", result()) from None
         prev_th = th
         if k_reg == k_work:
             out[done] = q[car]

@@ -31,7 +31,8 @@ import numpy as np
 
 from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
 
-__all__ = ["FACTORS", "Design", "SweepResult", "load_design", "design_points", "evaluate_point", "sweep",
+__all__ = ["FACTORS", "Design", "Factor", "SweepResult", "bench_sweep", "load_design", "design_points", "evaluate_point",
+           "monte_carlo_design", "sweep",
            "orthogonal_array", "range_table", "classify", "plot_main_effects"]
 
 
@@ -433,3 +434,40 @@ def plot_main_effects(design: Design, ranking: list[dict], metric: str, path: Pa
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
+
+
+def monte_carlo_design(points: int, seed: int = 1, positions_per_rev: int = 2048) -> Design:
+    """Monte Carlo tolerance stack of seed 004's five sensitive characteristics on the rigid
+    RV-40E (uniform within their tolerance bands), quasi-static loaded TE at rated torque over
+    one output revolution: the benchmark design of ``rvflex bench sweep``."""
+    um = 1e-6
+    return Design(
+        name=f"mc{points}", reducer="rv40e", scenario="te", kind="monte-carlo", load_Nm=412.0,
+        positions_per_rev=positions_per_rev, samples=points, seed=seed, distribution="uniform",
+        factors=(Factor("eccentricity", low=-3 * um, high=3 * um), Factor("moved_modification", low=-1 * um, high=1 * um),
+                 Factor("equidistant_modification", low=-2 * um, high=2 * um),
+                 Factor("pin_circle_radius", low=-3 * um, high=3 * um), Factor("pin_radius", low=-1 * um, high=1 * um)))
+
+
+def bench_sweep(store_dir: Path, points: int = 100, speedup_points: int = 16, progress=print) -> dict:
+    """Wall time of a ``points``-point Monte Carlo with the process executor (2 workers), and the
+    speed-up from 1 to 2 workers on the same ``speedup_points`` points, measured in one run."""
+    import shutil
+
+    store_dir.mkdir(parents=True, exist_ok=True)
+    out = {}
+    small = monte_carlo_design(speedup_points, seed=2)
+    for w in (1, 2):
+        path = store_dir / f"speedup_{w}.sqlite"
+        path.unlink(missing_ok=True)
+        progress(f"{speedup_points} points with {w} worker(s) ...")
+        out[f"wall_{w}_worker_s"] = sweep(small, path, executor="process", workers=w).wall_s
+    big = monte_carlo_design(points)
+    path = store_dir / "mc.sqlite"
+    path.unlink(missing_ok=True)
+    progress(f"{points}-point Monte Carlo with 2 workers ...")
+    res = sweep(big, path, executor="process", workers=2)
+    shutil.rmtree(store_dir, ignore_errors=True)
+    return {"mc_points": points, "mc_finished": res.finished, "mc_wall_s": res.wall_s,
+            "speedup_points": speedup_points, "wall_1_worker_s": out["wall_1_worker_s"],
+            "wall_2_workers_s": out["wall_2_worker_s"], "speedup": out["wall_1_worker_s"] / out["wall_2_worker_s"]}
