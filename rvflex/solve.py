@@ -35,6 +35,9 @@ class SolveError(RuntimeError):
         super().__init__(message)
         self.result = result
 
+    def __reduce__(self):  # picklable, so a failing point in a worker process stays an ordinary error
+        return (type(self), (self.args[0], self.result))
+
 
 @dataclass(frozen=True)
 class QuasiStaticResult:

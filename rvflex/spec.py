@@ -76,6 +76,9 @@ class SpecError(ValueError):
         where = f"{source}: " if source else ""
         super().__init__(f"{where}{field} = {value!r}: {rule}")
 
+    def __reduce__(self):  # picklable across worker processes
+        return (type(self), (self.field, self.value, self.rule, self.source))
+
     def within(self, prefix: str = "", source: str | None = None) -> "SpecError":
         """Return the same error with a table prefix and/or a source file attached."""
         name = f"{prefix}.{self.field}" if prefix and not self.field.startswith(prefix + ".") else self.field

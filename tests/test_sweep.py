@@ -39,11 +39,14 @@ def test_executors_agree_and_the_store_resumes(tmp_path):
     assert again.rows == serial.rows and again.wall_s < 0.5 * serial.wall_s
 
 
-def test_failing_point_is_recorded_and_the_sweep_goes_on(tmp_path):
+@pytest.mark.parametrize("executor", ["serial", "process"])
+def test_failing_point_is_recorded_and_the_sweep_goes_on(tmp_path, executor):
+    """An invalid variant fails its point only, whatever the executor (the error crosses the
+    process boundary intact instead of breaking the pool)."""
     text = SMOKE.read_text().replace("levels = [-2e-6, 2e-6]\n", "levels = [-2e-6, 9e-4]\n", 1)
     bad = tmp_path / "bad.toml"
     bad.write_text(text)
-    res = sweep(load_design(bad), tmp_path / "b.sqlite", executor="serial")
+    res = sweep(load_design(bad), tmp_path / "b.sqlite", executor=executor, workers=2)
     errors = [r for r in res.rows if "error" in r]
     assert res.failed == 1 and len(errors) == 1
     assert "K1 = e·z_b/r_p" in errors[0]["error"]
