@@ -22,7 +22,7 @@ import os
 import sqlite3
 import time
 import tomllib
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from pathlib import Path
@@ -331,10 +331,10 @@ def _sweep(design, points, store_path, executor, workers, client, progress) -> S
         while remaining:
             try:
                 with ProcessPoolExecutor(max_workers=workers) as pool:
-                    futures = {i: pool.submit(evaluate_point, args[i]) for i in remaining}
-                    for i, fut in futures.items():
-                        record(i, fut.result)
-                        remaining.remove(i)
+                    futures = {pool.submit(evaluate_point, args[i]): i for i in remaining}
+                    for fut in as_completed(futures):  # store each point as soon as it is done
+                        record(futures[fut], fut.result)
+                        remaining.remove(futures[fut])
             except BrokenProcessPool:
                 if retried:  # the same points killed a second pool: record and stop retrying
                     for i in remaining:
