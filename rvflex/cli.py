@@ -245,6 +245,21 @@ def _cmd_bench_contact(args: argparse.Namespace) -> int:
     return 0
 
 
+def _model_arguments(p: argparse.ArgumentParser) -> None:
+    """--reducer and --fidelity of the model commands (see :func:`_model_inputs`)."""
+    p.add_argument("--reducer", required=True, help=f"built-in reducer ({', '.join(catalog.names())}) or a spec TOML path")
+    p.add_argument("--fidelity", default="rigid", help="rigid (flexible comes with the FE issue)")
+
+
+def _output_arguments(p: argparse.ArgumentParser, files: str) -> None:
+    """--errors, --perfect, --json and --out of the model commands."""
+    p.add_argument("--errors", help="ErrorSpec TOML file (omitted keys are zero) or a built-in set (rv40e_seed001)")
+    p.add_argument("--perfect", action="store_true",
+                   help="theoretical geometry: no modification, backlash, clearances or errors")
+    p.add_argument("--json", help="write the results as JSON to this path")
+    p.add_argument("--out", help=f"directory for {files}")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``rvflex`` command."""
     p = argparse.ArgumentParser(prog="rvflex", description="Rigid–flexible RV reducer models: geometry, TE, lost motion.")
@@ -256,8 +271,7 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--out", help="directory for profile.png and geometry.json")
     g.set_defaults(func=_cmd_geometry)
     t = sub.add_parser("te", help="loaded transmission error (quasi-static)")
-    t.add_argument("--reducer", required=True, help=f"built-in reducer ({', '.join(catalog.names())}) or a spec TOML path")
-    t.add_argument("--fidelity", default="rigid", help="rigid (flexible comes with the FE issue)")
+    _model_arguments(t)
     t.add_argument("--mode", default="quasi-static", choices=("quasi-static", "dynamic"),
                    help="quasi-static stepping or a generalized-α run (default quasi-static)")
     t.add_argument("--speed-out", type=float, help="output speed in dynamic mode, rpm (default: rated)")
@@ -265,30 +279,18 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--revs", type=float, default=1.0, help="output revolutions (default 1)")
     t.add_argument("--positions", type=int, default=2048, help="positions per output revolution (default 2048)")
     t.add_argument("--direction", choices=("forward", "reverse"), default="forward")
-    t.add_argument("--errors", help="ErrorSpec TOML file (omitted keys are zero) or a built-in set (rv40e_seed001)")
-    t.add_argument("--perfect", action="store_true",
-                   help="theoretical geometry: no modification, backlash, clearances or errors")
-    t.add_argument("--json", help="write the metrics as JSON to this path")
-    t.add_argument("--out", help="directory for te.csv, te.png and load_sharing.png")
+    _output_arguments(t, "te.csv, te.png and load_sharing.png")
     t.set_defaults(func=_cmd_te)
     lm = sub.add_parser("lost-motion", help="torsional hysteresis: lost motion, stiffness, backlash")
-    lm.add_argument("--reducer", required=True, help=f"built-in reducer ({', '.join(catalog.names())}) or a spec TOML path")
-    lm.add_argument("--fidelity", default="rigid", help="rigid (flexible comes with the FE issue)")
+    _model_arguments(lm)
     lm.add_argument("--torque", type=float, help="torque amplitude, N·m (default: rated)")
     lm.add_argument("--steps", type=int, default=200, help="torque steps over the cycle (default 200)")
-    lm.add_argument("--errors", help="ErrorSpec TOML file (omitted keys are zero) or a built-in set (rv40e_seed001)")
-    lm.add_argument("--perfect", action="store_true", help="theoretical geometry: no modification, backlash, clearances")
-    lm.add_argument("--json", help="write the metrics as JSON to this path")
-    lm.add_argument("--out", help="directory for hysteresis.csv and hysteresis.png")
+    _output_arguments(lm, "hysteresis.csv and hysteresis.png")
     lm.set_defaults(func=_cmd_lost_motion)
     bl = sub.add_parser("backlash", help="reversal backlash: output angle lost when the input reverses")
-    bl.add_argument("--reducer", required=True, help=f"built-in reducer ({', '.join(catalog.names())}) or a spec TOML path")
-    bl.add_argument("--fidelity", default="rigid", help="rigid (flexible comes with the FE issue)")
+    _model_arguments(bl)
     bl.add_argument("--load", type=float, help="load resisting the motion, N·m (default: 3 %% of rated)")
-    bl.add_argument("--errors", help="ErrorSpec TOML file (omitted keys are zero) or a built-in set (rv40e_seed001)")
-    bl.add_argument("--perfect", action="store_true", help="theoretical geometry: no modification, backlash, clearances")
-    bl.add_argument("--json", help="write the result as JSON to this path")
-    bl.add_argument("--out", help="directory for backlash.csv and backlash.png")
+    _output_arguments(bl, "backlash.csv and backlash.png")
     bl.set_defaults(func=_cmd_backlash)
     sw = sub.add_parser("sweep", help="parameter sweep / tolerance design from a design TOML")
     sw.add_argument("design", help="design TOML (see scenarios/designs/smoke.toml)")

@@ -118,7 +118,7 @@ def geometry_report(spec: ReducerSpec, errors: ErrorSpec | None = None, *, brute
     prof = profiles[0]
     t_prev = prof.gap(x80, r80).t  # also the JIT warm-up
     # the next quasi-static step: eccentric 0.01° further on
-    x80_next = np.concatenate([to_disc_frame(x80, np.zeros(2), 1e-4 / c.disc_teeth)])
+    x80_next = to_disc_frame(x80, np.zeros(2), 1e-4 / c.disc_teeth)
     us = _best_us(lambda: prof.gap(x80, r80))
     us_warm = _best_us(lambda: prof.gap(x80_next, r80, t_prev))
     # clearance and free play from the exact geometry
