@@ -311,6 +311,11 @@ def build_parser() -> argparse.ArgumentParser:
     bs.add_argument("--speedup-points", type=int, default=16, help="points for the speed-up measurement (default 16)")
     bs.add_argument("--json", help="write the results as JSON to this path")
     bs.set_defaults(func=_cmd_bench_sweep)
+    from rvflex.diagnose import cli as diagnose_cli
+    from rvflex.fe import cli as fe_cli
+
+    fe_cli.register(sub)
+    diagnose_cli.register(sub)
     return p
 
 

@@ -1,0 +1,1 @@
+"""FE-reduced flexible parts: netgen/OCC geometry, NGSolve elasticity, Craig–Bampton reduction, disk cache."""
