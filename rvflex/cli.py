@@ -169,7 +169,18 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
 
     from tqdm import tqdm
 
-    from rvflex.sweep import classify, design_points, load_design, plot_main_effects, range_table, sweep
+    from rvflex.sweep import (
+        SALIB_KINDS,
+        classify,
+        design_points,
+        load_design,
+        plot_indices,
+        plot_main_effects,
+        range_table,
+        sensitivity_indices,
+        sweep,
+        write_indices_csv,
+    )
 
     design = load_design(args.design)
     out = Path(args.out or Path("out") / "sweeps" / design.name)
@@ -178,20 +189,38 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         res = sweep(design, out / f"{design.name}.sqlite", executor=args.executor, workers=args.workers,
                     scheduler=args.scheduler, progress=lambda: bar.update(1))
     metric = "te_pp_arcsec" if design.scenario == "te" else "lost_motion_arcmin"
-    ranking = (range_table(design, res.rows, metric) if design.kind not in ("lhs", "sobol", "monte-carlo") else [])
     keys = sorted({k for r in res.rows for k in r})
     with open(out / "table.csv", "w", newline="", encoding="utf-8") as fh:
         w = csv.DictWriter(fh, fieldnames=keys)
         w.writeheader()
         w.writerows(res.rows)
     unit = "arcsec" if design.scenario == "te" else "arcmin"
-    classes = classify(ranking)
-    doc = {"points": n, "finished": res.finished, "failed": res.failed, "wall_s": res.wall_s,
-           "executor": res.executor, "workers": res.workers,
-           "ranking": [{"factor": r["factor"], f"range_{unit}": r["range"], "class": classes[r["factor"]]}
-                       for r in ranking]}
     print(f"{res.finished} of {n} points finished, {res.failed} failed, {res.wall_s:.1f} s "
           f"({res.executor}, {res.workers} workers); table in {out / 'table.csv'}")
+    doc = {"points": n, "finished": res.finished, "failed": res.failed, "wall_s": res.wall_s,
+           "executor": res.executor, "workers": res.workers, "ranking": []}
+    if design.kind in SALIB_KINDS:
+        try:
+            indices = sensitivity_indices(design, res.rows, metric)
+        except ValueError as err:
+            raise SpecError("sweep", design.name, str(err)) from None
+        classes = classify(indices, key="index")
+        doc["ranking"] = [{**r, "class": classes.get(r["factor"], "")} for r in indices]
+        print(f"indices in {write_indices_csv(indices, classes, out / 'indices.csv')}, "
+              f"plot in {plot_indices(design, indices, metric, out / 'indices.png')}")
+        for r in indices:
+            conf = r["mu_star_conf"] if r["index_name"] == "mu_star" else r["ST_conf"]
+            extra = (f"σ {r['sigma']:.4f} {unit}" if r["index_name"] == "mu_star"
+                     else f"S1 {r['S1']:.3f} ± {r['S1_conf']:.3f}")
+            print(f"  {r['factor']:32s} {r['index_name']} {r['index']:.4f} ± {conf:.4f}  {extra}  "
+                  f"{classes.get(r['factor'], '')}")
+        if args.json:
+            _write_atomic(Path(args.json), json.dumps(doc, indent=2).encode())
+        return 0
+    ranking = (range_table(design, res.rows, metric) if design.kind not in ("lhs", "sobol", "monte-carlo") else [])
+    classes = classify(ranking)
+    doc["ranking"] = [{"factor": r["factor"], f"range_{unit}": r["range"], "class": classes[r["factor"]]}
+                      for r in ranking]
     if ranking:
         with open(out / "range_table.csv", "w", newline="", encoding="utf-8") as fh:
             w = csv.writer(fh)

@@ -7,8 +7,11 @@ finished points are skipped; a failed point records its error and the sweep goes
 whose worker died is retried once in a fresh pool. Results do not depend on the executor.
 
 Designs: single factor, orthogonal arrays (L9, L16(4^5), L27), Latin hypercube and Sobol
-(scipy.stats.qmc), Monte Carlo tolerance stacks (seeded normal or uniform). Executors: serial,
-a local process pool, or Dask (a LocalCluster, or an existing cluster by address).
+(scipy.stats.qmc), Monte Carlo tolerance stacks (seeded normal or uniform), and two global
+sensitivity designs sampled and analysed with SALib: ``morris`` (elementary-effects screening,
+μ* and σ) and ``sobol-indices`` (Saltelli sampling, first-order S1 and total ST indices with
+bootstrap confidence intervals). Executors: serial, a local process pool, or Dask (a
+LocalCluster, or an existing cluster by address).
 """
 
 from __future__ import annotations
@@ -16,6 +19,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses as dc
 import hashlib
+import itertools
 import json
 import math
 import os
@@ -31,11 +35,25 @@ import numpy as np
 
 from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
 
-__all__ = ["FACTORS", "Design", "Factor", "SweepResult", "bench_sweep", "load_design", "design_points", "evaluate_point",
-           "monte_carlo_design", "sweep",
-           "orthogonal_array", "range_table", "classify", "plot_main_effects"]
-
-
+__all__ = [
+    "FACTORS",
+    "Design",
+    "Factor",
+    "SweepResult",
+    "bench_sweep",
+    "classify",
+    "design_points",
+    "evaluate_point",
+    "load_design",
+    "monte_carlo_design",
+    "orthogonal_array",
+    "plot_indices",
+    "plot_main_effects",
+    "range_table",
+    "sensitivity_indices",
+    "sweep",
+    "write_indices_csv",
+]
 
 
 # ----------------------------------------------------------------------------- factors
@@ -78,7 +96,8 @@ FACTORS = {
 }
 """Design factors: each a deviation (SI) applied to the nominal spec or errors."""
 
-DESIGN_KINDS = ("single-factor", "L9", "L16", "L27", "lhs", "sobol", "monte-carlo")
+DESIGN_KINDS = ("single-factor", "L9", "L16", "L27", "lhs", "sobol", "monte-carlo", "morris", "sobol-indices")
+SALIB_KINDS = ("morris", "sobol-indices")
 SCENARIOS = ("te", "lost-motion")
 
 
@@ -134,6 +153,7 @@ class Design:
     samples: int = 8
     seed: int = 1
     distribution: str = "uniform"
+    morris_levels: int = 4
     source: str = "<design>"
 
     @property
@@ -141,6 +161,8 @@ class Design:
         """Content hash of everything that defines the points and their evaluation."""
         d = dc.asdict(self)
         d.pop("source")
+        if self.kind != "morris":  # only Morris uses it: older stores keep their digest
+            d.pop("morris_levels")
         return hashlib.sha256(json.dumps(d, sort_keys=True, default=str).encode()).hexdigest()[:16]
 
 
@@ -178,8 +200,47 @@ def load_design(path: str | Path) -> Design:
     known = {f.name for f in dc.fields(Design)} - {"factors", "source"}
     extra = set(sw) - known
     if extra:
-        raise SpecError(f"[sweep].{sorted(extra)[0]}", sw[sorted(extra)[0]], "unknown key", src)
-    return Design(factors=tuple(factors), source=src, **sw)
+        raise SpecError(f"[sweep].{min(extra)}", sw[min(extra)], "unknown key", src)
+    design = Design(factors=tuple(factors), source=src, **sw)
+    if design.kind in SALIB_KINDS:
+        _salib_problem(design)  # bounds and sample counts checked before anything runs
+    return design
+
+
+def _salib_problem(design: Design) -> dict:
+    """SALib problem dict of a ``morris`` / ``sobol-indices`` design (bounds are the factors'
+    ``low``/``high`` deviations, m); refuses missing or empty ranges and too few samples."""
+    src = design.source
+    for k, f in enumerate(design.factors):
+        if not (math.isfinite(f.low) and math.isfinite(f.high) and f.low < f.high):
+            raise SpecError(f"factor[{k}] {f.name}", (f.low, f.high), f"{design.kind} needs low < high", src)
+    if design.samples < 2:
+        raise SpecError("[sweep].samples", design.samples,
+                        "at least 2 (Morris trajectories / Saltelli base samples)", src)
+    if design.kind == "morris" and not (design.morris_levels >= 2 and design.morris_levels % 2 == 0):
+        raise SpecError("[sweep].morris_levels", design.morris_levels, "an even number of grid levels, at least 2",
+                        src)
+    if design.kind == "sobol-indices" and design.samples & (design.samples - 1):
+        raise SpecError("[sweep].samples", design.samples,
+                        "a power of two (Saltelli's scheme keeps the Sobol sequence's balance)", src)
+    return {"num_vars": len(design.factors), "names": [f.name for f in design.factors],
+            "bounds": [[f.low, f.high] for f in design.factors]}
+
+
+def _salib_samples(design: Design) -> np.ndarray:
+    """The SALib sample matrix (rows = points, SI deviations), seeded by ``design.seed``.
+
+    ``morris``: ``samples`` trajectories of D + 1 points on a ``morris_levels`` grid;
+    ``sobol-indices``: Saltelli's scheme, ``samples`` × (D + 2) points (first and total order).
+    """
+    problem = _salib_problem(design)
+    if design.kind == "morris":
+        from SALib.sample import morris
+
+        return morris.sample(problem, design.samples, num_levels=design.morris_levels, seed=design.seed)
+    from SALib.sample import sobol
+
+    return sobol.sample(problem, design.samples, calc_second_order=False, scramble=True, seed=design.seed)
 
 
 def design_points(design: Design) -> list[dict[str, float]]:
@@ -202,6 +263,8 @@ def design_points(design: Design) -> list[dict[str, float]]:
             if len(f.levels) != oa.max() + 1:
                 raise SpecError(f"factor {f.name}.levels", f.levels, f"{kind} needs {oa.max() + 1} levels")
         return [{f.name: f.levels[row[j]] for j, f in enumerate(design.factors)} for row in oa]
+    if kind in SALIB_KINDS:
+        return [dict(zip(names, map(float, row))) for row in _salib_samples(design)]
     rng = np.random.default_rng(design.seed)
     if kind in ("lhs", "sobol"):
         from scipy.stats import qmc
@@ -316,7 +379,7 @@ def _sweep(design, points, store_path, executor, workers, client, progress) -> S
             store.write(i, points[i], fn(), None)
         except BrokenProcessPool:
             raise
-        except Exception as err:  # a failing point is recorded, the sweep goes on
+        except Exception as err:  # noqa: BLE001 -- a failing point is recorded, the sweep goes on
             store.write(i, points[i], None, f"{type(err).__name__}: {err}")
         if progress is not None:
             progress()
@@ -368,9 +431,9 @@ def _dask_client(workers: int, scheduler: str | None):
         with client:
             yield client
         return
-    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
-        with Client(cluster) as client:
-            yield client
+    with (LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None) as cluster,
+          Client(cluster) as client):
+        yield client
 
 
 def _run_dask(client, todo, args, record) -> None:
@@ -396,16 +459,124 @@ def range_table(design: Design, rows: list[dict], metric: str) -> list[dict]:
     return sorted(out, key=lambda r: -r["range"])
 
 
-def classify(ranking: list[dict]) -> dict[str, str]:
-    """Sensitive / insensitive per factor: the ranges, sorted, split where two consecutive ones
+def classify(ranking: list[dict], key: str = "range") -> dict[str, str]:
+    """Sensitive / insensitive per factor: the ranges (or another non-negative measure ``key``,
+    e.g. ``index`` of :func:`sensitivity_indices`), sorted, split where two consecutive ones
     differ by the largest ratio (the natural break on a log scale); the upper group is
-    sensitive. A single factor is sensitive."""
-    ranked = sorted((r for r in ranking if not math.isnan(r["range"])), key=lambda r: -r["range"])
+    sensitive. A single factor is sensitive; a factor without a finite measure is left out."""
+    ranked = sorted((r for r in ranking if math.isfinite(r[key])), key=lambda r: -r[key])
     if len(ranked) < 2:
         return {r["factor"]: "sensitive" for r in ranked}
-    ratios = [a["range"] / max(b["range"], 1e-300) for a, b in zip(ranked, ranked[1:])]
+    ratios = [max(a[key], 1e-300) / max(b[key], 1e-300) for a, b in itertools.pairwise(ranked)]
     cut = int(np.argmax(ratios)) + 1
     return {r["factor"]: ("sensitive" if k < cut else "insensitive") for k, r in enumerate(ranked)}
+
+
+def sensitivity_indices(design: Design, rows: list[dict], metric: str, *, num_resamples: int = 1000,
+                        conf_level: float = 0.95) -> list[dict]:
+    """Global sensitivity of ``metric`` from a finished ``morris`` or ``sobol-indices`` sweep,
+    analysed with SALib (bootstrap seeded by ``design.seed``), most influential factor first.
+
+    Each entry has ``factor``, ``index`` (the ranking measure) and ``index_name``, plus:
+
+    - ``morris``: ``index`` = μ* (mean |elementary effect|, in the metric's unit per full
+      ``low``…``high`` range, so comparable with a single-factor range R of a linear
+      response), ``mu``, ``sigma`` (spread of the effects: interaction or non-linearity)
+      and ``mu_star_conf``;
+    - ``sobol-indices``: ``index`` = ST (total-order index, share of the variance including
+      interactions), ``S1``, ``S1_conf`` and ``ST_conf`` (half-widths at ``conf_level``).
+
+    Every entry also has ``groups_used``: a trajectory (Morris) or a Saltelli block with a failed
+    point is dropped whole, since both estimators need complete groups; raises ``ValueError``
+    when fewer than two groups are complete.
+    """
+    if design.kind not in SALIB_KINDS:
+        raise ValueError(f"sensitivity indices need a {' or '.join(SALIB_KINDS)} design, not {design.kind!r}")
+    problem = _salib_problem(design)
+    x = _salib_samples(design)
+    y = np.full(len(x), np.nan)
+    for r in rows:
+        if metric in r and r[metric] is not None:
+            y[r["point"]] = float(r[metric])
+    d = len(design.factors)
+    size = d + 1 if design.kind == "morris" else d + 2
+    ok = np.isfinite(y.reshape(-1, size)).all(axis=1)
+    if ok.sum() < 2:
+        raise ValueError(f"only {int(ok.sum())} complete {'trajectories' if size == d + 1 else 'blocks'} of "
+                         f"{len(ok)}: too few for {design.kind}")
+    keep = np.repeat(ok, size)
+    out = []
+    if design.kind == "morris":
+        from SALib.analyze import morris
+
+        res = morris.analyze(problem, x[keep], y[keep], num_resamples=num_resamples, conf_level=conf_level,
+                             num_levels=design.morris_levels, seed=design.seed)
+        for j, name in enumerate(problem["names"]):
+            out.append({"factor": name, "index_name": "mu_star", "index": float(res["mu_star"][j]),
+                        "mu": float(res["mu"][j]), "sigma": float(res["sigma"][j]),
+                        "mu_star_conf": float(res["mu_star_conf"][j]), "groups_used": int(ok.sum())})
+    else:
+        from SALib.analyze import sobol
+
+        res = sobol.analyze(problem, y[keep], calc_second_order=False, num_resamples=num_resamples,
+                            conf_level=conf_level, seed=design.seed)
+        for j, name in enumerate(problem["names"]):
+            out.append({"factor": name, "index_name": "ST", "index": float(res["ST"][j]),
+                        "S1": float(res["S1"][j]), "S1_conf": float(res["S1_conf"][j]),
+                        "ST_conf": float(res["ST_conf"][j]), "groups_used": int(ok.sum())})
+    return sorted(out, key=lambda r: -r["index"])
+
+
+def write_indices_csv(ranking: list[dict], classes: dict[str, str], path: Path) -> Path:
+    """Write the :func:`sensitivity_indices` table (one row per factor, with its class) as CSV."""
+    import csv
+
+    keys = ["factor", "index_name", "index"] + [k for k in ranking[0] if k not in ("factor", "index_name", "index")]
+    with open(path, "w", newline="", encoding="utf-8") as fh:
+        w = csv.writer(fh)
+        w.writerow(keys + ["class"])
+        for r in ranking:
+            w.writerow([r[k] for k in keys] + [classes.get(r["factor"], "")])
+    return path
+
+
+def plot_indices(design: Design, ranking: list[dict], metric: str, path: Path) -> Path:
+    """Bar plot of the sensitivity indices with their confidence intervals; for Morris also the
+    μ*–σ plane (σ ≫ μ* flags interaction or non-linearity)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    names = [r["factor"] for r in ranking][::-1]
+    y = np.arange(len(names))
+    morris = ranking[0]["index_name"] == "mu_star"
+    fig, axes = plt.subplots(1, 2 if morris else 1, figsize=(11 if morris else 7, 0.5 * len(names) + 2),
+                             layout="constrained", squeeze=False)
+    ax = axes[0, 0]
+    rev = ranking[::-1]
+    if morris:
+        ax.barh(y, [r["index"] for r in rev], xerr=[r["mu_star_conf"] for r in rev], capsize=3)
+        ax.set_xlabel(f"μ* of {metric} (per full range)")
+        ax2 = axes[0, 1]
+        ax2.scatter([r["index"] for r in ranking], [r["sigma"] for r in ranking])
+        for r in ranking:
+            ax2.annotate(r["factor"], (r["index"], r["sigma"]), fontsize=7)
+        ax2.set_xlabel("μ*")
+        ax2.set_ylabel("σ")
+        ax2.grid(alpha=0.3)
+    else:
+        ax.barh(y - 0.2, [r["S1"] for r in rev], 0.4, xerr=[r["S1_conf"] for r in rev], capsize=3, label="S1")
+        ax.barh(y + 0.2, [r["index"] for r in rev], 0.4, xerr=[r["ST_conf"] for r in rev], capsize=3, label="ST")
+        ax.set_xlabel(f"Sobol index of {metric}")
+        ax.legend()
+    ax.set_yticks(y, names, fontsize=8)
+    ax.grid(alpha=0.3, axis="x")
+    fig.suptitle(f"{design.name}: {design.kind} ({design.samples} {'trajectories' if morris else 'base samples'}, "
+                 f"{ranking[0]['groups_used']} complete)")
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
 
 
 def plot_main_effects(design: Design, ranking: list[dict], metric: str, path: Path) -> Path:

@@ -108,3 +108,118 @@ def test_classification_splits_at_the_largest_ratio():
                [("a", 0.38), ("b", 0.30), ("c", 0.21), ("d", 0.19), ("e", 0.063), ("f", 0.037), ("g", 0.013)]]
     cls = classify(ranking)
     assert [f for f, c in cls.items() if c == "sensitive"] == ["a", "b", "c", "d"]
+
+
+# ----------------------------------------------------------------------------- SALib designs
+
+MORRIS = SMOKE.parent / "smoke_morris.toml"
+
+
+def _analytic_design(kind: str, samples: int):
+    from rvflex.sweep import Design, Factor
+
+    um = 1e-6
+    return Design(name="analytic", reducer="rv40e", scenario="te", kind=kind, load_Nm=412.0, samples=samples, seed=3,
+                  factors=(Factor("eccentricity", low=-3 * um, high=3 * um), Factor("pin_radius", low=-1 * um, high=1 * um),
+                           Factor("sun_pitch_radius", low=-10 * um, high=0.0)))
+
+
+# y = Σ b_i·x_i (arcsec per m of deviation): a linear response with known indices
+_COEF = {"eccentricity": 2e6, "pin_radius": -3e6, "sun_pitch_radius": 1e4}
+
+
+def _analytic_rows(design):
+    return [{"point": i, **p, "y": sum(_COEF[k] * v for k, v in p.items())} for i, p in enumerate(design_points(design))]
+
+
+def test_morris_of_a_linear_response_recovers_its_effects():
+    """Every elementary effect of a linear response is b_i·(high − low): μ* equals it, σ is 0."""
+    from rvflex.sweep import sensitivity_indices
+
+    design = _analytic_design("morris", 10)
+    assert len(design_points(design)) == 10 * 4  # trajectories × (D + 1)
+    ranking = sensitivity_indices(design, _analytic_rows(design), "y")
+    span = {f.name: f.high - f.low for f in design.factors}
+    assert [r["factor"] for r in ranking] == ["eccentricity", "pin_radius", "sun_pitch_radius"]
+    for r in ranking:
+        assert r["index"] == pytest.approx(abs(_COEF[r["factor"]]) * span[r["factor"]], rel=1e-9)
+        assert r["mu"] == pytest.approx(_COEF[r["factor"]] * span[r["factor"]], rel=1e-9)
+        assert r["sigma"] < 1e-9 * r["index"]
+
+
+def test_sobol_indices_of_a_linear_response_match_the_variance_shares():
+    """Uniform independent inputs: S1_i = ST_i = b_i²·w_i²/Σ b_j²·w_j² (w the range); the
+    estimate must fall within its own bootstrap interval of the exact share (plus 0.05 for the
+    estimator's bias at 64 base samples)."""
+    from rvflex.sweep import sensitivity_indices
+
+    design = _analytic_design("sobol-indices", 64)
+    assert len(design_points(design)) == 64 * 5  # base samples × (D + 2)
+    ranking = sensitivity_indices(design, _analytic_rows(design), "y")
+    var = {f.name: (_COEF[f.name] * (f.high - f.low)) ** 2 for f in design.factors}
+    total = sum(var.values())
+    assert [r["factor"] for r in ranking] == ["eccentricity", "pin_radius", "sun_pitch_radius"]
+    for r in ranking:
+        exact = var[r["factor"]] / total
+        assert abs(r["S1"] - exact) <= r["S1_conf"] + 0.05, r
+        assert abs(r["index"] - exact) <= r["ST_conf"] + 0.05, r
+
+
+def test_a_failed_point_drops_its_whole_trajectory():
+    from rvflex.sweep import sensitivity_indices
+
+    design = _analytic_design("morris", 6)
+    rows = _analytic_rows(design)
+    rows[5] = {"point": 5, "error": "SolveError: stalled"}  # second trajectory
+    ranking = sensitivity_indices(design, rows, "y")
+    assert all(r["groups_used"] == 5 for r in ranking)
+    assert ranking[0]["index"] == pytest.approx(2e6 * 6e-6, rel=1e-9)
+
+
+def test_salib_design_input_is_checked(tmp_path):
+    text = MORRIS.read_text()
+    for old, new, message in [
+        ("low = -1e-6\nhigh = 1e-6", "levels = [-1e-6, 1e-6]", r"morris needs low < high"),
+        ("morris_levels = 4", "morris_levels = 3", r"an even number of grid levels"),
+        ('kind = "morris"', 'kind = "sobol-indices"', r"a power of two"),  # samples = 4 is one: use 6
+    ]:
+        p = tmp_path / "d.toml"
+        body = text.replace(old, new)
+        if "power of two" in message:
+            body = body.replace("samples = 4", "samples = 6").replace("morris_levels = 4\n", "")
+        p.write_text(body)
+        with pytest.raises(SpecError, match=message):
+            load_design(p)
+
+
+def test_morris_on_the_model_agrees_with_single_factor_ranges_under_both_executors(tmp_path):
+    """Smoke model, coarse resolution: the Morris design of the smoke factors over the smoke
+    levels gives identical rows under the serial and the process executor; its μ* ranking of
+    TE peak-to-peak is the single-factor range ranking; and for the mean wind-up, which is
+    linear in µm deviations (σ/μ* < 2 % here), μ* equals the single-factor range R (the
+    same end-to-end change) within 5 %."""
+    import json
+
+    from rvflex.sweep import range_table, sensitivity_indices
+
+    single_design = load_design(SMOKE)
+    single = sweep(single_design, tmp_path / "s.sqlite", executor="serial")
+    design = load_design(MORRIS)
+    serial = sweep(design, tmp_path / "m.sqlite", executor="serial")
+    assert main(["sweep", str(MORRIS), "--executor", "process", "--workers", "2", "--out", str(tmp_path / "o"),
+                 "--json", str(tmp_path / "m.json")]) == 0
+    pool = sweep(design, tmp_path / "o" / "smoke_morris.sqlite", executor="serial")  # resumes: nothing to run
+    assert serial.failed == 0 and serial.rows == pool.rows
+    doc = json.loads((tmp_path / "m.json").read_text())
+    assert doc["points"] == 16 and doc["finished"] == 16
+    for metric in ("te_pp_arcsec", "mean_windup_arcsec"):
+        ranges = range_table(single_design, single.rows, metric)
+        indices = sensitivity_indices(design, serial.rows, metric)
+        assert [r["factor"] for r in indices] == [r["factor"] for r in ranges], metric
+    assert [{"factor": r["factor"], "index": r["index"]} for r in doc["ranking"]] == [
+        {"factor": r["factor"], "index": r["index"]} for r in sensitivity_indices(design, serial.rows, "te_pp_arcsec")]
+    ranges = {r["factor"]: r["range"] for r in range_table(single_design, single.rows, "mean_windup_arcsec")}
+    for r in sensitivity_indices(design, serial.rows, "mean_windup_arcsec")[:2]:
+        assert r["sigma"] < 0.02 * r["index"]
+        assert r["index"] == pytest.approx(ranges[r["factor"]], rel=0.05)
+    assert (tmp_path / "o" / "indices.csv").exists() and (tmp_path / "o" / "indices.png").exists()
