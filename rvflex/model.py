@@ -29,10 +29,12 @@ FIDELITIES = ("rigid",)
 
 
 def default_contact_law(spec: ReducerSpec) -> ContactLaw:
-    """Seed 002's line contact: disc and pin materials, disc thickness as the width; 500 N·s/m
-    damping in contact (seed 003 Table 3)."""
+    """Seed 002's line contact: disc and pin materials, disc thickness as the width, the
+    pin-circle radius bounding the flank radius in the law's logarithm; 500 N·s/m damping in
+    contact (seed 003 Table 3)."""
     m = spec.materials
-    return ContactLaw.line(spec.cycloid.disc_thickness_m, m.gears_cranks_discs, m.pins, damping_Ns_m=500.0)
+    return ContactLaw.line(spec.cycloid.disc_thickness_m, m.gears_cranks_discs, m.pins, damping_Ns_m=500.0,
+                           body_radius_m=spec.cycloid.pin_circle_radius_m)
 
 
 @dataclass(frozen=True, eq=False)

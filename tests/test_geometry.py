@@ -167,6 +167,21 @@ def test_warm_start_gives_the_same_gap(rv40e):
     assert np.max(np.abs(cold.t - warm.t)) < 1e-10
 
 
+@pytest.mark.parametrize("with_errors", [False, True])
+def test_a_lost_warm_start_falls_back_to_a_cold_solve(rv40e, errors40, with_errors):
+    """A warm start far from the pin's minimum (a stale parameter cached at a wild Newton
+    iterate, up to half a turn off) must not decide the gap: the contact force would then
+    depend on the solver's history and Newton can cycle (found on a Monte Carlo point)."""
+    c = rv40e.cycloid
+    prof = build_profile(c, errors40 if with_errors else None)
+    x = to_disc_frame(pin_centres(c), *nominal_disc_pose(c, 0.3))
+    r = pin_radii(c)
+    cold = prof.gap(x, r)
+    stale = cold.t + np.random.default_rng(5).uniform(-math.pi, math.pi, len(r))
+    warm = prof.gap(x, r, stale)
+    assert np.max(np.abs(cold.gap_m - warm.gap_m)) < 1e-12
+
+
 def test_pin_and_disc_errors_enter_exactly(rv40e):
     """Pin 0 sits in a tooth root (normal radial): a radial pin error changes its gap by
     exactly that amount; a uniform disc profile error closes every gap by exactly its size;

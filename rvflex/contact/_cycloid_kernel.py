@@ -19,13 +19,14 @@ import math
 import numba as nb
 import numpy as np
 
-from rvflex.geometry._kernels import closest_point
+from rvflex.geometry._kernels import closest_point, profile_point
 
 LAW_LINEAR, LAW_POWER, LAW_LINE, LAW_STRIP = 0, 1, 2, 3
 STRIP_FACTOR = 4.0 * math.sqrt(2.0) / 3.0
 # law parameter vector
-L_KIND, L_K, L_EXP, L_C, L_MU, L_VREG, L_WIDTH, L_COMPL1, L_COMPL2 = range(9)
-N_LAW = 9
+L_KIND, L_K, L_EXP, L_C, L_MU, L_VREG, L_WIDTH, L_COMPL1, L_COMPL2, L_INV_RB = range(10)
+N_LAW = 10
+CURVATURE_STEP_T = 1e-6  # profile-parameter step of the central difference dκ/dt (error ~1e-12 relative)
 # per-pin output columns
 O_GAP, O_FORCE, O_PX, O_PY, O_T, O_FT = range(6)
 N_OUT = 6
@@ -34,26 +35,30 @@ _jit = nb.njit(cache=True, nogil=True)
 
 
 @_jit
-def _line_force(delta, rho, r_pin, law):
-    """Force (N) and stiffness dF/dδ (N/m) of the seed-002 line-contact law for approach δ.
+def _line_force(delta, kap, r_pin, law):
+    """Force (N), dF/dδ (N/m) and dF/dκ (N·m) of the seed-002 line-contact law for approach δ
+    at flank curvature κ.
 
-    δ(F) = 2F/(πb)·[k1(ln(4|ρ|/c) − ½) + k2(ln(4r/c) − ½)], c² = 4F(k1 + k2)/(πb(1/ρ + 1/r)),
-    inverted by Newton; dδ/dF = δ/F − (k1 + k2)/(πb).
+    δ(F) = 2F/(πb)·[k1(ln(4ρ_e/c) − ½) + k2(ln(4r/c) − ½)], c² = 4F(k1 + k2)/(πb(κ + 1/r)),
+    1/ρ_e = √(κ² + 1/R_b²) (R_b bounds the flank radius, see ContactLaw.body_radius_m),
+    inverted by Newton; dδ/dF = δ/F − (k1 + k2)/(πb), ∂δ/∂κ = aF[(k1 + k2)/(2(κ + 1/r)) − k1κρ_e²].
     """
     b = law[L_WIDTH]
     k1 = law[L_COMPL1]
     k2 = law[L_COMPL2]
-    curv = 1.0 / rho + 1.0 / r_pin
-    if curv <= 0.0:  # conformal (concave flank tighter than the pin): cannot occur on a valid profile
+    curv = kap + 1.0 / r_pin
+    conformal = curv <= 0.0
+    if conformal:  # concave flank tighter than the pin: cannot occur on a valid profile
         curv = 1e-3 / r_pin
     a = 2.0 / (math.pi * b)
     bc = 4.0 * (k1 + k2) / (math.pi * b * curv)
-    arho = abs(rho)
+    inv_rb = law[L_INV_RB]
+    rho_e = 1.0 / max(math.sqrt(kap * kap + inv_rb * inv_rb), 1e-12)
     # start from a linear compliance evaluated at a typical force level
     f = delta / (a * (k1 + k2) * 5.0)
     for _ in range(50):
         c = math.sqrt(bc * f)
-        dl = a * f * (k1 * (math.log(4.0 * arho / c) - 0.5) + k2 * (math.log(4.0 * r_pin / c) - 0.5))
+        dl = a * f * (k1 * (math.log(4.0 * rho_e / c) - 0.5) + k2 * (math.log(4.0 * r_pin / c) - 0.5))
         ddl = dl / f - 0.5 * a * (k1 + k2)
         step = (dl - delta) / ddl
         f_new = f - step
@@ -64,30 +69,41 @@ def _line_force(delta, rho, r_pin, law):
             break
         f = f_new
     c = math.sqrt(bc * f)
-    dl = a * f * (k1 * (math.log(4.0 * arho / c) - 0.5) + k2 * (math.log(4.0 * r_pin / c) - 0.5))
-    return f, 1.0 / (dl / f - 0.5 * a * (k1 + k2))
+    dl = a * f * (k1 * (math.log(4.0 * rho_e / c) - 0.5) + k2 * (math.log(4.0 * r_pin / c) - 0.5))
+    ddl = dl / f - 0.5 * a * (k1 + k2)
+    dk = 0.0 if conformal else a * f * (0.5 * (k1 + k2) / curv - k1 * kap * rho_e * rho_e)
+    return f, 1.0 / ddl, -dk / ddl
 
 
 @_jit
-def _normal_law(x, rho, r_pin, law):
-    """Elastic normal force f(x) ≥ 0 (N) and f'(x) for penetration x (m)."""
+def _normal_law(x, kap, r_pin, law):
+    """Elastic normal force f(x) ≥ 0 (N), f'(x) (N/m) and ∂f/∂κ (N·m) for penetration x (m)
+    at flank curvature κ (1/m)."""
     if x <= 0.0:
-        return 0.0, 0.0
+        return 0.0, 0.0, 0.0
     kind = law[L_KIND]
     if kind == LAW_LINEAR:
-        return law[L_K] * x, law[L_K]
+        return law[L_K] * x, law[L_K], 0.0
     if kind == LAW_POWER:
         e = law[L_EXP]
         f = law[L_K] * x**e
-        return f, e * f / x
+        return f, e * f / x, 0.0
     if kind == LAW_STRIP:
         # penalty k per unit length along the flank, integrated over the overlap chord of a
         # circle of relative radius R: (4√2/3)·k·√R·x^1.5 (the fine-segment limit of
         # Exudyn's ObjectContactCurveCircles, contact model 0)
-        inv_r = 1.0 / r_pin + 1.0 / rho
+        inv_r = 1.0 / r_pin + kap
         f = STRIP_FACTOR * law[L_K] * math.sqrt(1.0 / inv_r) * x**1.5
-        return f, 1.5 * f / x
-    return _line_force(x, rho, r_pin, law)
+        return f, 1.5 * f / x, -0.5 * f / inv_r
+    return _line_force(x, kap, r_pin, law)
+
+
+@_jit
+def _curvature(t, par, herr, hpsi):
+    """Signed curvature of the profile at parameter t (1/m)."""
+    _q, q1, q2 = profile_point(t, par, herr, hpsi)
+    s = math.sqrt(q1.real * q1.real + q1.imag * q1.imag)
+    return (q1.real * q2.imag - q1.imag * q2.real) / (s * s * s)
 
 
 @_jit
@@ -118,9 +134,11 @@ def evaluate(q, qd, offset, pins, radii, par, herr, hpsi, law, t_cache, force, k
         cx = ct * dx + st * dy
         cy = -st * dx + ct * dy
         t, d, qp, nq, kap, ok = closest_point(complex(cx, cy), par, herr, hpsi, t_cache[i])
-        if not ok:
+        if ok:
+            t_cache[i] = t
+        else:  # never warm-start from a failed solve
             bad += 1
-        t_cache[i] = t
+            t_cache[i] = math.nan
         gap = d - radii[i]
         pen = -gap
         if pen > max_pen:
@@ -145,8 +163,7 @@ def evaluate(q, qd, offset, pins, radii, par, herr, hpsi, law, t_cache, force, k
         gq[1] = -wny
         gq[2] = -(cx * ny - cy * nx)
         pen_rate = -(gq[0] * qd[0] + gq[1] * qd[1] + gq[2] * qd[2])
-        rho = 1.0 / kap if kap != 0.0 else 1e300
-        f_el, df_el = _normal_law(pen, rho, radii[i], law)
+        f_el, df_el, dfk = _normal_law(pen, kap, radii[i], law)
         fn = f_el + law[L_C] * pen_rate
         if fn <= 0.0:  # the damper would pull: the pin leaves the flank
             continue
@@ -166,6 +183,21 @@ def evaluate(q, qd, offset, pins, radii, par, herr, hpsi, law, t_cache, force, k
         for a in range(3):
             for b in range(3):
                 hq[a, b] = keff * sv[a] * sv[b]
+        if dfk != 0.0:
+            # the law depends on the curvature at the contact point, which slides along the
+            # flank: ∂κ/∂q = κ'(t)·∂t/∂q, ∂t/∂c = Q'ᵀ/(|Q'|² + (Q − c)·Q'') from (Q − c)·Q' = 0
+            qq, q1, q2 = profile_point(t, par, herr, hpsi)
+            h = CURVATURE_STEP_T
+            dkdt = (_curvature(t + h, par, herr, hpsi) - _curvature(t - h, par, herr, hpsi)) / (2.0 * h)
+            den = (q1.real * q1.real + q1.imag * q1.imag + (qq.real - cx) * q2.real + (qq.imag - cy) * q2.imag)
+            gk = dfk * dkdt / den
+            dk0 = gk * (q1.real * a1x + q1.imag * a1y)
+            dk1 = gk * (q1.real * a2x + q1.imag * a2y)
+            dk2 = gk * (q1.real * a3x + q1.imag * a3y)
+            for a in range(3):
+                kmat[a, 0] -= gq[a] * dk0
+                kmat[a, 1] -= gq[a] * dk1
+                kmat[a, 2] -= gq[a] * dk2
         # N·∂²c/∂θ∂x = N·J R(−θ)e_x, N·∂²c/∂θ² = −N·c
         jx = (st, ct)  # J·R(−θ)e_x with R(−θ)e_x = (ct, −st) and J(v) = (−v_y, v_x)
         jy = (-ct, st)  # J·R(−θ)e_y with R(−θ)e_y = (st, ct)

@@ -60,6 +60,13 @@ class ContactLaw:
         Contact width b (the disc thickness) for "line" (m).
     disc_compliance_1_Pa, pin_compliance_1_Pa : float
         (1 − ν²)/E of disc and pin for "line" (1/Pa).
+    body_radius_m : float
+        For "line": bound on the flank radius in seed 002's ln(4ρ/c) term (m). The term is the
+        approach of a cylinder of radius ρ measured to its centre; where the flank is nearly
+        straight (around its inflection point ρ → ∞) the disc body itself, not the flank
+        curvature, bounds that distance. The law uses 1/ρ_eff = √(κ² + 1/R_b²), smooth in
+        the curvature κ; without it the force has a logarithmic cusp at the inflection point
+        and Newton cycles there. ``default_contact_law`` takes R_b = the pin-circle radius.
     """
 
     kind: str
@@ -71,6 +78,7 @@ class ContactLaw:
     width_m: float = 0.0
     disc_compliance_1_Pa: float = 0.0
     pin_compliance_1_Pa: float = 0.0
+    body_radius_m: float = math.inf
 
     def __post_init__(self) -> None:
         if self.kind not in ("linear", "power", "line", "strip"):
@@ -82,6 +90,8 @@ class ContactLaw:
         if self.kind == "line" and not (self.width_m > 0 and self.disc_compliance_1_Pa > 0
                                         and self.pin_compliance_1_Pa > 0):
             raise ValueError("line contact law: width_m and both compliances must be positive")
+        if not self.body_radius_m > 0:
+            raise ValueError(f"contact law body_radius_m = {self.body_radius_m!r}: must be positive (m)")
         for name in ("damping_Ns_m", "friction_coefficient"):
             if not getattr(self, name) >= 0:
                 raise ValueError(f"contact law {name} = {getattr(self, name)!r}: must not be negative")
@@ -107,13 +117,15 @@ class ContactLaw:
         return cls("strip", stiffness_N_m2, 1.5, damping_Ns_m, **friction)
 
     @classmethod
-    def line(cls, width_m: float, disc: Material, pin: Material, damping_Ns_m: float = 0.0,
-             **friction: float) -> "ContactLaw":
+    def line(cls, width_m: float, disc: Material, pin: Material, damping_Ns_m: float = 0.0, *,
+             body_radius_m: float, **friction: float) -> "ContactLaw":
         """Seed 002's line contact: the approach δ(F) of :func:`rvflex.geometry.formulas.hertz_line_deflection`
-        inverted, with the flank curvature at each contact point."""
+        inverted, with the flank curvature at each contact point; ``body_radius_m`` bounds the
+        flank radius in the logarithm (see the class docstring)."""
         return cls("line", 0.0, 1.0, damping_Ns_m, width_m=width_m,
                    disc_compliance_1_Pa=(1 - disc.poisson_ratio**2) / disc.youngs_modulus_Pa,
-                   pin_compliance_1_Pa=(1 - pin.poisson_ratio**2) / pin.youngs_modulus_Pa, **friction)
+                   pin_compliance_1_Pa=(1 - pin.poisson_ratio**2) / pin.youngs_modulus_Pa,
+                   body_radius_m=body_radius_m, **friction)
 
     def vector(self) -> np.ndarray:
         """Parameter vector of the kernel."""
@@ -122,6 +134,7 @@ class ContactLaw:
         v[K.L_K], v[K.L_EXP], v[K.L_C] = self.stiffness, self.exponent, self.damping_Ns_m
         v[K.L_MU], v[K.L_VREG] = self.friction_coefficient, self.friction_velocity_m_s
         v[K.L_WIDTH], v[K.L_COMPL1], v[K.L_COMPL2] = self.width_m, self.disc_compliance_1_Pa, self.pin_compliance_1_Pa
+        v[K.L_INV_RB] = 1.0 / self.body_radius_m
         return v
 
 

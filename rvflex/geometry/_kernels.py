@@ -268,11 +268,23 @@ def closest_point(c, par, herr, hpsi, t0=math.nan):
     ok : bool
         Newton converged to a minimum.
     """
+    guess = _polar_guess(c, par)
+    # a warm start that is off by more than a quarter tooth (e.g. cached at a wild Newton
+    # iterate) or does not converge must not decide the answer: the contact force would
+    # then depend on the solver's history and Newton can cycle
+    if not math.isnan(t0) and abs(_wrap(t0 - guess)) < 0.5 * math.pi / par[P_ZC]:
+        res = _closest_from(c, par, herr, hpsi, t0, True)
+        if res[5]:
+            return res
+    return _closest_from(c, par, herr, hpsi, guess, False)
+
+
+@_jit
+def _closest_from(c, par, herr, hpsi, t, warm):
+    """:func:`closest_point` from the start parameter ``t`` (one tangent projection when warm, two when cold)."""
     R = par[P_R]
     e = par[P_E]
     zb = par[P_ZB]
-    warm = not math.isnan(t0)
-    t = t0 if warm else _polar_guess(c, par)
     # project c onto the pin-centre curve's tangent: brings t within ~1e-7 of the answer
     for _ in range(1 if warm else 2):
         ei = complex(math.cos(t), math.sin(t))
