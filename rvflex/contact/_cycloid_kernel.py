@@ -107,8 +107,15 @@ def _curvature(t, par, herr, hpsi):
 
 
 @_jit
-def evaluate(q, qd, offset, pins, radii, par, herr, hpsi, law, t_cache, force, kmat, dmat, out):
-    """Generalised force (3,), LHS Jacobians K, D (3×3) and per-pin outputs (n, N_OUT).
+def evaluate(q, qd, offset, pins, radii, par, herr, hpsi, law, t_cache, phi, eta, eta_d, force, kmat, dmat, out):
+    """Generalised force (3 + m,), LHS Jacobians K, D ((3 + m)²) and per-pin outputs (n, N_OUT)
+    of a disc with rigid coordinates ``q = (x, y, θ)`` and m modal coordinates ``eta``.
+
+    ``phi`` (n_grid, 2, m) holds the in-plane modal displacement of the flank in the profile
+    frame on the uniform grid t_j = 2πj/n_grid of the profile parameter (linear
+    interpolation); the flank point moves by u = Φ(t)·η, which closes the gap by N·u. A rigid
+    disc passes m = 0. Left out of K (both O(|u|/ρ) ≈ 1e-4 relative): the change of N and of
+    the contact parameter with η in ∂g/∂q, and the rotation of Φ's sample point with θ.
 
     Returns the largest penetration (m) and the number of closest-point failures.
     """
@@ -117,14 +124,17 @@ def evaluate(q, qd, offset, pins, radii, par, herr, hpsi, law, t_cache, force, k
     th = q[2] + offset
     ct = math.cos(th)
     st = math.sin(th)
-    for a in range(3):
+    m = eta.shape[0]
+    n = 3 + m
+    ng = phi.shape[0]
+    for a in range(n):
         force[a] = 0.0
-        for b in range(3):
+        for b in range(n):
             kmat[a, b] = 0.0
             dmat[a, b] = 0.0
     max_pen = -1e300
     bad = 0
-    gq = np.empty(3)
+    gq = np.empty(n)
     hq = np.empty((3, 3))
     gt = np.empty(3)
     for i in range(pins.shape[0]):
@@ -140,11 +150,22 @@ def evaluate(q, qd, offset, pins, radii, par, herr, hpsi, law, t_cache, force, k
             bad += 1
             t_cache[i] = math.nan
         gap = d - radii[i]
+        nx = nq.real
+        ny = nq.imag
+        if m > 0:
+            # modal flank displacement at t, normal component: ∂g/∂η_k = −N·Φ_k(t)
+            s = (t / (2.0 * math.pi)) % 1.0 * ng
+            j0 = int(s) % ng
+            j1 = (j0 + 1) % ng
+            w = s - math.floor(s)
+            for k in range(m):
+                un = (nx * ((1.0 - w) * phi[j0, 0, k] + w * phi[j1, 0, k])
+                      + ny * ((1.0 - w) * phi[j0, 1, k] + w * phi[j1, 1, k]))
+                gq[3 + k] = -un
+                gap -= un * eta[k]
         pen = -gap
         if pen > max_pen:
             max_pen = pen
-        nx = nq.real
-        ny = nq.imag
         # world normal n = R(θ)N and world contact point (on the disc)
         wnx = ct * nx - st * ny
         wny = st * nx + ct * ny
@@ -163,6 +184,8 @@ def evaluate(q, qd, offset, pins, radii, par, herr, hpsi, law, t_cache, force, k
         gq[1] = -wny
         gq[2] = -(cx * ny - cy * nx)
         pen_rate = -(gq[0] * qd[0] + gq[1] * qd[1] + gq[2] * qd[2])
+        for k in range(m):
+            pen_rate -= gq[3 + k] * eta_d[k]
         f_el, df_el, dfk = _normal_law(pen, kap, radii[i], law)
         fn = f_el + law[L_C] * pen_rate
         if fn <= 0.0:  # the damper would pull: the pin leaves the flank
@@ -194,7 +217,7 @@ def evaluate(q, qd, offset, pins, radii, par, herr, hpsi, law, t_cache, force, k
             dk0 = gk * (q1.real * a1x + q1.imag * a1y)
             dk1 = gk * (q1.real * a2x + q1.imag * a2y)
             dk2 = gk * (q1.real * a3x + q1.imag * a3y)
-            for a in range(3):
+            for a in range(n):
                 kmat[a, 0] -= gq[a] * dk0
                 kmat[a, 1] -= gq[a] * dk1
                 kmat[a, 2] -= gq[a] * dk2
@@ -208,11 +231,14 @@ def evaluate(q, qd, offset, pins, radii, par, herr, hpsi, law, t_cache, force, k
         hq[1, 2] += hy
         hq[2, 1] += hy
         hq[2, 2] += -(nx * cx + ny * cy)
-        for a in range(3):
+        for a in range(n):
             force[a] += fn * gq[a]
-            for b in range(3):
-                kmat[a, b] += df_el * gq[a] * gq[b] - fn * hq[a, b]
+            for b in range(n):
+                kmat[a, b] += df_el * gq[a] * gq[b]
                 dmat[a, b] += law[L_C] * gq[a] * gq[b]
+        for a in range(3):
+            for b in range(3):
+                kmat[a, b] -= fn * hq[a, b]
         mu = law[L_MU]
         if mu > 0.0:
             # regularised Coulomb friction at the contact point, opposing the disc's sliding
@@ -235,4 +261,6 @@ def evaluate(q, qd, offset, pins, radii, par, herr, hpsi, law, t_cache, force, k
                     # F_t = −μ·F_n·tanh(v_t/v_reg), F_n = f(x) − c·∂g/∂q·q̇
                     dmat[a, b] += mu * fn * sech2 / vr * gt[a] * gt[b] - mu * th_v * law[L_C] * gt[a] * gq[b]
                     kmat[a, b] += mu * th_v * gt[a] * (-df_el * gq[b])
+            # friction acts on the rigid coordinates only: the tangential flank displacement of
+            # the modes is left out (friction is off in the catalogue models)
     return max_pen, bad

@@ -175,6 +175,11 @@ class CycloidPinContact:
         Pin centres in the ring frame (n, 2) and radii (n,), errors included (m).
     offset_rad : float
         Profile frame angle relative to the node's rotation (disc phase).
+    modal_node : int
+        NodeGenericODE2 of the disc's modal coordinates (flexible disc), −1 for a rigid disc.
+    phi : ndarray
+        (n_grid, 2, m) modal flank displacement in the profile frame on the uniform grid of
+        the profile parameter, see :func:`rvflex.contact._cycloid_kernel.evaluate` (m = 0: rigid).
     """
 
     object_index: int
@@ -189,36 +194,64 @@ class CycloidPinContact:
     _law_vec: np.ndarray = field(repr=False)
     _t_cache: np.ndarray = field(repr=False)
     _work: "_Workspace" = field(repr=False)
+    modal_node: int = -1
+    phi: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 0)), repr=False)
+    rigid_index: tuple[int, int, int] = (0, 1, 2)  # (x, y, θ) within the node's coordinates
 
-    def evaluate(self, q: np.ndarray, qd: np.ndarray | None = None):
-        """Force (3,), LHS Jacobians K and D (3×3), per-pin outputs and max penetration at
-        absolute coordinates ``q = (x, y, θ)`` and velocities ``qd``."""
+    @property
+    def n_modes(self) -> int:
+        """Modal coordinates of the disc (0 for a rigid disc)."""
+        return self.phi.shape[2]
+
+    def evaluate(self, q: np.ndarray, qd: np.ndarray | None = None, eta: np.ndarray | None = None,
+                 eta_d: np.ndarray | None = None):
+        """Force (3 + m,), LHS Jacobians K and D ((3 + m)²), per-pin outputs and max penetration
+        at absolute rigid coordinates ``q = (x, y, θ)``, velocities ``qd`` and modal
+        coordinates ``eta`` (m,) with rates ``eta_d``."""
+        m = self.n_modes
         qd = np.zeros(3) if qd is None else np.asarray(qd, float)
-        f, k, d, out = np.empty(3), np.empty((3, 3)), np.empty((3, 3)), np.empty((len(self.radii_m), K.N_OUT))
+        eta = np.zeros(m) if eta is None else np.asarray(eta, float)
+        eta_d = np.zeros(m) if eta_d is None else np.asarray(eta_d, float)
+        n = 3 + m
+        f, k, d, out = np.empty(n), np.empty((n, n)), np.empty((n, n)), np.empty((len(self.radii_m), K.N_OUT))
         pen, bad = K.evaluate(np.asarray(q, float), qd, self.offset_rad, self.pins_m, self.radii_m,
                               self.profile.par, self.profile.herr, self.profile.hpsi, self._law_vec,
-                              self._t_cache, f, k, d, out)
+                              self._t_cache, self.phi, eta, eta_d, f, k, d, out)
         if bad:
             raise RuntimeError(f"cycloid–pin contact on node {self.node}: closest-point solve failed for {bad} pins")
         return f, k, d, out, pen
 
     def pin_state(self, mbs) -> PinState:
         """Per-pin gap, force and contact point at the system's current state."""
-        q = self.reference + np.asarray(mbs.GetNodeOutput(self.node, _exu().OutputVariableType.Coordinates))
-        qd = np.asarray(mbs.GetNodeOutput(self.node, _exu().OutputVariableType.Coordinates_t))
-        _, _, _, out, _ = self.evaluate(q, qd)
+        ri = list(self.rigid_index)
+        q = (self.reference + np.asarray(mbs.GetNodeOutput(self.node, _exu().OutputVariableType.Coordinates)))[ri]
+        qd = np.asarray(mbs.GetNodeOutput(self.node, _exu().OutputVariableType.Coordinates_t))[ri]
+        eta = eta_d = None
+        if self.modal_node >= 0:
+            eta = np.asarray(mbs.GetNodeOutput(self.modal_node, _exu().OutputVariableType.Coordinates))
+            eta_d = np.asarray(mbs.GetNodeOutput(self.modal_node, _exu().OutputVariableType.Coordinates_t))
+        _, _, _, out, _ = self.evaluate(q, qd, eta, eta_d)
         return PinState(out[:, K.O_GAP].copy(), out[:, K.O_FORCE].copy(), out[:, K.O_FT].copy(),
                         out[:, [K.O_PX, K.O_PY]].copy(), out[:, K.O_T].copy())
 
     # ------------------------------------------------------------------ user functions
     def _force_uf(self, mbs, t, item, q, q_t):
         w = self._work
-        np.add(self.reference, q, out=w.q)
-        w.qd[:] = q_t
+        q = np.asarray(q)
+        q_t = np.asarray(q_t)
+        w.q_obj[:] = q
+        w.qd_obj[:] = q_t
+        ri, nn = self.rigid_index, len(self.reference)
+        for a in range(3):
+            w.q[a] = self.reference[ri[a]] + q[ri[a]]
+            w.qd[a] = q_t[ri[a]]
         w.penetration, w.bad = K.evaluate(w.q, w.qd, self.offset_rad, self.pins_m, self.radii_m, self.profile.par,
                                           self.profile.herr, self.profile.hpsi, self._law_vec, self._t_cache,
-                                          w.f, w.k, w.d, w.out)
-        return w.f
+                                          self.phi, q[nn:], q_t[nn:], w.f, w.k, w.d, w.out)
+        if w.scatter is None:
+            return w.f
+        w.f_obj[w.scatter] = w.f
+        return w.f_obj
 
     def check_penetration(self, t: float = math.nan) -> None:
         """Raise :class:`ContactError` if the last evaluated state penetrates deeper than
@@ -231,11 +264,13 @@ class CycloidPinContact:
 
     def _jacobian_uf(self, mbs, t, item, q, q_t, f_ode2, f_ode2_t):
         w = self._work
-        ref = self.reference
-        same = all(w.q[i] == ref[i] + q[i] and w.qd[i] == q_t[i] for i in range(3))
-        if not same:  # Newton asks at a state the force was not evaluated at (rare)
-            self._force_uf(mbs, t, item, q, q_t)
-        return f_ode2 * w.k + f_ode2_t * w.d
+        if not (np.array_equal(w.q_obj, q) and np.array_equal(w.qd_obj, q_t)):
+            self._force_uf(mbs, t, item, q, q_t)  # Newton asks at a state the force was not evaluated at (rare)
+        if w.scatter is None:
+            return f_ode2 * w.k + f_ode2_t * w.d
+        ix = np.ix_(w.scatter, w.scatter)
+        w.k_obj[ix] = f_ode2 * w.k + f_ode2_t * w.d
+        return w.k_obj
 
 
 @dataclass(eq=False)
@@ -248,13 +283,25 @@ class _Workspace:
     k: np.ndarray
     d: np.ndarray
     out: np.ndarray
+    q_obj: np.ndarray  # the object's coordinates at the last evaluation (all its nodes)
+    qd_obj: np.ndarray
+    scatter: np.ndarray | None  # positions of (x, y, θ, η…) in the object's coordinates; None: identity
+    f_obj: np.ndarray
+    k_obj: np.ndarray
     penetration: float = -math.inf
     bad: int = 0
 
     @classmethod
-    def for_pins(cls, n: int) -> "_Workspace":
-        return cls(np.full(3, np.nan), np.full(3, np.nan), np.zeros(3), np.zeros((3, 3)), np.zeros((3, 3)),
-                   np.zeros((n, K.N_OUT)))
+    def for_pins(cls, n: int, rigid_index: tuple[int, int, int] = (0, 1, 2), node_coords: int = 3,
+                 modes: int = 0) -> "_Workspace":
+        k = 3 + modes
+        nobj = node_coords + modes
+        scatter = None
+        if tuple(rigid_index) != (0, 1, 2) or node_coords != 3:
+            scatter = np.array(list(rigid_index) + list(range(node_coords, nobj)), dtype=np.intp)
+        return cls(np.full(3, np.nan), np.full(3, np.nan), np.zeros(k), np.zeros((k, k)), np.zeros((k, k)),
+                   np.zeros((n, K.N_OUT)), np.full(nobj, np.nan), np.full(nobj, np.nan), scatter, np.zeros(nobj),
+                   np.zeros((nobj, nobj)))
 
 
 def install_penetration_guard(mbs, contacts: list[CycloidPinContact]) -> None:
@@ -281,7 +328,8 @@ def _exu():
 def add_cycloid_pin_contact(mbs, disc_node: int, stage: CycloidStage, law: ContactLaw, *, disc: int = 0,
                             errors: ErrorSpec | None = None, max_penetration_m: float = DEFAULT_MAX_PENETRATION_M,
                             initial_interference_m: float = DEFAULT_INITIAL_INTERFERENCE_M,
-                            profile: CycloidProfile | None = None) -> CycloidPinContact:
+                            profile: CycloidProfile | None = None, modal_node: int = -1,
+                            phi: np.ndarray | None = None) -> CycloidPinContact:
     """Add the contact between disc ``disc`` of ``stage`` (on ``disc_node``) and the fixed pin ring.
 
     Parameters
@@ -303,6 +351,11 @@ def add_cycloid_pin_contact(mbs, disc_node: int, stage: CycloidStage, law: Conta
         A run whose deepest penetration exceeds this stops with :class:`ContactError`.
     initial_interference_m : float
         The initial configuration may interfere by at most this much (m).
+    modal_node, phi : int, ndarray, optional
+        A flexible disc: ``disc_node`` is the reference node (NodeRigidBodyRxyz, planar: its
+        z, ψx, ψy held by the caller) of an FFRF body whose modal coordinates are the
+        NodeGenericODE2 ``modal_node``; ``phi`` (n_grid, 2, m) is the modal flank
+        displacement in the profile frame on the uniform profile-parameter grid.
 
     Raises
     ------
@@ -311,8 +364,16 @@ def add_cycloid_pin_contact(mbs, disc_node: int, stage: CycloidStage, law: Conta
         bad tolerances, or initial interference beyond the tolerance (naming the pin).
     """
     node = mbs.GetNode(disc_node)
-    if node.get("nodeType") != "RigidBody2D":
-        raise ValueError(f"disc_node = {disc_node}: must be a NodeRigidBody2D, not {node.get('nodeType')}")
+    flexible = modal_node >= 0
+    if node.get("nodeType") != ("RigidBodyRxyz" if flexible else "RigidBody2D"):
+        need = "a NodeRigidBodyRxyz (flexible disc)" if flexible else "a NodeRigidBody2D"
+        raise ValueError(f"disc_node = {disc_node}: must be {need}, not {node.get('nodeType')}")
+    phi = np.zeros((0, 2, 0)) if phi is None else np.ascontiguousarray(phi, dtype=float)
+    m = phi.shape[2]
+    if flexible and (phi.ndim != 3 or phi.shape[1] != 2 or phi.shape[0] < 8
+                     or mbs.GetNode(modal_node).get("numberOfODE2Coordinates") != m):
+        raise ValueError(f"phi {phi.shape}: must be (n_grid ≥ 8, 2, m) with m the modal node's coordinates")
+    rigid_index = (0, 1, 5) if flexible else (0, 1, 2)
     if not 0 <= disc < stage.disc_count:
         raise ValueError(f"disc = {disc}: the stage has {stage.disc_count} discs")
     for name, v in (("max_penetration_m", max_penetration_m), ("initial_interference_m", initial_interference_m)):
@@ -324,22 +385,26 @@ def add_cycloid_pin_contact(mbs, disc_node: int, stage: CycloidStage, law: Conta
     pins = np.ascontiguousarray(pin_centres(stage, errors))
     radii = np.ascontiguousarray(pin_radii(stage, errors))
     ref = np.asarray(node["referenceCoordinates"], float)
-    init = ref + np.asarray(node.get("initialCoordinates", np.zeros(3)), float)
+    init = ref + np.asarray(node.get("initialCoordinates", np.zeros(len(ref))), float)
     contact = CycloidPinContact(
         object_index=-1, node=disc_node, profile=prof, pins_m=pins, radii_m=radii, law=law,
         offset_rad=-stage.disc_phase_rad[disc] / stage.disc_teeth, reference=ref,
         max_penetration_m=max_penetration_m, _law_vec=law.vector(),
-        _t_cache=np.full(len(radii), np.nan), _work=_Workspace.for_pins(len(radii)))
-    _, _, _, out, _ = contact.evaluate(init)
+        _t_cache=np.full(len(radii), np.nan),
+        _work=_Workspace.for_pins(len(radii), rigid_index, len(ref), m),
+        modal_node=modal_node, phi=phi, rigid_index=rigid_index)
+    _, _, _, out, _ = contact.evaluate(init[list(rigid_index)])
     worst = int(np.argmin(out[:, K.O_GAP]))
     if -out[worst, K.O_GAP] > initial_interference_m:
         raise ValueError(f"initial configuration: pin {worst} interferes with disc {disc} by "
                          f"{-out[worst, K.O_GAP] * 1e6:.3f} µm (tolerance {initial_interference_m * 1e6:g} µm)")
     from exudyn.itemInterface import ObjectGenericODE2
 
+    nobj = len(ref) + m
     idx = mbs.AddObject(ObjectGenericODE2(
-        nodeNumbers=[disc_node], massMatrix=np.zeros((3, 3)), stiffnessMatrix=np.zeros((3, 3)),
-        dampingMatrix=np.zeros((3, 3)), forceUserFunction=contact._force_uf,
+        nodeNumbers=[disc_node, modal_node] if flexible else [disc_node], massMatrix=np.zeros((nobj, nobj)),
+        stiffnessMatrix=np.zeros((nobj, nobj)), dampingMatrix=np.zeros((nobj, nobj)),
+        forceUserFunction=contact._force_uf,
         jacobianUserFunction=contact._jacobian_uf))
     object.__setattr__(contact, "object_index", int(idx))
     return contact
