@@ -25,7 +25,7 @@ from rvflex.spec import ErrorSpec, ReducerSpec
 
 __all__ = ["ReducerModel", "build_reducer", "default_contact_law", "FIDELITIES"]
 
-FIDELITIES = ("rigid",)
+FIDELITIES = ("rigid", "flexible")
 
 
 def default_contact_law(spec: ReducerSpec) -> ContactLaw:
@@ -61,29 +61,39 @@ class ReducerModel:
         return self.spec.nominal_ratio
 
     def node_slices(self) -> dict[str, slice]:
-        """ODE2 coordinate ranges of the sun, carrier, each crank and each disc."""
+        """ODE2 coordinate ranges of the planar (x, y, θ) nodes: sun, carrier, cranks and rigid discs."""
         idx = {"sun": self.sun.node, "carrier": self.carrier.node}
         idx.update({f"crank{k}": n for k, n in enumerate(self.cranks.nodes)})
-        idx.update({f"disc{d}": n for d, n in enumerate(self.discs.nodes)})
+        if not self.discs.modal_nodes:
+            idx.update({f"disc{d}": n for d, n in enumerate(self.discs.nodes)})
         out = {}
         for name, node in idx.items():
             i = self.mbs.GetNodeODE2Index(node)
             out[name] = slice(i, i + 3)
         return out
 
+    def planar_index(self) -> dict[str, np.ndarray]:
+        """ODE2 indices of (x, y, θ) of every body, discs included (a flexible disc's reference
+        node is a NodeRigidBodyRxyz: x, y, ψz)."""
+        out = {name: np.arange(s.start, s.stop) for name, s in self.node_slices().items()}
+        for d, n in enumerate(self.discs.nodes):
+            i = self.mbs.GetNodeODE2Index(n)
+            out[f"disc{d}"] = np.array([i, i + 1, i + 5] if self.discs.modal_nodes else [i, i + 1, i + 2])
+        return out
+
     def kinematic_coordinates(self, theta_in: float) -> np.ndarray:
         """Absolute ODE2 coordinates of the ideal (rigid, error-free kinematics) reducer at input angle θ_in."""
         q = self.reference.copy()
-        sl = self.node_slices()
+        sl = self.planar_index()
         th_c = theta_in / self.ratio
         alpha = -self.spec.cycloid.pin_count * th_c  # crank angle relative to the carrier
         rot = np.array([[math.cos(th_c), -math.sin(th_c)], [math.sin(th_c), math.cos(th_c)]])
-        q[sl["sun"]][2] = theta_in
-        q[sl["carrier"]][2] = th_c
+        q[sl["sun"][2]] = theta_in
+        q[sl["carrier"][2]] = th_c
         for k in range(len(self.cranks.nodes)):
             s = sl[f"crank{k}"]
-            q[s][:2] = rot @ self.crank_axes[k]
-            q[s][2] = th_c + alpha
+            q[s[:2]] = rot @ self.crank_axes[k]
+            q[s[2]] = th_c + alpha
         cy = self.spec.cycloid
         for d in range(len(self.discs.nodes)):
             s = sl[f"disc{d}"]
@@ -91,13 +101,16 @@ class ReducerModel:
                                                 math.sin(alpha + cy.disc_phase_rad[d])])
             base = self.disc_centres[d] - cy.eccentricity_m * np.array([math.cos(cy.disc_phase_rad[d]),
                                                                         math.sin(cy.disc_phase_rad[d])])
-            q[s][:2] = rot @ (base + ecc)
-            q[s][2] = th_c
+            q[s[:2]] = rot @ (base + ecc)
+            q[s[2]] = self.reference[s[2]] + th_c  # a flexible disc may sit turned by a half turn
+        for n in self.discs.modal_nodes:
+            i = self.mbs.GetNodeODE2Index(n)
+            q[i:i + self.mbs.GetNode(n)["numberOfODE2Coordinates"]] = 0.0
         return q
 
 
 def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None, fidelity: str = "rigid", *,
-                  law: ContactLaw | None = None) -> ReducerModel:
+                  law: ContactLaw | None = None, reduced_disc=None) -> ReducerModel:
     """Assemble the reducer of ``spec`` with ``errors`` at ``fidelity``.
 
     Raises
@@ -109,7 +122,7 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None, fidelity: 
     from exudyn.itemInterface import MarkerNodeCoordinate, NodePointGround, ObjectGround
 
     if fidelity not in FIDELITIES:
-        raise ValueError(f"fidelity = {fidelity!r}: available {', '.join(FIDELITIES)} (flexible comes with the FE issue)")
+        raise ValueError(f"fidelity = {fidelity!r}: available {', '.join(FIDELITIES)}")
     errors = errors or ErrorSpec()
     errors.check_against(spec)
     law = law or default_contact_law(spec)
@@ -117,13 +130,19 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None, fidelity: 
     mbs = sc.AddSystem()
     ground_body = mbs.AddObject(ObjectGround())
     ground_coord = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=mbs.AddNode(NodePointGround()), coordinate=0))
-    pins = pin_ring.build(mbs, spec, errors, fidelity=fidelity)
-    sun = input_stage.build(mbs, spec, ground_coord, fidelity=fidelity)
-    carrier = carrier_part.build(mbs, spec, errors, ground_body, ground_coord, fidelity=fidelity)
+    # "flexible" makes the cycloid discs FE-reduced bodies; the other parts stay rigid so far
+    pins = pin_ring.build(mbs, spec, errors, fidelity="rigid")
+    sun = input_stage.build(mbs, spec, ground_coord, fidelity="rigid")
+    carrier = carrier_part.build(mbs, spec, errors, ground_body, ground_coord, fidelity="rigid")
     axes = carrier_part.crank_axis_positions(spec, errors)
-    cranks = crankshaft.build(mbs, spec, errors, carrier, sun.node, axes, fidelity=fidelity)
+    cranks = crankshaft.build(mbs, spec, errors, carrier, sun.node, axes, fidelity="rigid")
     ecc = crankshaft.eccentric_offsets(spec, errors)
-    discs = cycloid_disc.build(mbs, spec, errors, cranks, law, ecc, axes, fidelity=fidelity)
+    if fidelity == "flexible" and reduced_disc is None:
+        from rvflex.fe.reduce import reduce_part
+
+        reduced_disc = reduce_part(spec, "disc")
+    discs = cycloid_disc.build(mbs, spec, errors, cranks, law, ecc, axes, fidelity=fidelity, reduced=reduced_disc,
+                               ground_coordinate=ground_coord)
     mbs.Assemble()
     ref = np.asarray(mbs.systemData.GetODE2Coordinates(configuration=exu.ConfigurationType.Reference))
     centres = np.array([np.asarray(mbs.GetNode(n)["referenceCoordinates"])[:2] for n in discs.nodes])

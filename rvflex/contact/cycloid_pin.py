@@ -329,7 +329,7 @@ def add_cycloid_pin_contact(mbs, disc_node: int, stage: CycloidStage, law: Conta
                             errors: ErrorSpec | None = None, max_penetration_m: float = DEFAULT_MAX_PENETRATION_M,
                             initial_interference_m: float = DEFAULT_INITIAL_INTERFERENCE_M,
                             profile: CycloidProfile | None = None, modal_node: int = -1,
-                            phi: np.ndarray | None = None) -> CycloidPinContact:
+                            phi: np.ndarray | None = None, offset_rad: float | None = None) -> CycloidPinContact:
     """Add the contact between disc ``disc`` of ``stage`` (on ``disc_node``) and the fixed pin ring.
 
     Parameters
@@ -356,6 +356,8 @@ def add_cycloid_pin_contact(mbs, disc_node: int, stage: CycloidStage, law: Conta
         z, ψx, ψy held by the caller) of an FFRF body whose modal coordinates are the
         NodeGenericODE2 ``modal_node``; ``phi`` (n_grid, 2, m) is the modal flank
         displacement in the profile frame on the uniform profile-parameter grid.
+    offset_rad : float, optional
+        Profile frame against the node's rotation (rad); default −φ_d/z_c (disc phase).
 
     Raises
     ------
@@ -388,7 +390,8 @@ def add_cycloid_pin_contact(mbs, disc_node: int, stage: CycloidStage, law: Conta
     init = ref + np.asarray(node.get("initialCoordinates", np.zeros(len(ref))), float)
     contact = CycloidPinContact(
         object_index=-1, node=disc_node, profile=prof, pins_m=pins, radii_m=radii, law=law,
-        offset_rad=-stage.disc_phase_rad[disc] / stage.disc_teeth, reference=ref,
+        offset_rad=-stage.disc_phase_rad[disc] / stage.disc_teeth if offset_rad is None else offset_rad,
+        reference=ref,
         max_penetration_m=max_penetration_m, _law_vec=law.vector(),
         _t_cache=np.full(len(radii), np.nan),
         _work=_Workspace.for_pins(len(radii), rigid_index, len(ref), m),
