@@ -223,3 +223,25 @@ def test_morris_on_the_model_agrees_with_single_factor_ranges_under_both_executo
         assert r["sigma"] < 0.02 * r["index"]
         assert r["index"] == pytest.approx(ranges[r["factor"]], rel=0.05)
     assert (tmp_path / "o" / "indices.csv").exists() and (tmp_path / "o" / "indices.png").exists()
+
+
+@pytest.mark.skipif("fork" not in __import__("multiprocessing").get_all_start_methods(),
+                    reason="the stand-in evaluation reaches the workers through fork")
+def test_only_the_point_that_kills_its_worker_is_recorded_as_dead(tmp_path, monkeypatch):
+    """A point whose worker dies every time breaks two pools; the remaining points then run one
+    per pool, so the others finish and only the culprit is recorded as 'worker died'."""
+    import os
+
+    import rvflex.sweep as sw
+
+    def stand_in(args):  # a cheap evaluation; the +2 µm eccentricity point kills its process
+        point = args[5]
+        if point["eccentricity"] == 2e-6:
+            os._exit(3)
+        return {"te_pp_arcsec": 1e6 * sum(point.values())}
+
+    monkeypatch.setattr(sw, "evaluate_point", stand_in)
+    monkeypatch.setattr(sw, "warm_process", lambda reducer, scenario: reducer)
+    res = sweep(load_design(SMOKE), tmp_path / "k.sqlite", executor="process", workers=2)
+    assert [r["point"] for r in res.rows if r.get("error") == "worker died"] == [1]
+    assert res.finished == 5 and res.failed == 1
