@@ -1,0 +1,340 @@
+"""Bench data I/O (``/work/shared/bench-data-format.md``): a folder with ``bench.toml`` and one
+CSV per run.
+
+:func:`read_bench` validates everything before it returns: a missing file, a missing or
+misspelled column, a non-numeric cell, NaN/inf, non-monotonic time, fewer samples than one
+output revolution needs, a reducer not in the catalogue, or a load beyond the reducer's
+momentary maximum each raise one :class:`BenchError` naming the file, row or key.
+:func:`write_bench` writes a dataset through temporary names, so nothing is left half-written.
+"""
+
+from __future__ import annotations
+
+import csv
+import difflib
+import math
+import os
+import tempfile
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from rvflex.spec import ReducerSpec, SpecError
+
+__all__ = [
+    "HYST_COLUMNS",
+    "MIN_HYSTERESIS_SAMPLES",
+    "MIN_SAMPLES_PER_REV",
+    "TE_COLUMNS",
+    "BenchDataset",
+    "BenchError",
+    "BenchRun",
+    "read_bench",
+    "write_bench",
+]
+
+TE_COLUMNS = ("time_s", "theta_in_rad", "theta_out_rad")
+TE_OPTIONAL = ("torque_Nm",)
+HYST_COLUMNS = ("time_s", "torque_Nm", "theta_out_rad")
+MIN_SAMPLES_PER_REV = 256  # the order decomposition up to ≥ 3·z_b = 120 needs ≥ 2·128 samples per revolution
+MIN_HYSTERESIS_SAMPLES = 40  # a 0 → +T → −T → 0 cycle sampled at fewer points has no usable branches
+RUN_KINDS = ("te", "hysteresis")
+DIRECTIONS = ("forward", "reverse")
+
+
+class BenchError(ValueError):
+    """Bad bench input: ``where`` names the file (and row or key), ``problem`` says what is wrong."""
+
+    def __init__(self, where: str, problem: str):
+        self.where, self.problem = where, problem
+        super().__init__(f"{where}: {problem}")
+
+    def __reduce__(self):
+        return (type(self), (self.where, self.problem))
+
+
+@dataclass(frozen=True, eq=False)
+class BenchRun:
+    """One bench run (SI): a loaded-TE run at constant speed or a torque-cycle (hysteresis) run.
+
+    Attributes
+    ----------
+    file : str
+        CSV file name, relative to the dataset folder.
+    kind : {"te", "hysteresis"}
+    time_s : ndarray
+        Sample times (s), increasing.
+    theta_in_rad, theta_out_rad : ndarray
+        Unwrapped encoder angles (rad); ``theta_in_rad`` is empty for hysteresis runs.
+    torque_Nm : ndarray
+        Output torque (N·m) for hysteresis runs (positive forward); optional for TE runs.
+    direction : str
+        "forward" or "reverse" (TE runs).
+    load_Nm : float
+        Output load magnitude opposing the motion (N·m, TE runs).
+    speed_out_rpm : float
+        Output speed (rpm, TE runs).
+    torque_max_Nm : float
+        Torque amplitude of the cycle (N·m, hysteresis runs).
+    temperature_C : float
+        Temperature (°C), NaN when not given.
+    extra : dict
+        Unknown keys of the run table, kept and ignored.
+    """
+
+    file: str
+    kind: str
+    time_s: np.ndarray
+    theta_in_rad: np.ndarray
+    theta_out_rad: np.ndarray
+    torque_Nm: np.ndarray
+    direction: str = "forward"
+    load_Nm: float = 0.0
+    speed_out_rpm: float = 0.0
+    torque_max_Nm: float = 0.0
+    temperature_C: float = math.nan
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def label(self) -> str:
+        """Short human label: ``te forward 412 N·m`` or ``hysteresis ±412 N·m``."""
+        if self.kind == "te":
+            return f"te {self.direction} {self.load_Nm:g} N·m"
+        return f"hysteresis ±{self.torque_max_Nm:g} N·m"
+
+
+@dataclass(frozen=True, eq=False)
+class BenchDataset:
+    """A bench dataset: the reducer (catalogue name or spec file) and its runs."""
+
+    reducer: ReducerSpec
+    reducer_source: str
+    runs: tuple[BenchRun, ...]
+    path: str = ""
+    extra: dict = field(default_factory=dict)
+
+
+# ----------------------------------------------------------------------------- reading
+
+def _need(table: dict, key: str, where: str):
+    if key not in table:
+        close = difflib.get_close_matches(key, list(table), n=1)
+        hint = f" (found '{close[0]}': misspelled?)" if close else ""
+        raise BenchError(where, f"missing required key '{key}'{hint}")
+    return table[key]
+
+
+def _number(table: dict, key: str, where: str, *, positive: bool = False, default: float | None = None) -> float:
+    if key not in table and default is not None:
+        return default
+    v = _need(table, key, where)
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+        raise BenchError(f"{where}, key '{key}'", f"must be a finite number, found {v!r}")
+    if positive and not v > 0:
+        raise BenchError(f"{where}, key '{key}'", f"must be positive, found {v!r}")
+    return float(v)
+
+
+def _read_csv(path: Path, required: tuple[str, ...], optional: tuple[str, ...]) -> dict[str, np.ndarray]:
+    name = path.name
+    if not path.is_file():
+        raise BenchError(str(path), "file not found")
+    with path.open(newline="", encoding="utf-8") as fh:
+        rows = list(csv.reader(fh))
+    if not rows:
+        raise BenchError(name, "empty file (a header row is required)")
+    header = [h.strip() for h in rows[0]]
+    for col in required:
+        if col not in header:
+            close = difflib.get_close_matches(col, header, n=1)
+            hint = f" (found '{close[0]}': misspelled?)" if close else ""
+            raise BenchError(f"{name}, header", f"missing column '{col}'{hint}; required: {', '.join(required)}")
+    use = [c for c in required + optional if c in header]
+    idx = {c: header.index(c) for c in use}
+    data = {c: np.empty(len(rows) - 1) for c in use}
+    for r, row in enumerate(rows[1:]):
+        line = r + 2  # 1-based file line; the header is line 1
+        if len(row) != len(header):
+            raise BenchError(f"{name}, row {line}", f"has {len(row)} cells, the header has {len(header)}")
+        for c in use:
+            cell = row[idx[c]].strip()
+            try:
+                v = float(cell)
+            except ValueError:
+                raise BenchError(f"{name}, row {line}, column '{c}'", f"not a number: {cell!r}") from None
+            if not math.isfinite(v):
+                raise BenchError(f"{name}, row {line}, column '{c}'", f"must be finite, found {cell!r}")
+            data[c][r] = v
+    t = data["time_s"]
+    bad = np.nonzero(np.diff(t) <= 0)[0]
+    if len(bad):
+        line = int(bad[0]) + 3
+        raise BenchError(f"{name}, row {line}, column 'time_s'",
+                         f"time must increase strictly (row {line - 1}: {t[bad[0]]!r}, row {line}: {t[bad[0] + 1]!r})")
+    return data
+
+
+def _resolve_reducer(table: dict, folder: Path, where: str) -> tuple[ReducerSpec, str]:
+    from rvflex import catalog
+    from rvflex.spec import load_spec
+
+    if "catalog" in table:
+        name = table["catalog"]
+        if name not in catalog.names():
+            raise BenchError(f"{where}, key 'reducer.catalog'",
+                             f"{name!r} is not in the catalogue (available: {', '.join(catalog.names())})")
+        return catalog.load(name), name
+    if "spec" in table:
+        p = folder / str(table["spec"])
+        if not p.is_file():
+            raise BenchError(f"{where}, key 'reducer.spec'", f"spec file {p} not found")
+        try:
+            return load_spec(p), str(table["spec"])
+        except SpecError as err:
+            raise BenchError(str(p), str(err)) from None
+    raise BenchError(f"{where}, table [reducer]", "needs 'catalog' (a catalogue name) or 'spec' (a spec file)")
+
+
+def read_bench(folder: str | Path) -> BenchDataset:
+    """Read and validate a bench dataset folder.
+
+    Raises
+    ------
+    BenchError
+        One clear message naming the file, row or key of the first problem found.
+    """
+    folder = Path(folder)
+    toml_path = folder / "bench.toml"
+    if not toml_path.is_file():
+        raise BenchError(str(toml_path), "file not found (a dataset folder needs bench.toml)")
+    try:
+        doc = tomllib.loads(toml_path.read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as err:
+        raise BenchError(str(toml_path), f"not valid TOML: {err}") from None
+    where = "bench.toml"
+    red = _need(doc, "reducer", where)
+    if not isinstance(red, dict):
+        raise BenchError(f"{where}, key 'reducer'", "must be a table [reducer]")
+    spec, source = _resolve_reducer(red, folder, where)
+    run_tables = _need(doc, "run", where)
+    if not isinstance(run_tables, list) or not run_tables:
+        raise BenchError(f"{where}, key 'run'", "needs at least one [[run]] table")
+    runs = []
+    for k, rt in enumerate(run_tables):
+        rwhere = f"{where}, run {k + 1}"
+        fname = _need(rt, "file", rwhere)
+        rwhere = f"{where}, run {k + 1} ({fname})"
+        kind = _need(rt, "kind", rwhere)
+        if kind not in RUN_KINDS:
+            raise BenchError(f"{rwhere}, key 'kind'", f"must be one of {', '.join(RUN_KINDS)}, found {kind!r}")
+        temp = _number(rt, "temperature_C", rwhere, default=math.nan)
+        known = {"file", "kind", "temperature_C"}
+        if kind == "te":
+            direction = _need(rt, "direction", rwhere)
+            if direction not in DIRECTIONS:
+                raise BenchError(f"{rwhere}, key 'direction'", f"must be 'forward' or 'reverse', found {direction!r}")
+            load = _number(rt, "load_Nm", rwhere)
+            if not 0.0 <= load <= spec.momentary_max_torque_Nm:
+                raise BenchError(f"{rwhere}, key 'load_Nm'",
+                                 f"{load:g} N·m lies outside [0, {spec.momentary_max_torque_Nm:g}] N·m, the momentary "
+                                 f"maximum of {spec.name}: the model cannot reproduce this run")
+            speed = _number(rt, "speed_out_rpm", rwhere, positive=True)
+            data = _read_csv(folder / fname, TE_COLUMNS, TE_OPTIONAL)
+            th_in = data["theta_in_rad"]
+            sign = 1.0 if direction == "forward" else -1.0
+            travel = sign * (th_in[-1] - th_in[0]) / spec.nominal_ratio
+            if not travel > 0:
+                raise BenchError(f"{fname}, column 'theta_in_rad'",
+                                 f"the input does not turn {direction} (net {th_in[-1] - th_in[0]:+.4g} rad)")
+            revs = travel / (2 * math.pi)
+            need = MIN_SAMPLES_PER_REV
+            if revs < 0.999 or len(th_in) < need * max(revs, 1.0):
+                raise BenchError(fname, f"{len(th_in)} samples over {revs:.3f} output revolutions: the order "
+                                        f"analysis needs at least one whole output revolution with ≥ {need} samples "
+                                        f"per revolution")
+            runs.append(BenchRun(fname, "te", data["time_s"], th_in, data["theta_out_rad"],
+                                 data.get("torque_Nm", np.empty(0)), direction=direction, load_Nm=load,
+                                 speed_out_rpm=speed, temperature_C=temp,
+                                 extra={x: v for x, v in rt.items() if x not in known | {"direction", "load_Nm",
+                                                                                         "speed_out_rpm"}}))
+        else:
+            tmax = _number(rt, "torque_max_Nm", rwhere, positive=True)
+            if tmax > spec.momentary_max_torque_Nm:
+                raise BenchError(f"{rwhere}, key 'torque_max_Nm'",
+                                 f"{tmax:g} N·m exceeds the momentary maximum {spec.momentary_max_torque_Nm:g} N·m "
+                                 f"of {spec.name}: the model cannot reproduce this run")
+            data = _read_csv(folder / fname, HYST_COLUMNS, ())
+            tq = data["torque_Nm"]
+            if len(tq) < MIN_HYSTERESIS_SAMPLES or tq.max() < 0.9 * tmax or tq.min() > -0.9 * tmax:
+                raise BenchError(fname, f"{len(tq)} samples, torque {tq.min():.4g} … {tq.max():.4g} N·m: a hysteresis "
+                                        f"run needs ≥ {MIN_HYSTERESIS_SAMPLES} samples reaching ±torque_max_Nm "
+                                        f"({tmax:g} N·m)")
+            runs.append(BenchRun(fname, "hysteresis", data["time_s"], np.empty(0), data["theta_out_rad"], tq,
+                                 torque_max_Nm=tmax, temperature_C=temp,
+                                 extra={x: v for x, v in rt.items() if x not in known | {"torque_max_Nm"}}))
+    extra = {k: v for k, v in doc.items() if k not in ("reducer", "run")}
+    return BenchDataset(spec, source, tuple(runs), str(folder), extra)
+
+
+# ----------------------------------------------------------------------------- writing
+
+def _toml_value(v) -> str:
+    if isinstance(v, str):
+        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    return repr(float(v)) if isinstance(v, float) else str(v)
+
+
+def bench_toml(dataset: BenchDataset) -> str:
+    """The ``bench.toml`` text of ``dataset``."""
+    lines = ["[reducer]", f"catalog = {_toml_value(dataset.reducer_source)}", ""]
+    for r in dataset.runs:
+        lines += ["[[run]]", f"file = {_toml_value(r.file)}", f"kind = {_toml_value(r.kind)}"]
+        if r.kind == "te":
+            lines += [f"direction = {_toml_value(r.direction)}", f"load_Nm = {_toml_value(float(r.load_Nm))}",
+                      f"speed_out_rpm = {_toml_value(float(r.speed_out_rpm))}"]
+        else:
+            lines.append(f"torque_max_Nm = {_toml_value(float(r.torque_max_Nm))}")
+        if math.isfinite(r.temperature_C):
+            lines.append(f"temperature_C = {_toml_value(float(r.temperature_C))}")
+        lines.append("")
+    return "\n".join(lines)
+
+
+def _csv_text(run: BenchRun) -> str:
+    if run.kind == "te":
+        cols = [("time_s", run.time_s), ("theta_in_rad", run.theta_in_rad), ("theta_out_rad", run.theta_out_rad)]
+        if len(run.torque_Nm):
+            cols.append(("torque_Nm", run.torque_Nm))
+    else:
+        cols = [("time_s", run.time_s), ("torque_Nm", run.torque_Nm), ("theta_out_rad", run.theta_out_rad)]
+    arr = np.column_stack([c[1] for c in cols])
+    body = "\n".join(",".join(f"{x:.17g}" for x in row) for row in arr)
+    return ",".join(c[0] for c in cols) + "\n" + body + "\n"
+
+
+def write_bench(folder: str | Path, dataset: BenchDataset) -> Path:
+    """Write ``dataset`` to ``folder`` (created): every file goes to a temporary name first and
+    is renamed only when all are written, so a failure leaves no half-written dataset.
+    ``dataset.reducer_source`` must be a catalogue name."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    files = {r.file: _csv_text(r) for r in dataset.runs}
+    files["bench.toml"] = bench_toml(dataset)
+    tmps = []
+    try:
+        for name, text in files.items():
+            fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".{name}.", suffix=".tmp")
+            with os.fdopen(fd, "w", encoding="utf-8") as fh:
+                fh.write(text)
+            os.chmod(tmp, 0o644)
+            tmps.append((tmp, folder / name))
+        for tmp, dst in tmps:
+            os.replace(tmp, dst)
+    finally:
+        for tmp, _ in tmps:
+            Path(tmp).unlink(missing_ok=True)
+    return folder

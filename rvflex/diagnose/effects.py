@@ -1,0 +1,295 @@
+"""The effect library: candidate unmodelled effects, each a named, bounded, physical
+parameterisation.
+
+An :class:`Effect` acts in one of four ways (``kind``):
+
+``"model"``
+    ``apply(spec, errors, x) -> (spec, errors)``: a spec/ErrorSpec variant (made with
+    :func:`dataclasses.replace`) that the model is rebuilt with.
+``"conditions"``
+    ``conditions(plan_run, x, spec) -> plan_run``: changes what the model is loaded with
+    (pin-contact friction: a Coulomb torque opposing the motion).
+``"measurement"``
+    ``measure(position_rad, te_rad, x) -> te_rad``: a measurement artefact applied to the
+    model's TE as the bench would record it (output-encoder eccentricity).
+``"fidelity"``
+    the model at another fidelity (``"flexible"``), blended with the rigid run by the
+    parameter (1 = the flexible model).
+
+No effect carries a hand-written signature: the diagnosis finds each one's orders, load and
+direction dependence by running the model with it (:mod:`rvflex.diagnose.fit`).
+
+Register a new effect by adding one object::
+
+    from rvflex.diagnose.effects import EFFECTS, Effect, Param, register
+    register(Effect("my_effect", "what it is", (Param("size_m", "m", -1e-5, 1e-5, 3e-6),),
+                    apply=my_apply))   # my_apply(spec, errors, x) -> (spec, errors), module-level
+
+Effects must be picklable (module-level functions or :func:`functools.partial` of them) so
+that process pools can evaluate them.
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from functools import partial
+
+import numpy as np
+
+from rvflex.spec import ErrorSpec, ReducerSpec
+
+__all__ = ["EFFECTS", "THERMAL_ALPHA_MISMATCH_PER_K", "Effect", "Param", "available_effects", "register"]
+
+UM = 1e-6
+ARCSEC = math.pi / 648000.0
+# housing-to-steel expansion mismatch: an aluminium-alloy housing (23e-6/K) around steel pins
+# and discs (11.5e-6/K); a nodular-iron housing (QT500-7, 10.5e-6/K) gives −1e-6/K.
+THERMAL_ALPHA_MISMATCH_PER_K = 11.5e-6
+
+
+@dataclass(frozen=True)
+class Param:
+    """One effect parameter (SI).
+
+    Attributes
+    ----------
+    name : str
+        Parameter name with its unit suffix.
+    unit : str
+        SI unit.
+    low, high : float
+        Physical bounds.
+    step : float
+        Typical magnitude: the sensitivity step and the scale of the self-check draws.
+    """
+
+    name: str
+    unit: str
+    low: float
+    high: float
+    step: float
+
+    def __post_init__(self) -> None:
+        if not (self.low <= 0.0 <= self.high and self.low < self.high and 0 < self.step <= self.high - self.low):
+            raise ValueError(f"parameter {self.name}: need low ≤ 0 ≤ high and 0 < step ≤ high − low")
+
+
+@dataclass(frozen=True)
+class Effect:
+    """A candidate unmodelled effect (see the module docstring).
+
+    ``polar`` marks a two-parameter effect whose parameters are the x and y components of one
+    vector (a runout and its phase): its magnitude is their norm.
+    """
+
+    name: str
+    description: str
+    params: tuple[Param, ...]
+    kind: str = "model"
+    apply: Callable | None = None
+    conditions: Callable | None = None
+    measure: Callable | None = None
+    fidelity: str = "rigid"
+    polar: bool = False
+
+    def __post_init__(self) -> None:
+        need = {"model": self.apply, "conditions": self.conditions, "measurement": self.measure, "fidelity": True}
+        if self.kind not in need:
+            raise ValueError(f"effect {self.name}: kind must be one of {', '.join(need)}")
+        if need[self.kind] is None:
+            raise ValueError(f"effect {self.name}: kind {self.kind!r} needs its function")
+
+    @property
+    def n(self) -> int:
+        """Number of parameters."""
+        return len(self.params)
+
+    @property
+    def units(self) -> tuple[str, ...]:
+        return tuple(p.unit for p in self.params)
+
+    @property
+    def lower(self) -> np.ndarray:
+        return np.array([p.low for p in self.params])
+
+    @property
+    def upper(self) -> np.ndarray:
+        return np.array([p.high for p in self.params])
+
+    @property
+    def steps(self) -> np.ndarray:
+        return np.array([p.step for p in self.params])
+
+    def magnitude(self, x: np.ndarray) -> float:
+        """One scalar size of the effect: the norm of its parameter vector (parameter unit)."""
+        return float(np.linalg.norm(np.asarray(x, float)))
+
+    def available(self) -> tuple[bool, str]:
+        """Whether the model can evaluate this effect now, and why not."""
+        if self.kind != "fidelity":
+            return True, ""
+        from rvflex import model
+
+        if self.fidelity not in model.FIDELITIES:
+            return False, f"needs build_reducer(..., {self.fidelity!r}), not available yet"
+        return True, ""
+
+
+# ----------------------------------------------------------------------------- apply functions (module level: picklable)
+
+def _errors_field(spec: ReducerSpec, errors: ErrorSpec, x, *, field: str, per: str = "") -> tuple:
+    n = {"": 0, "crank": spec.cranks.count, "eccentric": spec.cranks.count * spec.cycloid.disc_count}[per]
+    value = float(x[0]) if not n else (float(x[0]),) * n
+    if per == "eccentric":  # clearances add to what the errors already have
+        old = errors.eccentric_bearing_clearance_m or (0.0,) * n
+        value = tuple(o + v for o, v in zip(old, value))
+    elif field == "main_bearing_clearance_m":
+        value += errors.main_bearing_clearance_m
+    return spec, dc.replace(errors, **{field: value})
+
+
+def _runout(spec, errors, x, *, field: str):
+    m = float(math.hypot(x[0], x[1]))
+    return spec, dc.replace(errors, **{field: m, field.replace("_m", "_phase_rad"): float(math.atan2(x[1], x[0]))})
+
+
+def _pin_harmonic(spec, errors, x, *, harmonic: int):
+    zb = spec.cycloid.pin_count
+    ang = 2 * np.pi * np.arange(zb) / zb
+    r = x[0] * np.cos(harmonic * ang) + x[1] * np.sin(harmonic * ang)
+    old = np.asarray(errors.pin_radial_m) if errors.pin_radial_m else np.zeros(zb)
+    return spec, dc.replace(errors, pin_radial_m=tuple(float(v) for v in old + r))
+
+
+def _pin_radius(spec, errors, x):
+    return spec, dc.replace(errors, pin_radius_error_m=errors.pin_radius_error_m + float(x[0]))
+
+
+def _per_crank(spec, errors, x, *, field: str):
+    old = getattr(errors, field) or (0.0,) * spec.cranks.count
+    return spec, dc.replace(errors, **{field: tuple(float(o + v) for o, v in zip(old, x))})
+
+
+def _modification(spec, errors, x):
+    c = spec.cycloid
+    mod = dc.replace(c.modification, moved_m=c.modification.moved_m + float(x[0]),
+                     equidistant_m=c.modification.equidistant_m + float(x[1]))
+    return dc.replace(spec, cycloid=dc.replace(c, modification=mod)), errors
+
+
+def _pitch_harmonic(spec, errors, x):
+    zc, nd = spec.cycloid.disc_teeth, spec.cycloid.disc_count
+    j = 2 * np.pi * np.arange(zc) / zc
+    row = x[0] * np.cos(j) + x[1] * np.sin(j)
+    old = errors.disc_pitch_error_m or tuple((0.0,) * zc for _ in range(nd))
+    return spec, dc.replace(errors, disc_pitch_error_m=tuple(tuple(float(a + b) for a, b in zip(o, row)) for o in old))
+
+
+def _carrier_holes(spec, errors, x):
+    d = float(x[0])
+    return spec, dc.replace(errors, input_carrier_hole_distance_error_m=errors.input_carrier_hole_distance_error_m + d,
+                            output_carrier_hole_distance_error_m=errors.output_carrier_hole_distance_error_m + d)
+
+
+def _thermal(spec, errors, x):
+    growth = THERMAL_ALPHA_MISMATCH_PER_K * spec.cycloid.pin_circle_radius_m * float(x[0])
+    return spec, dc.replace(errors, pin_circle_radius_error_m=errors.pin_circle_radius_error_m + growth)
+
+
+def _friction_conditions(run, x, spec):
+    """Coulomb friction torque T_f = x·T_rated referred to the output, opposing the relative
+    motion: a TE run's load grows by T_f; a torque cycle sees T − T_f·sgn(dT/dt)."""
+    tf = float(x[0]) * spec.rated_torque_Nm
+    if run.kind == "te":
+        return dc.replace(run, load_Nm=run.load_Nm + tf)
+    t = np.asarray(run.torque_path_Nm)
+    d = np.sign(np.diff(t, prepend=t[0] - (t[1] - t[0])))
+    return dc.replace(run, torque_eff_Nm=tuple(float(v) for v in t - tf * d))
+
+
+def _encoder_eccentricity(position_rad, te_rad, x):
+    """An output encoder mounted eccentrically reads θ + a·cos θ + b·sin θ (a, b in rad)."""
+    return te_rad + x[0] * np.cos(position_rad) + x[1] * np.sin(position_rad)
+
+
+def _builtin() -> tuple[Effect, ...]:
+    um = UM
+    xy = ("x_m", "y_m")
+
+    def polar(lim, step, names=xy, unit="m"):
+        return tuple(Param(n, unit, -lim, lim, step) for n in names)
+
+    return (
+        Effect("eccentric_bearing_clearance", "radial clearance of every crank (eccentric, needle) bearing",
+               (Param("clearance_m", "m", 0.0, 30 * um, 8 * um),),
+               apply=partial(_errors_field, field="eccentric_bearing_clearance_m", per="eccentric")),
+        Effect("main_bearing_clearance", "radial clearance of the main (carrier) bearing",
+               (Param("clearance_m", "m", 0.0, 30 * um, 8 * um),),
+               apply=partial(_errors_field, field="main_bearing_clearance_m")),
+        Effect("pin_ring_runout", "pin-ring eccentricity (runout of the housing bore), x/y components",
+               polar(20 * um, 5 * um), apply=partial(_runout, field="pin_ring_runout_m"), polar=True),
+        Effect("carrier_runout", "carrier (main-bearing seat) runout, x/y components",
+               polar(20 * um, 5 * um), apply=partial(_runout, field="carrier_runout_m"), polar=True),
+        Effect("pin_position_h2", "per-pin radial position error, 2nd harmonic around the ring (cos/sin amplitudes)",
+               polar(10 * um, 4 * um, ("cos_m", "sin_m")), apply=partial(_pin_harmonic, harmonic=2), polar=True),
+        Effect("pin_position_h3", "per-pin radial position error, 3rd harmonic around the ring (cos/sin amplitudes)",
+               polar(10 * um, 4 * um, ("cos_m", "sin_m")), apply=partial(_pin_harmonic, harmonic=3), polar=True),
+        Effect("pin_radius_error", "pin radius error, all pins",
+               (Param("radius_error_m", "m", -10 * um, 10 * um, 4 * um),), apply=_pin_radius),
+        Effect("crank_eccentricity_error", "eccentricity error of each crankshaft",
+               tuple(Param(f"crank{k}_m", "m", -10 * um, 10 * um, 3 * um) for k in range(2)),
+               apply=partial(_per_crank, field="crank_eccentricity_error_m")),
+        Effect("crank_phase_error", "eccentric phase error of each crankshaft",
+               tuple(Param(f"crank{k}_rad", "rad", -2e-3, 2e-3, 5e-4) for k in range(2)),
+               apply=partial(_per_crank, field="crank_phase_error_rad")),
+        Effect("disc_modification_deviation", "deviation of the moved (Δr_p) and equidistant (Δr_rp) modification",
+               (Param("moved_m", "m", -10 * um, 10 * um, 4 * um), Param("equidistant_m", "m", -10 * um, 10 * um, 4 * um)),
+               apply=_modification),
+        Effect("cycloid_pitch_error", "cumulative pitch error of the discs, once-per-disc harmonic (cos/sin)",
+               polar(15 * um, 5 * um, ("cos_m", "sin_m")), apply=_pitch_harmonic, polar=True),
+        Effect("carrier_hole_position", "crank-hole distance error of both carrier plates",
+               (Param("hole_distance_error_m", "m", -20 * um, 20 * um, 6 * um),), apply=_carrier_holes),
+        Effect("thermal_expansion", "uniform temperature rise with a housing-to-steel expansion mismatch of "
+               f"{THERMAL_ALPHA_MISMATCH_PER_K:.3g}/K (the pin circle grows against the discs)",
+               (Param("delta_T_K", "K", -20.0, 40.0, 15.0),), apply=_thermal),
+        Effect("input_stage_runout", "sun (input shaft) runout, x/y components",
+               polar(20 * um, 5 * um), apply=partial(_runout, field="sun_runout_m"), polar=True),
+        Effect("pin_contact_friction", "Coulomb friction at the pin contacts as a torque opposing the motion "
+               "(fraction of rated torque)", (Param("friction_torque_fraction", "1", 0.0, 0.08, 0.02),),
+               kind="conditions", conditions=_friction_conditions),
+        Effect("output_encoder_eccentricity", "eccentrically mounted output encoder (measurement artefact): "
+               "angle error a·cos θ + b·sin θ", polar(250 * ARCSEC, 5 * ARCSEC, ("a_rad", "b_rad"), "rad"),
+               kind="measurement", measure=_encoder_eccentricity, polar=True),
+        Effect("disc_carrier_flexibility", "disc and carrier flexibility (rigid → FE-reduced flexible model; "
+               "1 = the flexible model)", (Param("flexible_share", "1", 0.0, 2.0, 1.0),),
+               kind="fidelity", fidelity="flexible"),
+    )
+
+
+EFFECTS: dict[str, Effect] = {e.name: e for e in _builtin()}
+"""The registered effects by name (the default candidate set of a diagnosis)."""
+
+
+def register(effect: Effect, *, replace: bool = False) -> Effect:
+    """Add ``effect`` to :data:`EFFECTS` (``replace`` to overwrite a name)."""
+    if effect.name in EFFECTS and not replace:
+        raise ValueError(f"effect {effect.name!r} is already registered")
+    EFFECTS[effect.name] = effect
+    return effect
+
+
+def available_effects(names: tuple[str, ...] | None = None) -> tuple[tuple[Effect, ...], dict[str, str]]:
+    """The registered effects that the model can evaluate now, and the reasons of the others."""
+    ok, why = [], {}
+    for name, eff in EFFECTS.items():
+        if names is not None and name not in names:
+            continue
+        avail, reason = eff.available()
+        if avail:
+            ok.append(eff)
+        else:
+            why[name] = reason
+    return tuple(ok), why

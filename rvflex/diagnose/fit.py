@@ -1,0 +1,604 @@
+"""Which effect: fitting every candidate with the model in the loop.
+
+1. The baseline model (the reducer as specified, no errors) is run under every bench run's
+   conditions; the measured and model features (:mod:`rvflex.diagnose.replay`) are weighted
+   by their noise/model-form floors.
+2. Sensitivities: one model run per effect parameter at its typical step (a secant, not an
+   infinitesimal derivative, so clearances and other one-sided effects are linearised where
+   they act); cached by a content hash on disk, evaluated in a process pool.
+3. Every candidate (each effect, and pairs of the best ones) is fitted by bounded linear
+   least squares together with the nuisances (common TE offset, hysteresis offsets) and the
+   unknown encoder origin δ (a grid search over the position shift).
+4. The best ``refine_top`` candidates are refined with the model in the loop: Broyden
+   (secant) updates of their Jacobian from real model runs at the fitted values; their
+   score uses the real model's residual.
+5. Model selection by BIC (n·ln(RSS/n) + k·ln n, k counting effect parameters, nuisances
+   and δ); an interval per parameter from the linearised covariance (95 %).
+6. Withheld check: refit on part of the runs (forward at the highest load, and the torque
+   cycles) and predict the others (other directions and loads).
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+import hashlib
+import math
+import pickle
+import time
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from scipy.optimize import lsq_linear
+
+from rvflex.diagnose.effects import Effect, available_effects
+from rvflex.diagnose.replay import (
+    DiagnosisSettings,
+    EvaluationFailed,
+    Layout,
+    PlanRun,
+    Response,
+    evaluate,
+    features,
+    measured_features,
+    plan_from_dataset,
+    shift_measured,
+)
+from rvflex.spec import ErrorSpec, ReducerSpec
+
+__all__ = ["Candidate", "Diagnosis", "diagnose", "withheld_split"]
+
+CACHE_VERSION = "diag-1"
+DELTA_GRID = 2048  # origin shifts tried over one output revolution (0.18° apart), then refined locally
+Z95 = 1.959964
+
+
+# ----------------------------------------------------------------------------- workers (module level: picklable)
+
+def _eval_job(spec, errors, plan, settings, law, active):
+    """Features and response of one model evaluation, or the failure message."""
+    try:
+        resp = evaluate(spec, errors, plan, settings, active, law=law)
+    except EvaluationFailed as err:
+        return None, None, str(err)
+    f, _ = features(resp, plan, settings)
+    return f, resp, ""
+
+
+@dataclass(frozen=True)
+class _Job:
+    key: str
+    active: tuple
+
+
+class _Runner:
+    """Evaluates model runs (serially or in a process pool), with an on-disk cache by content hash."""
+
+    def __init__(self, spec, errors, plan, settings, law, cache_dir: Path | None, progress=None):
+        self.spec, self.errors, self.plan, self.settings, self.law = spec, errors, plan, settings, law
+        self.cache_dir = Path(cache_dir) if cache_dir else None
+        self.progress = progress
+        self.done = 0
+        self.total = 0
+        self.model_runs = 0
+        from rvflex.spec import dumps_errors, dumps_spec
+
+        self._base = hashlib.sha256(pickle.dumps((CACHE_VERSION, dumps_spec(spec), dumps_errors(errors), plan,
+                                                  settings.positions_per_rev, settings.max_order,
+                                                  settings.hysteresis_steps, repr(law)))).hexdigest()
+
+    def key(self, active) -> str:
+        desc = [(e.name, e.kind, tuple(p.name for p in e.params), tuple(np.round(np.asarray(x, float), 15)))
+                for e, x in active]
+        return hashlib.sha256((self._base + repr(desc)).encode()).hexdigest()[:24]
+
+    def _load(self, key):
+        if self.cache_dir is None:
+            return None
+        p = self.cache_dir / f"{key}.pkl"
+        if p.is_file():
+            try:
+                return pickle.loads(p.read_bytes())
+            except (OSError, pickle.UnpicklingError, EOFError, AttributeError):  # a damaged entry is recomputed
+                return None
+        return None
+
+    def _store(self, key, value) -> None:
+        if self.cache_dir is None or value[0] is None:
+            return
+        self.cache_dir.mkdir(parents=True, exist_ok=True)
+        tmp = self.cache_dir / f".{key}.{id(value)}.tmp"
+        tmp.write_bytes(pickle.dumps(value))
+        tmp.replace(self.cache_dir / f"{key}.pkl")
+
+    def run(self, actives: list[tuple]) -> list[tuple]:
+        """Evaluate each active set; returns (features | None, response | None, message) per set."""
+        keys = [self.key(a) for a in actives]
+        out: list = [self._load(k) for k in keys]
+        todo = [i for i, o in enumerate(out) if o is None]
+        self.total += len(actives)
+        self.done += len(actives) - len(todo)
+        if self.progress:
+            self.progress(self.done, self.total)
+        args = (self.spec, self.errors, self.plan, self.settings, self.law)
+        if len(todo) > 1 and self.settings.workers > 1:
+            with ProcessPoolExecutor(max_workers=min(self.settings.workers, len(todo))) as pool:
+                futs = {i: pool.submit(_eval_job, *args, actives[i]) for i in todo}
+                for i, fut in futs.items():
+                    try:
+                        out[i] = fut.result()
+                    except Exception as err:  # noqa: BLE001 - a dying worker is a failed evaluation, not a crash
+                        out[i] = (None, None, f"{type(err).__name__}: {err}")
+                    self._finish(keys[i], out[i])
+        else:
+            for i in todo:
+                out[i] = _eval_job(*args, actives[i])
+                self._finish(keys[i], out[i])
+        return out
+
+    def _finish(self, key, value) -> None:
+        self.model_runs += 1
+        self._store(key, value)
+        self.done += 1
+        if self.progress:
+            self.progress(self.done, self.total)
+
+
+# ----------------------------------------------------------------------------- fitted candidates
+
+@dataclass(frozen=True, eq=False)
+class Candidate:
+    """A fitted candidate (one effect or a pair).
+
+    ``x`` are the effect parameters (SI, in the order of ``param_names``), ``interval`` their
+    95 % intervals, ``delta`` the fitted encoder origin (rad), ``rss`` the weighted residual sum
+    of squares (of the real model run when ``refined``, else of the linearised fit), ``bic``
+    its Bayesian information criterion, ``score`` = BIC(no effect) − BIC(this).
+    """
+
+    effects: tuple[Effect, ...]
+    x: np.ndarray
+    interval: np.ndarray
+    magnitude: tuple[float, ...]
+    magnitude_interval: tuple[tuple[float, float], ...]
+    delta: float
+    nuisance: np.ndarray
+    rss: float
+    k: int
+    bic: float
+    refined: bool
+    at_bound: tuple[str, ...]
+    model_features: np.ndarray
+    response: Response | None = None
+    score: float = 0.0
+    gap_shrink_pct: float = 0.0
+    withheld: dict = field(default_factory=dict)
+    accepted: bool = False
+    note: str = ""
+
+    @property
+    def name(self) -> str:
+        return " + ".join(e.name for e in self.effects) if self.effects else "none"
+
+    @property
+    def param_names(self) -> tuple[str, ...]:
+        if len(self.effects) == 1:
+            return tuple(p.name for p in self.effects[0].params)
+        return tuple(f"{e.name}.{p.name}" for e in self.effects for p in e.params)
+
+    @property
+    def units(self) -> tuple[str, ...]:
+        return tuple(u for e in self.effects for u in e.units)
+
+    def split(self) -> list[tuple[Effect, np.ndarray]]:
+        """(effect, its parameter values) pairs."""
+        out, i = [], 0
+        for e in self.effects:
+            out.append((e, self.x[i:i + e.n]))
+            i += e.n
+        return out
+
+
+def _nuisance_columns(lay: Layout, rows: np.ndarray | None = None) -> np.ndarray:
+    """Offset columns: one for the means of all TE runs, one per hysteresis run."""
+    cols = []
+    if lay.te_runs:
+        c = np.zeros(lay.n)
+        c[[lay.dc[r] for r in lay.te_runs]] = 1.0
+        cols.append(c)
+    for r in sorted(lay.hyst):
+        c = np.zeros(lay.n)
+        c[lay.hyst[r]] = 1.0
+        cols.append(c)
+    return np.column_stack(cols) if cols else np.zeros((lay.n, 0))
+
+
+@dataclass(frozen=True, eq=False)
+class _Problem:
+    y: np.ndarray  # measured features, unshifted
+    lay: Layout
+    w: np.ndarray  # weights (1/floor) per feature
+    nuis: np.ndarray
+    has_te: bool
+
+
+def _lin_fit(prob: _Problem, base: np.ndarray, J: np.ndarray, x_ref: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+             rows: np.ndarray | None = None, delta: float | None = None):
+    """Bounded linear LS of y(δ) ≈ base + J·(x − x_ref) + nuisances, δ searched unless given.
+    Returns x, nuisance, δ, weighted RSS, weighted design matrix at the solution."""
+    rows = np.arange(prob.lay.n) if rows is None else rows
+    w = prob.w[rows]
+    nuis = prob.nuis[rows]
+    nuis = nuis[:, np.abs(nuis).sum(axis=0) > 0]
+    A = np.column_stack([J[rows] * w[:, None], nuis * w[:, None]])
+    p = J.shape[1]
+    if delta is None and prob.has_te:
+        grid = np.linspace(0.0, 2 * np.pi, DELTA_GRID, endpoint=False)
+        delta = _best_delta(prob, base, A, rows, w, grid)
+        step = 2 * np.pi / DELTA_GRID
+        fine = delta + np.linspace(-step, step, 41)
+        delta = _best_delta(prob, base, A, rows, w, fine)
+    delta = 0.0 if delta is None else float(delta) % (2 * np.pi)
+    r = (shift_measured(prob.y, prob.lay, delta)[:, 0] - base)[rows] * w
+    lb = np.r_[lo - x_ref, np.full(A.shape[1] - p, -np.inf)]
+    ub = np.r_[hi - x_ref, np.full(A.shape[1] - p, np.inf)]
+    if A.shape[1] == 0:
+        return x_ref.copy(), np.zeros(0), delta, float(r @ r), A
+    sol = lsq_linear(A, r, bounds=(lb, ub), method="bvls" if A.shape[1] < 40 else "trf")
+    res = r - A @ sol.x
+    return x_ref + sol.x[:p], sol.x[p:], delta, float(res @ res), A
+
+
+def _best_delta(prob, base, A, rows, w, grid) -> float:
+    Y = (shift_measured(prob.y, prob.lay, grid) - base[:, None])[rows] * w[:, None]
+    if A.shape[1]:
+        Q, _ = np.linalg.qr(A)
+        Y = Y - Q @ (Q.T @ Y)
+    rss = np.einsum("ij,ij->j", Y, Y)
+    return float(grid[int(np.argmin(rss))])
+
+
+def _bic(rss: float, n: int, k: int) -> float:
+    return n * math.log(max(rss, 1e-300) / n) + k * math.log(n)
+
+
+def _intervals(A: np.ndarray, rss: float, p: int, x: np.ndarray):
+    n, k = A.shape
+    s2 = rss / max(n - k - 1, 1)
+    try:
+        cov = s2 * np.linalg.pinv(A.T @ A)
+    except np.linalg.LinAlgError:
+        cov = np.full((k, k), np.inf)
+    return cov[:p, :p]
+
+
+def _bounds(effects) -> tuple[np.ndarray, np.ndarray]:
+    if not effects:
+        return np.zeros(0), np.zeros(0)
+    return np.concatenate([e.lower for e in effects]), np.concatenate([e.upper for e in effects])
+
+
+def _candidate(effects, x, nu, d, rss, A, n, n_nuis, model_features, *, refined, response=None, note=""):
+    p = len(x)
+    k = p + n_nuis + 1
+    cov = _intervals(A, rss, p, x)
+    sd = np.sqrt(np.clip(np.diag(cov), 0, None)) if p else np.zeros(0)
+    interval = np.column_stack([x - Z95 * sd, x + Z95 * sd]) if p else np.zeros((0, 2))
+    mags, mag_iv, names_at_bound = [], [], []
+    i = 0
+    for e in effects:
+        xe, ce = x[i:i + e.n], cov[i:i + e.n, i:i + e.n]
+        m = e.magnitude(xe)
+        g = xe / m if m > 0 else np.full(e.n, 1 / math.sqrt(e.n))
+        sm = math.sqrt(max(float(g @ ce @ g), 0.0))
+        mags.append(m)
+        mag_iv.append((max(m - Z95 * sm, 0.0), m + Z95 * sm))
+        for j, prm in enumerate(e.params):
+            span = prm.high - prm.low
+            if (prm.low != 0.0 and abs(xe[j] - prm.low) < 1e-3 * span) or abs(xe[j] - prm.high) < 1e-3 * span:
+                names_at_bound.append(f"{e.name}.{prm.name}")
+        i += e.n
+    return Candidate(tuple(effects), x, interval, tuple(mags), tuple(mag_iv), d, nu, rss, k, _bic(rss, n, k), refined,
+                     tuple(names_at_bound), model_features, response, note=note)
+
+
+# ----------------------------------------------------------------------------- the diagnosis
+
+@dataclass(frozen=True, eq=False)
+class Diagnosis:
+    """Everything a diagnosis found (see :func:`diagnose`); :mod:`rvflex.diagnose.report` turns it
+    into the report and the JSON document."""
+
+    dataset: object
+    settings: DiagnosisSettings
+    plan: tuple[PlanRun, ...]
+    layout: Layout
+    weights: np.ndarray
+    measured: np.ndarray
+    baseline: Candidate
+    baseline_response: Response
+    candidates: tuple[Candidate, ...]
+    chosen: Candidate | None
+    withheld_runs: tuple[tuple[int, ...], tuple[int, ...]]
+    unavailable: dict
+    failed: dict
+    verdict: str
+    model_runs: int
+    wall_s: float
+
+
+def withheld_split(plan: tuple[PlanRun, ...]) -> tuple[tuple[int, ...], tuple[int, ...]]:
+    """Runs fitted and runs predicted in the withheld check: fit on the forward TE runs at the
+    highest load and on the torque cycles, predict every other run (other directions, other
+    loads). With no TE run forward at the highest load the first TE run takes its place."""
+    te = [r for r, p in enumerate(plan) if p.kind == "te"]
+    hyst = [r for r, p in enumerate(plan) if p.kind != "te"]
+    if not te:
+        return tuple(hyst), ()
+    fwd = [r for r in te if plan[r].direction > 0]
+    pool = fwd or te
+    top = max(plan[r].load_Nm for r in pool)
+    fit_te = [r for r in pool if plan[r].load_Nm == top][:1]
+    fitted = tuple(sorted(fit_te + hyst))
+    return fitted, tuple(r for r in range(len(plan)) if r not in fitted)
+
+
+def _weights(f0: np.ndarray, y: np.ndarray, lay: Layout, s: DiagnosisSettings) -> np.ndarray:
+    w = np.empty(lay.n)
+    for r in lay.te_runs:
+        # the measurement's noise floor: median coefficient size over the upper half of the orders
+        a, b = y[lay.cos[r]], y[lay.sin[r]]
+        half = slice(len(a) // 2, None)
+        noise = float(np.median(np.hypot(a[half], b[half]))) / 1.18  # Rayleigh median → σ
+        floor = math.hypot(s.order_floor_arcsec, noise)
+        w[lay.cos[r]] = w[lay.sin[r]] = 1.0 / floor
+        w[lay.dc[r]] = 1.0 / (s.windup_floor_arcsec + s.windup_floor_rel * abs(f0[lay.dc[r]]))
+    for r, sl in lay.hyst.items():
+        w[sl] = 1.0 / (s.windup_floor_arcsec + s.windup_floor_rel * np.abs(f0[sl] - np.mean(f0[sl])))
+    return w
+
+
+def diagnose(dataset, *, settings: DiagnosisSettings | None = None, effects: tuple[str, ...] | None = None,
+             law=None, cache_dir: str | Path | None = None, progress=None,
+             errors: ErrorSpec | None = None) -> Diagnosis:
+    """Diagnose the gap between the model of ``dataset.reducer`` and the bench runs.
+
+    Parameters
+    ----------
+    dataset : BenchDataset
+        From :func:`rvflex.diagnose.bench.read_bench`.
+    settings : DiagnosisSettings
+    effects : tuple of str, optional
+        Names of the candidate effects (default: every registered, available effect).
+    law : ContactLaw, optional
+        Contact law of the model (default: the model's line contact).
+    cache_dir : path, optional
+        Disk cache of model runs (content-hashed; safe to share between datasets).
+    progress : callable, optional
+        ``progress(done, total)`` over model runs.
+    errors : ErrorSpec, optional
+        Known errors of the unit (default: none).
+    """
+    t0 = time.perf_counter()
+    settings = settings or DiagnosisSettings()
+    spec: ReducerSpec = dataset.reducer
+    errors = errors or ErrorSpec()
+    plan = plan_from_dataset(dataset, settings)
+    cands, unavailable = available_effects(effects)
+    runner = _Runner(spec, errors, plan, settings, law, Path(cache_dir) if cache_dir else None, progress)
+
+    base_out = runner.run([()])[0]
+    if base_out[0] is None:
+        raise EvaluationFailed(f"the baseline model does not converge under the bench conditions: {base_out[2]}")
+    f0, resp0, _ = base_out
+    y, lay = measured_features(dataset, plan, settings)
+    w = _weights(f0, y, lay, settings)
+    nuis = _nuisance_columns(lay)
+    prob = _Problem(y, lay, w, nuis, bool(lay.te_runs))
+    n, n_nuis = lay.n, nuis.shape[1]
+
+    # --- sensitivities: one run per parameter (measurement effects need no model run)
+    jobs, owners = [], []
+    for e in cands:
+        if e.kind == "measurement":
+            continue
+        for j, prm in enumerate(e.params):
+            x = np.zeros(e.n)
+            x[j] = prm.step
+            jobs.append(((e, x),))
+            owners.append((e.name, j))
+    outs = runner.run(jobs)
+    sens: dict[str, np.ndarray] = {}
+    failed: dict[str, str] = {}
+    pos = 2 * np.pi * np.arange(settings.positions_per_rev) / settings.positions_per_rev
+    for e in cands:
+        if e.kind == "measurement":
+            cols = []
+            for j, prm in enumerate(e.params):
+                x = np.zeros(e.n)
+                x[j] = prm.step
+                te = tuple(None if a is None else e.measure(pos, a, x) for a in resp0.te)
+                fj, _ = features(dc.replace(resp0, te=te), plan, settings)
+                cols.append((fj - f0) / prm.step)
+            sens[e.name] = np.column_stack(cols)
+    for (name, j), (fj, _, msg) in zip(owners, outs):
+        if name in failed:
+            continue
+        if fj is None:
+            failed[name] = f"model evaluation failed at the sensitivity step: {msg}"
+            sens.pop(name, None)
+            continue
+        e = next(c for c in cands if c.name == name)
+        sens.setdefault(name, np.zeros((n, e.n)))[:, j] = (fj - f0) / e.params[j].step
+    usable = [e for e in cands if e.name in sens and e.name not in failed]
+
+    # --- no effect
+    x, nu, d, rss, A = _lin_fit(prob, f0, np.zeros((n, 0)), np.zeros(0), np.zeros(0), np.zeros(0))
+    none = _candidate((), x, nu, d, rss, A, n, n_nuis, f0, refined=True, response=resp0)
+
+    def lin(effs):
+        J = np.column_stack([sens[e.name] for e in effs])
+        x0 = np.zeros(J.shape[1])
+        x, nu, d, rss, A = _lin_fit(prob, f0, J, x0, *_bounds(effs))
+        return _candidate(effs, x, nu, d, rss, A, n, n_nuis, f0 + J @ x, refined=False, note="linearised")
+
+    singles = sorted((lin((e,)) for e in usable), key=lambda c: c.bic)
+    pairs = []
+    if singles and singles[0].rss / n > 2.0:  # the best single effect leaves structured residual
+        top = singles[: settings.pair_top]
+        for i in range(len(top)):
+            for j in range(i + 1, len(top)):
+                pairs.append(lin((top[i].effects[0], top[j].effects[0])))
+    ranked = sorted(singles + pairs, key=lambda c: c.bic)
+
+    # --- model in the loop: Broyden refinement of the best candidates
+    to_refine = ranked[: settings.refine_top]
+    # per candidate: Jacobian, last evaluated point and features, next point to evaluate, best evaluation
+    st = {c.name: {"J": np.column_stack([sens[e.name] for e in c.effects]), "x_prev": np.zeros(len(c.x)),
+                   "f_prev": f0, "x_next": c.x.copy(), "best": None, "c": c} for c in to_refine}
+    for _ in range(settings.refine_iterations):
+        live = [name for name in st if name not in failed and st[name]["x_next"] is not None]
+        outs = runner.run([tuple(_split(st[name]["c"].effects, st[name]["x_next"])) for name in live])
+        for name, (fx, rx, msg) in zip(live, outs):
+            s_ = st[name]
+            if fx is None:
+                failed[name] = f"model evaluation failed at the fitted values: {msg}"
+                continue
+            x_eval = s_["x_next"]
+            dx = x_eval - s_["x_prev"]
+            if dx @ dx > 0:
+                s_["J"] = s_["J"] + np.outer((fx - s_["f_prev"]) - s_["J"] @ dx, dx) / (dx @ dx)
+            _, _, _, rss_real, _ = _lin_fit(prob, fx, np.zeros((n, 0)), np.zeros(0), np.zeros(0), np.zeros(0))
+            if s_["best"] is None or rss_real < s_["best"][0]:
+                s_["best"] = (rss_real, x_eval.copy(), fx, rx, s_["J"].copy())
+            x_new, *_ = _lin_fit(prob, fx, s_["J"], x_eval, *_bounds(s_["c"].effects))
+            s_["x_prev"], s_["f_prev"] = x_eval, fx
+            s_["x_next"] = None if np.allclose(x_new, x_eval, rtol=1e-3, atol=0) else x_new
+    refined, jac = [], {}
+    for name, s_ in st.items():
+        if s_["best"] is None:
+            continue
+        _, x_r, fx, rx, J = s_["best"]
+        effs = s_["c"].effects
+        _, nu, d, rss, _ = _lin_fit(prob, fx, np.zeros((n, 0)), np.zeros(0), np.zeros(0), np.zeros(0))
+        cols = prob.nuis[:, np.abs(prob.nuis).sum(0) > 0]
+        A_full = np.column_stack([J * prob.w[:, None], cols * prob.w[:, None]])
+        refined.append(_candidate(effs, x_r, nu, d, rss, A_full, n, n_nuis, fx, refined=True, response=rx,
+                                  note="model in the loop"))
+        jac[name] = J
+    refined_names = {c.name for c in refined}
+    allc = refined + [c for c in ranked if c.name not in refined_names]
+
+    # --- scores, shrink, withheld check
+    fitted_runs, predicted_runs = withheld_split(plan)
+    out = []
+    for c in allc:
+        score = none.bic - c.bic
+        shrink = 100.0 * (1.0 - math.sqrt(c.rss / none.rss)) if none.rss > 0 else 0.0
+        wh = _withheld(prob, plan, c, jac.get(c.name), sens, f0, fitted_runs, predicted_runs, none)
+        out.append(dc.replace(c, score=score, gap_shrink_pct=shrink, withheld=wh))
+    out.sort(key=lambda c: -c.score)
+    chosen = None
+    final = []
+    for c in out:
+        ok = (c.refined and c.score >= settings.bic_threshold and c.gap_shrink_pct >= settings.min_shrink_pct
+              and c.withheld.get("improvement_pct") is not None
+              and c.withheld["improvement_pct"] >= settings.min_withheld_pct)
+        if ok and chosen is None:
+            chosen = dc.replace(c, accepted=True)
+            final.append(chosen)
+        else:
+            final.append(c)
+    verdict = _verdict(final, chosen, none, predicted_runs, settings, unavailable, failed)
+    return Diagnosis(dataset, settings, plan, lay, w, y, none, resp0, tuple(final), chosen,
+                     (fitted_runs, predicted_runs), unavailable, failed, verdict, runner.model_runs,
+                     time.perf_counter() - t0)
+
+
+def _split(effects, x) -> list[tuple[Effect, np.ndarray]]:
+    out, i = [], 0
+    for e in effects:
+        out.append((e, np.asarray(x[i:i + e.n], float)))
+        i += e.n
+    return out
+
+
+def _withheld(prob: _Problem, plan, c: Candidate, J, sens, f0, fitted_runs, predicted_runs, none) -> dict:
+    """Refit ``c`` on the fitted runs only and predict the others (linearised about the
+    candidate's point); improvement = 1 − rms(prediction residual)/rms(baseline residual)."""
+    names = [plan[r].label for r in fitted_runs], [plan[r].label for r in predicted_runs]
+    doc = {"fitted_runs": names[0], "predicted_runs": names[1], "improvement_pct": None}
+    if not predicted_runs or not fitted_runs:
+        doc["note"] = "no run usable for the withheld check"
+        return doc
+    lay = prob.lay
+    rows_f = np.concatenate([lay.run_rows(r) for r in fitted_runs])
+    rows_p = np.concatenate([lay.run_rows(r) for r in predicted_runs])
+    if J is None:
+        J = np.column_stack([sens[e.name] for e in c.effects])
+        base, x_ref = f0, np.zeros(len(c.x))
+    else:
+        base, x_ref = c.model_features, c.x
+    lo, hi = _bounds(c.effects)
+    d = c.delta
+
+    def predict(base_, J_, x_ref_, lo_, hi_):
+        x, nu, _, _, _ = _lin_fit(prob, base_, J_, x_ref_, lo_, hi_, rows=rows_f, delta=d)
+        model = base_ + J_ @ (x - x_ref_)
+        # nuisances: the common TE offset comes from the fitted runs; a predicted run's own
+        # hysteresis offset is no prediction, so it is refitted
+        cols = prob.nuis[:, np.abs(prob.nuis[rows_f]).sum(0) > 0]
+        model = model + cols @ nu
+        r = (shift_measured(prob.y, lay, d)[:, 0] - model)
+        for run in predicted_runs:
+            if run in lay.hyst:
+                sl = lay.hyst[run]
+                r[sl] -= np.average(r[sl], weights=prob.w[sl] ** 2)
+        rw = r[rows_p] * prob.w[rows_p]
+        return float(rw @ rw), x
+
+    rss_before, _ = predict(f0, np.zeros((lay.n, 0)), np.zeros(0), np.zeros(0), np.zeros(0))
+    rss_after, x_f = predict(base, J, x_ref, lo, hi)
+    doc["improvement_pct"] = 100.0 * (1.0 - math.sqrt(rss_after / rss_before)) if rss_before > 0 else 0.0
+    doc["fitted_params"] = [float(v) for v in x_f]
+    return doc
+
+
+def _verdict(cands, chosen, none, predicted_runs, settings, unavailable, failed) -> str:
+    if not cands:
+        return "No candidate effect could be evaluated; the gap is unexplained."
+    if chosen is not None:
+        c = chosen
+        tie = [o for o in cands if o is not c and o.refined and abs(o.score - c.score) < 2.0]
+        mag = "; ".join(f"{e.name} {_fmt_mag(e, m)} (95 % {_fmt_mag(e, iv[0])} … {_fmt_mag(e, iv[1])})"
+                        for e, m, iv in zip(c.effects, c.magnitude, c.magnitude_interval))
+        s = (f"{c.name} explains the gap: {mag}; the weighted gap shrinks by {c.gap_shrink_pct:.0f} %, "
+             f"{100 - c.gap_shrink_pct:.0f} % of it stays unexplained by any candidate; the withheld runs' "
+             f"prediction improves by {c.withheld['improvement_pct']:.0f} %.")
+        if c.at_bound:
+            s += f" The fit hits a parameter bound ({', '.join(c.at_bound)}): the magnitude is a limit, not an estimate."
+        if tie:
+            s += f" Tied within ΔBIC < 2 with {', '.join(o.name for o in tie)}: the data cannot separate them."
+        return s
+    best = cands[0]
+    if not predicted_runs and best.score >= settings.bic_threshold and best.gap_shrink_pct >= settings.min_shrink_pct:
+        return (f"{best.name} fits best (gap shrinks by {best.gap_shrink_pct:.0f} %) but cannot be confirmed: "
+                f"no run is usable for the withheld check (add a reverse or another-load run).")
+    return (f"No significant unmodelled effect: the best candidate, {best.name}, removes only "
+            f"{max(best.gap_shrink_pct, 0):.0f} % of the gap (score {best.score:.1f}, withheld "
+            f"{_fmt_pct(best.withheld.get('improvement_pct'))}); the remaining gap is model-form "
+            f"mismatch and noise.")
+
+
+def _fmt_pct(v) -> str:
+    return "n/a" if v is None else f"{v:+.0f} %"
+
+
+def _fmt_mag(e: Effect, m: float) -> str:
+    u = e.params[0].unit
+    if u == "m":
+        return f"{m * 1e6:.2f} µm"
+    if u == "rad":
+        return f"{m * 206264.806:.2f}″"
+    return f"{m:.3g} {u}"

@@ -1,0 +1,367 @@
+"""Run-condition replay and the feature vector the diagnosis compares.
+
+Every bench run becomes a :class:`PlanRun` (direction, load, torque cycle) that the model is
+run under (:func:`evaluate`); the speed is recorded but the replay is quasi-static (the
+bench speeds of TE tests, ~15 rpm at the output, are far below the first resonance).
+Measured runs and model runs are reduced to the same :class:`Features`:
+
+- a TE run: its mean (the wind-up) and its Fourier coefficients a_k, b_k of orders 1 … K per
+  output revolution (arcsec), TE(p) = mean + Σ a_k cos kp + b_k sin kp, p = θ_in/i the
+  position in output revolutions (rad). Measured coefficients come from a least-squares fit
+  to the samples (non-uniform sampling and speed ripple are harmless), model coefficients
+  from the FFT of the uniform grid.
+- a hysteresis run: the output angle (arcsec) on the descending and ascending branch at
+  fixed fractions of the torque amplitude.
+
+The unknown encoder origin enters as a position shift δ common to all TE runs
+(:func:`shift_measured`), the unknown constant offset as a nuisance (one for all TE runs,
+one per hysteresis run): both are estimated by the fit, never assumed.
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from rvflex.geometry.formulas import ARCSEC_PER_RAD
+from rvflex.spec import ErrorSpec, ReducerSpec
+
+__all__ = [
+    "HYST_FRACTIONS",
+    "DiagnosisSettings",
+    "EvaluationFailed",
+    "Layout",
+    "PlanRun",
+    "Response",
+    "branch_angles",
+    "evaluate",
+    "features",
+    "measured_features",
+    "plan_from_dataset",
+    "shift_measured",
+]
+
+HYST_FRACTIONS = np.array([0.02, 0.05, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.97])
+
+
+@dataclass(frozen=True)
+class DiagnosisSettings:
+    """Settings of a diagnosis (and of the model runs it makes).
+
+    Attributes
+    ----------
+    positions_per_rev : int
+        Model positions per output revolution (≥ 2·max_order + 2).
+    max_order : int
+        Highest order analysed (per output revolution); ≥ 3·z_b.
+    hysteresis_steps : int
+        Equal torque steps of the replayed torque cycle (plus the fine ±0.5…4 % points).
+    workers : int
+        Process-pool size for the sensitivity and refinement runs (1: serial).
+    refine_top : int
+        Candidates refined with model-in-the-loop (Broyden) iterations.
+    refine_iterations : int
+        Model evaluations per refined candidate.
+    pair_top : int
+        Pairs are formed among the best ``pair_top`` single effects.
+    bic_threshold : float
+        Minimum BIC improvement over "no effect" for an effect to count (10: very strong).
+    min_shrink_pct : float
+        Minimum share of the gap (weighted rms) an accepted effect removes (%).
+    min_withheld_pct : float
+        Minimum improvement of the withheld runs' prediction for acceptance (%).
+    order_floor_arcsec : float
+        Model-form floor of an order coefficient (arcsec): residuals below it are not signal.
+    eval_timeout_s : float
+        Wall-time budget of one model evaluation (all runs) before it counts as failed (s).
+    windup_floor_arcsec, windup_floor_rel : float
+        Floor of wind-up and hysteresis-angle residuals: absolute (arcsec) plus a share of
+        the modelled value (model-form mismatch of the contact stiffness).
+    """
+
+    positions_per_rev: int = 256
+    max_order: int = 127
+    hysteresis_steps: int = 40
+    workers: int = 2
+    refine_top: int = 3
+    refine_iterations: int = 2
+    pair_top: int = 4
+    bic_threshold: float = 10.0
+    min_shrink_pct: float = 25.0
+    min_withheld_pct: float = 10.0
+    eval_timeout_s: float = 120.0
+    order_floor_arcsec: float = 0.03
+    windup_floor_arcsec: float = 0.5
+    windup_floor_rel: float = 0.02
+
+    def __post_init__(self) -> None:
+        if self.positions_per_rev < 2 * self.max_order + 2:
+            raise ValueError(f"positions_per_rev = {self.positions_per_rev}: needs ≥ 2·max_order + 2 "
+                             f"= {2 * self.max_order + 2}")
+        if self.max_order < 1 or self.hysteresis_steps < 8 or self.workers < 1:
+            raise ValueError("max_order ≥ 1, hysteresis_steps ≥ 8 and workers ≥ 1 are required")
+
+
+@dataclass(frozen=True)
+class PlanRun:
+    """What the model is run under for one bench run (SI).
+
+    ``torque_path_Nm``: the replayed torque cycle (hysteresis); ``torque_eff_Nm``: the torque
+    the model actually sees when an effect changes it (friction), else empty.
+    """
+
+    kind: str
+    label: str
+    direction: int = 1
+    load_Nm: float = 0.0
+    torque_max_Nm: float = 0.0
+    torque_path_Nm: tuple[float, ...] = ()
+    torque_eff_Nm: tuple[float, ...] = ()
+
+
+@dataclass(frozen=True, eq=False)
+class Response:
+    """A model (or measured) response per plan run: TE on the position grid (rad, uniform
+    positions 2πj/N, forward coordinate) or a torque path with its output angles (N·m, rad)."""
+
+    te: tuple
+    torque: tuple
+    theta: tuple
+
+
+@dataclass(frozen=True, eq=False)
+class Layout:
+    """Where each run's features sit in the feature vector.
+
+    For TE run r: ``dc[r]`` the mean, ``cos[r]``/``sin[r]`` slices of a_1…a_K, b_1…b_K;
+    for hysteresis run r: ``hyst[r]`` a slice of 4·len(HYST_FRACTIONS) angles.
+    """
+
+    n: int
+    dc: dict
+    cos: dict
+    sin: dict
+    hyst: dict
+    max_order: int
+
+    @property
+    def te_runs(self) -> list[int]:
+        return sorted(self.dc)
+
+    def run_rows(self, r: int) -> np.ndarray:
+        """Feature indices of run ``r``."""
+        if r in self.dc:
+            return np.r_[self.dc[r], np.arange(self.cos[r].start, self.cos[r].stop),
+                         np.arange(self.sin[r].start, self.sin[r].stop)]
+        return np.arange(self.hyst[r].start, self.hyst[r].stop)
+
+
+class EvaluationFailed(RuntimeError):
+    """A model evaluation did not converge (a failed candidate evaluation, not a crash)."""
+
+
+def plan_from_dataset(dataset, settings: DiagnosisSettings) -> tuple[PlanRun, ...]:
+    """One :class:`PlanRun` per bench run (same direction, load, torque amplitude)."""
+    from rvflex.solve import hysteresis_cycle
+
+    out = []
+    for r in dataset.runs:
+        if r.kind == "te":
+            out.append(PlanRun("te", r.label, 1 if r.direction == "forward" else -1, float(r.load_Nm)))
+        else:
+            path = hysteresis_cycle(r.torque_max_Nm, settings.hysteresis_steps)
+            out.append(PlanRun("hysteresis", r.label, torque_max_Nm=float(r.torque_max_Nm),
+                               torque_path_Nm=tuple(float(t) for t in path)))
+    return tuple(out)
+
+
+def _layout(plan: tuple[PlanRun, ...], max_order: int) -> Layout:
+    i = 0
+    dcs, cos, sin, hyst = {}, {}, {}, {}
+    for r, p in enumerate(plan):
+        if p.kind == "te":
+            dcs[r] = i
+            cos[r] = slice(i + 1, i + 1 + max_order)
+            sin[r] = slice(i + 1 + max_order, i + 1 + 2 * max_order)
+            i += 1 + 2 * max_order
+        else:
+            hyst[r] = slice(i, i + 4 * len(HYST_FRACTIONS))
+            i += 4 * len(HYST_FRACTIONS)
+    return Layout(i, dcs, cos, sin, hyst, max_order)
+
+
+def _run_model(spec: ReducerSpec, errors: ErrorSpec, plan: tuple[PlanRun, ...], settings: DiagnosisSettings,
+               fidelity: str, law) -> Response:
+    import time
+
+    from rvflex.model import build_reducer
+    from rvflex.solve import SolveError, quasi_static, torque_stepping
+
+    n = settings.positions_per_rev
+    te, tq, th = [], [], []
+    t_end = time.perf_counter() + settings.eval_timeout_s
+
+    def budget(done: int, total: int) -> None:
+        if time.perf_counter() > t_end:
+            raise EvaluationFailed(f"over the {settings.eval_timeout_s:g} s budget after {done}/{total} steps")
+
+    for p in plan:
+        try:
+            model = build_reducer(spec, errors, fidelity, law=law)
+            if p.kind == "te":
+                theta = p.direction * np.linspace(0.0, 2 * math.pi * model.ratio, n, endpoint=False)
+                res = quasi_static(model, theta, p.load_Nm, progress=budget)
+                grid = np.empty(n)
+                grid[(p.direction * np.arange(n)) % n] = res.te_rad
+                te.append(grid)
+                tq.append(None)
+                th.append(None)
+            else:
+                path = np.asarray(p.torque_eff_Nm or p.torque_path_Nm)
+                res = torque_stepping(model, path, progress=budget)
+                te.append(None)
+                tq.append(np.asarray(p.torque_path_Nm))
+                th.append(res.theta_out)
+        except EvaluationFailed as err:
+            raise EvaluationFailed(f"{p.label}: {err}") from None
+        except (SolveError, RuntimeError, ValueError, ArithmeticError) as err:
+            raise EvaluationFailed(f"{p.label}: {type(err).__name__}: {str(err)[:300]}") from None
+    return Response(tuple(te), tuple(tq), tuple(th))
+
+
+def evaluate(spec: ReducerSpec, errors: ErrorSpec, plan: tuple[PlanRun, ...], settings: DiagnosisSettings,
+             active: tuple = (), *, law=None, fidelity: str = "rigid") -> Response:
+    """Run the model under ``plan`` with the effects ``active`` ((Effect, x) pairs) switched on.
+
+    Raises
+    ------
+    EvaluationFailed
+        The model did not converge (or an effect value broke a spec rule) for some run.
+    """
+    from rvflex.spec import SpecError
+
+    s, e = spec, errors
+    blend = None
+    try:
+        for eff, x in active:
+            if eff.kind == "model":
+                s, e = eff.apply(s, e, np.asarray(x, float))
+            elif eff.kind == "conditions":
+                plan = tuple(eff.conditions(p, np.asarray(x, float), s) for p in plan)
+            elif eff.kind == "fidelity":
+                blend = (eff, float(np.asarray(x)[0]))
+    except SpecError as err:
+        raise EvaluationFailed(f"effect value breaks a spec rule: {err}") from None
+    resp = _run_model(s, e, plan, settings, fidelity, law)
+    if blend is not None and blend[1] != 0.0:
+        flex = _run_model(s, e, plan, settings, blend[0].fidelity, law)
+        w = blend[1]
+        resp = Response(tuple(None if a is None else (1 - w) * a + w * b for a, b in zip(resp.te, flex.te)),
+                        resp.torque,
+                        tuple(None if a is None else (1 - w) * a + w * b for a, b in zip(resp.theta, flex.theta)))
+    meas = [(eff, np.asarray(x, float)) for eff, x in active if eff.kind == "measurement"]
+    if meas:
+        pos = 2 * np.pi * np.arange(settings.positions_per_rev) / settings.positions_per_rev
+        te = []
+        for a in resp.te:
+            if a is not None:
+                for eff, x in meas:
+                    a = eff.measure(pos, a, x)
+            te.append(a)
+        resp = dc.replace(resp, te=tuple(te))
+    return resp
+
+
+def branch_angles(torque: np.ndarray, theta: np.ndarray, torque_max: float) -> np.ndarray:
+    """Output angle (same unit as ``theta``) on the descending (+T → −T) and then the ascending
+    branch, each at the torques ±HYST_FRACTIONS·torque_max in increasing order (4·12 values)."""
+    t = np.asarray(torque, float)
+    a = np.asarray(theta, float)
+    k_max, k_min = int(np.argmax(t)), int(np.argmin(t))
+    if k_max > k_min:  # a cycle that goes negative first: read it mirrored
+        t, a = -t, -a
+        k_max, k_min = int(np.argmax(t)), int(np.argmin(t))
+        flip = -1.0
+    else:
+        flip = 1.0
+    desc = (t[k_max:k_min + 1], a[k_max:k_min + 1])
+    asc = (np.concatenate([t[k_min:], t[:k_max + 1]]), np.concatenate([a[k_min:], a[:k_max + 1]]))
+    at = np.concatenate([-HYST_FRACTIONS[::-1], HYST_FRACTIONS]) * torque_max
+    out = []
+    for bt, ba in (desc, asc):
+        o = np.argsort(bt, kind="stable")
+        bt, ba = bt[o], ba[o]
+        keep = np.r_[True, np.diff(bt) > 0]
+        out.append(np.interp(at, bt[keep], ba[keep]))
+    if flip < 0:  # back to the true sign: the branches swap roles
+        out = [-out[1][::-1], -out[0][::-1]]
+    return np.concatenate(out)
+
+
+def features(resp: Response, plan: tuple[PlanRun, ...], settings: DiagnosisSettings) -> tuple[np.ndarray, Layout]:
+    """Feature vector (arcsec) of a model response and its layout."""
+    lay = _layout(plan, settings.max_order)
+    f = np.empty(lay.n)
+    K = settings.max_order
+    for r, p in enumerate(plan):
+        if p.kind == "te":
+            te = resp.te[r] * ARCSEC_PER_RAD
+            c = np.fft.rfft(te) / len(te)
+            f[lay.dc[r]] = c[0].real
+            f[lay.cos[r]] = 2 * c[1:K + 1].real
+            f[lay.sin[r]] = -2 * c[1:K + 1].imag
+        else:
+            f[lay.hyst[r]] = branch_angles(resp.torque[r], resp.theta[r] * ARCSEC_PER_RAD, p.torque_max_Nm)
+    return f, lay
+
+
+def measured_features(dataset, plan: tuple[PlanRun, ...], settings: DiagnosisSettings) -> tuple[np.ndarray, Layout]:
+    """Feature vector (arcsec) of the bench runs, before the origin shift.
+
+    TE runs: least-squares Fourier fit (orders 0 … K) of TE = θ_out − θ_in/i against the
+    position p = θ_in/i over the whole output revolutions of the run.
+    """
+    lay = _layout(plan, settings.max_order)
+    f = np.empty(lay.n)
+    K = settings.max_order
+    ratio = dataset.reducer.nominal_ratio
+    k = np.arange(1, K + 1)
+    for r, (run, p) in enumerate(zip(dataset.runs, plan)):
+        if p.kind == "te":
+            pos = run.theta_in_rad / ratio
+            te = (run.theta_out_rad - pos) * ARCSEC_PER_RAD
+            span = abs(pos[-1] - pos[0])
+            whole = math.floor(span / (2 * math.pi) + 1e-6) * 2 * math.pi
+            sel = np.abs(pos - pos[0]) <= whole + 1e-12
+            pos, te = pos[sel], te[sel]
+            # normal equations in blocks keep memory small for long runs
+            A = np.empty((len(pos), 2 * K + 1))
+            A[:, 0] = 1.0
+            kp = np.outer(pos, k)
+            A[:, 1:K + 1] = np.cos(kp)
+            A[:, K + 1:] = np.sin(kp)
+            coef, *_ = np.linalg.lstsq(A, te, rcond=None)
+            f[lay.dc[r]] = coef[0]
+            f[lay.cos[r]] = coef[1:K + 1]
+            f[lay.sin[r]] = coef[K + 1:]
+        else:
+            f[lay.hyst[r]] = branch_angles(run.torque_Nm, run.theta_out_rad * ARCSEC_PER_RAD, p.torque_max_Nm)
+    return f, lay
+
+
+def shift_measured(f: np.ndarray, lay: Layout, delta: np.ndarray) -> np.ndarray:
+    """Measured features with the position origin moved by ``delta`` (rad; scalar or array of G
+    shifts → (n, G)): TE_shifted(p) = TE(p + δ), so a_k' = a_k cos kδ + b_k sin kδ,
+    b_k' = −a_k sin kδ + b_k cos kδ. Means and hysteresis features do not change."""
+    delta = np.atleast_1d(np.asarray(delta, float))
+    out = np.repeat(f[:, None], len(delta), axis=1)
+    k = np.arange(1, lay.max_order + 1)[:, None]
+    c, s = np.cos(k * delta[None, :]), np.sin(k * delta[None, :])
+    for r in lay.te_runs:
+        a, b = f[lay.cos[r]][:, None], f[lay.sin[r]][:, None]
+        out[lay.cos[r]] = a * c + b * s
+        out[lay.sin[r]] = -a * s + b * c
+    return out
