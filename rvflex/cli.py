@@ -196,9 +196,9 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         w.writerows(res.rows)
     unit = "arcsec" if design.scenario == "te" else "arcmin"
     print(f"{res.finished} of {n} points finished, {res.failed} failed, {res.wall_s:.1f} s "
-          f"({res.executor}, {res.workers} workers); table in {out / 'table.csv'}")
+          f"(+ {res.startup_s:.1f} s start-up; {res.executor}, {res.workers} workers); table in {out / 'table.csv'}")
     doc = {"points": n, "finished": res.finished, "failed": res.failed, "wall_s": res.wall_s,
-           "executor": res.executor, "workers": res.workers, "ranking": []}
+           "startup_s": res.startup_s, "executor": res.executor, "workers": res.workers, "ranking": []}
     if design.kind in SALIB_KINDS:
         try:
             indices = sensitivity_indices(design, res.rows, metric)
