@@ -230,7 +230,10 @@ def run_sensitivity(spec: ReducerSpec, *, h_m: float = 2 * UM, keys: tuple[str, 
     if workers > 1:
         from concurrent.futures import ProcessPoolExecutor
 
-        with ProcessPoolExecutor(max_workers=workers) as pool:
+        from rvflex.sweep import _fork_context, warm_process
+
+        warm_process(spec, "lost-motion")  # imports once, before the workers fork
+        with ProcessPoolExecutor(max_workers=workers, mp_context=_fork_context()) as pool:
             values = list(pool.map(_evaluate, jobs))
     else:
         values = [_evaluate(j) for j in jobs]
@@ -258,7 +261,7 @@ def run_sensitivity(spec: ReducerSpec, *, h_m: float = 2 * UM, keys: tuple[str, 
             central = (hi - lo) / (2 * s)
         even = (not clearance and sm * sp < 0 and max(abs(sm), abs(sp)) >= 1e-4
                 and abs(sm + sp) < 0.1 * max(abs(sm), abs(sp)))
-        note = f"even in h: backlash falls by {abs(sm):.4f} arcmin/µm of |h| either way" if even else ""
+        note = f"even in h: backlash falls by {abs(sm):.4f} arcmin/µm whichever the sign" if even else ""
         rows.append(SensitivityRow(k, name, field, h_m, trip, central, sm, sp, PAPER[k], f, fc, note))
     return rows
 
