@@ -162,9 +162,10 @@ def formula_sensitivity(spec: ReducerSpec, key: str) -> float:
     normal to the first-contact pins' line of action (cos φ = K1) to first order: 0. A
     tangential shift t of a first-contact pin closes its flank by t·e·z_c/r_p, i.e. t/r_p of
     output turn; the alternating ±h pattern puts a pin shifted toward its flank in each
-    flank's first contact, whichever the sign: the backlash falls by 2|h|/r_p. First stage: circumferential play Δφ1 through the sun
-    (lever i·r1): a centre distance change h opens it by 2h·tan α; a sun runout (radius) h by
-    up to 2h·tan α at the worst phase; a base pitch error f_pb by f_pb/cos α at most. Crank
+    flank's first contact, whichever the sign: the backlash falls by 2|h|/r_p. First stage:
+    circumferential play Δφ1 through the sun (lever i·r1): a centre distance change h opens it
+    by 2h·tan α; a sun runout (radius) h by up to 2h·tan α at the worst phase; a base pitch
+    error f_pb by f_pb/cos α at most. Crank
     bearings: Δφ3/a0 with a0 the crank-circle radius and Δφ3 the whole play, 2c for a radial
     clearance c (the bearing can shift ±c: the factor 2 of Δφ4 too).
     """
