@@ -413,8 +413,8 @@ def _sweep(design, points, store_path, executor, workers, client, progress) -> S
     nominal = design.reducer
     if todo:
         nominal = warm_process(design.reducer, design.scenario)
-        if client is not None:
-            client.run(warm_process, design.reducer, design.scenario)
+        if client is not None:  # the resolved spec: a remote worker need not read the reducer's file
+            client.run(warm_process, nominal, design.scenario)
     args = {i: (nominal, design.scenario, design.load_Nm, design.positions_per_rev, design.revolutions,
                 points[i]) for i in todo}
     t0 = time.perf_counter()
