@@ -23,7 +23,7 @@ What it finds on the RV-40E (h = 2 µm, nominal zero-load backlash 1.811′; ε 
 
 - Every error that maps onto a term of ε agrees with ∂ε × k·z_c/i: equidistant modification
   and pin radius within 0.3 %, centre distance exactly, crank-support clearance 0.5 %,
-  alternating pin position 2.4 %, pin-circle radius and moved modification 2 % (their
+  alternating pin position 2.5 %, pin-circle radius and moved modification 2 % (their
   one-sided slopes differ by 3 %: the first-contact pin moves with them), eccentric-bearing
   clearance 4 %. ε itself needs two corrections: the coupling (without it ε is 3.4 % high
   on the cycloid stage) and a radial clearance c counting as a play 2c (Δφ3 = 2c).
