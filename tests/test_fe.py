@@ -1,0 +1,304 @@
+"""FE reduction of the flexible parts: geometry, Craig–Bampton basis, static accuracy, cache.
+
+The fast tier reduces one coarse RV-40E disc (linear tets, maxh 8 mm) once per module; the
+full-size default reductions (quadratic tets) and the CLI run are also marked ``slow``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import multiprocessing as mp
+import time
+
+import numpy as np
+import pytest
+
+from rvflex.catalog import load as load_reducer
+from rvflex.spec import ErrorSpec, SpecError
+
+pytestmark = pytest.mark.flexible
+
+COARSE = {"maxh_m": 8e-3, "n_modes": 6, "mesh_order": 1, "attach_per_tooth": 2, "patch_half_width_m": 3e-3,
+          "curvature_safety": 1.0}
+
+
+@pytest.fixture(scope="module")
+def spec():
+    return load_reducer("rv40e")
+
+
+@pytest.fixture(scope="module")
+def cache_dir(tmp_path_factory):
+    return tmp_path_factory.mktemp("fe-cache")
+
+
+@pytest.fixture(scope="module")
+def disc(spec, cache_dir):
+    from rvflex.fe.reduce import reduce_part
+
+    return reduce_part(spec, "disc", cache_dir=cache_dir, **COARSE)
+
+
+# --------------------------------------------------------------------------- geometry
+
+
+def test_outline_spline_within_1um_of_exact_profile(spec):
+    """The OCC outline (spline through 96 exact points per tooth) stays within 1 µm of the
+    exact modified profile; 16 points per tooth would not (the check can fail)."""
+    from rvflex.fe.geometry import SAMPLES_PER_TOOTH, spline_deviation_m
+    from rvflex.geometry.profile import build_profile
+
+    prof = build_profile(spec.cycloid)
+    assert spline_deviation_m(prof, SAMPLES_PER_TOOTH) < 1e-6
+    assert spline_deviation_m(prof, 16) > 1e-6
+
+
+def test_flank_nodes_lie_on_exact_profile(disc, spec):
+    """Every flank mesh node is on the exact profile to < 1 µm (same body frame, same angular
+    origin as the contact element's profile)."""
+    from rvflex.fe.reduce import _nodeset
+    from rvflex.geometry.profile import build_profile
+
+    nodes = _nodeset(disc.fem, "flank")
+    xy = disc.node_positions_m[nodes, :2]
+    g = build_profile(spec.cycloid).gap(xy, np.zeros(len(xy)))
+    assert np.abs(g.gap_m).max() < 1e-6
+    z = disc.node_positions_m[nodes, 2]
+    assert z.min() == pytest.approx(-spec.cycloid.disc_thickness_m / 2, abs=1e-9)
+    assert z.max() == pytest.approx(spec.cycloid.disc_thickness_m / 2, abs=1e-9)
+
+
+def test_bore_interfaces_where_the_model_puts_the_bores(disc, spec):
+    """Bore interfaces sit where parts/cycloid_disc.bore_positions puts the rigid model's
+    bore markers: the mesh nodes of each bore lie on the nominal cylinder (radius to 1 µm)
+    and the RBE weights' centroid is the nominal centre (to 1 nm)."""
+    from rvflex.parts.cycloid_disc import bore_positions
+
+    bores = bore_positions(spec, ErrorSpec(), 0)
+    for k in range(spec.cranks.count):
+        itf = disc.interface(f"bore{k}")
+        x = disc.node_positions_m[itf.nodes]
+        r = np.linalg.norm(x[:, :2] - bores[k], axis=1)
+        np.testing.assert_allclose(r, spec.cranks.disc_bore_radius_m, atol=1e-6)
+        np.testing.assert_allclose(itf.weights @ x, [bores[k, 0], bores[k, 1], 0.0], atol=1e-9)
+        assert itf.weights.min() > 0 and itf.weights.sum() == pytest.approx(1.0)
+
+
+def test_bore_breaking_the_outline_is_refused_before_meshing(spec):
+    from rvflex.fe.reduce import reduce_part
+
+    bad = dataclasses.replace(spec, cranks=dataclasses.replace(spec.cranks, disc_bore_radius_m=0.027))
+    t0 = time.perf_counter()
+    with pytest.raises(SpecError, match="breaks the disc outline"):
+        reduce_part(bad, "disc", use_cache=False, **COARSE)
+    assert time.perf_counter() - t0 < 10.0
+
+
+def test_oversized_mesh_and_mode_count_refused_with_estimate(spec):
+    from rvflex.fe.reduce import reduce_part
+
+    with pytest.raises(SpecError, match=r"GiB"):
+        reduce_part(spec, "carrier", maxh_m=0.4e-3, use_cache=False)
+    with pytest.raises(SpecError, match="resolve"):
+        reduce_part(spec, "carrier", maxh_m=8e-3, n_modes=1500, mesh_order=1, use_cache=False)
+
+
+# --------------------------------------------------------------------------- reduction
+
+
+def test_reduced_flank_response_within_5pct_of_full_fe(disc):
+    """Rated torque on ~half the pins, bores held: reduced vs full NGSolve static solution
+    at the loaded flank patches < 5 %; bore reactions exact (Craig–Bampton statics)."""
+    assert disc.n_attach == 2 * 39 and disc.n_static == 6
+    assert disc.check.flank_pct < 5.0
+    assert disc.check.interface_pct < 1e-6
+    # physical scale: ~1 µm flank displacement for ~400 N pin loads on a 10 mm disc
+    assert 0.2e-6 < disc.check.flank_full_m < 5e-6
+
+
+def test_flank_rows_reproduce_the_full_flank_response(disc, spec):
+    """The contact element's path: generalised forces Σ rows(t)ᵀF, internal modes (bores
+    held), displacement rows(t)·q along each load — against the full FE maximum."""
+    from rvflex.fe.reduce import disc_rated_load_case
+    from rvflex.geometry.profile import build_profile
+
+    t, _pts, forces = disc_rated_load_case(spec, build_profile(spec.cycloid))
+    R = disc.flank.rows_at(t)[:, :, disc.n_static:]  # (pins, 2, internal modes)
+    Q = np.einsum("pim,pi->m", R, forces)
+    Kr = disc.stiffness_reduced[disc.n_static:, disc.n_static:]
+    q = np.linalg.solve(Kr, Q)
+    d = np.einsum("pim,m,pi->p", R, q, forces / np.linalg.norm(forces, axis=1, keepdims=True))
+    assert np.max(np.abs(d)) == pytest.approx(disc.check.flank_full_m, rel=0.05)
+
+
+def test_internal_block_is_diagonal_and_positive(disc):
+    """The Ritz step leaves the internal block of the reduced matrices diagonal."""
+    k = disc.stiffness_reduced[disc.n_static:, disc.n_static:]
+    m = disc.mass_reduced[disc.n_static:, disc.n_static:]
+    off = k - np.diag(np.diag(k))
+    assert np.abs(off).max() < 1e-8 * np.abs(np.diag(k)).max()
+    assert np.all(np.diag(k) > 0)
+    np.testing.assert_allclose(np.diag(m), 1.0, rtol=1e-8)
+
+
+def test_linear_tets_are_stiffer_than_quadratic_physics(disc, spec):
+    """Coarse linear tets lock: the fast tier's first fixed-interface mode lies above the
+    quadratic-tet value (3.40 kHz, docs/fe.md) — by less than 2× at maxh 8 mm."""
+    assert 3.4e3 < disc.freqs_hz[0] < 6.8e3
+
+
+# --------------------------------------------------------------------------- cache
+
+
+def test_cache_hit_returns_the_same_reduction(disc, spec, cache_dir):
+    from rvflex.fe.reduce import reduce_part
+
+    t0 = time.perf_counter()
+    again = reduce_part(spec, "disc", cache_dir=cache_dir, **COARSE)
+    assert time.perf_counter() - t0 < 2.0
+    assert again.meta["cached"] is True
+    np.testing.assert_array_equal(again.mode_basis, disc.mode_basis)
+    np.testing.assert_array_equal(again.stiffness_reduced, disc.stiffness_reduced)
+    assert (again.fem.GetStiffnessMatrix(sparse=True) != disc.fem.GetStiffnessMatrix(sparse=True)).nnz == 0
+    np.testing.assert_array_equal(again.flank.rows, disc.flank.rows)
+    assert [i.name for i in again.interfaces] == ["bore0", "bore1"]
+    np.testing.assert_array_equal(again.interface("bore1").nodes, disc.interface("bore1").nodes)
+
+
+def test_key_depends_on_geometry_material_settings_only(spec):
+    from rvflex.fe import cache
+    from rvflex.fe.reduce import CODE_VERSION, settings_for
+
+    s = settings_for("disc", **COARSE)
+    k = cache.key_for(spec, "disc", s, CODE_VERSION)
+    stiffer = dataclasses.replace(spec, bearings=dataclasses.replace(
+        spec.bearings, eccentric=dataclasses.replace(spec.bearings.eccentric, radial_stiffness_N_m=1e9)))
+    assert cache.key_for(stiffer, "disc", s, CODE_VERSION) == k  # bearing data: same body
+    thicker = dataclasses.replace(spec, cycloid=dataclasses.replace(spec.cycloid, disc_thickness_m=0.012))
+    assert cache.key_for(thicker, "disc", s, CODE_VERSION) != k
+    assert cache.key_for(spec, "disc", dataclasses.replace(s, n_modes=7), CODE_VERSION) != k
+    assert cache.key_for(spec, "disc", s, CODE_VERSION + "x") != k
+
+
+@pytest.mark.parametrize("damage", ["flip", "truncate", "header"])
+def test_corrupt_or_partial_file_is_rebuilt_never_loaded(disc, tmp_path, damage, monkeypatch):
+    from rvflex.fe import cache, reduce
+
+    path = cache.store(disc, tmp_path)
+    raw = bytearray(path.read_bytes())
+    if damage == "flip":
+        raw[len(raw) // 2] ^= 0xFF
+    elif damage == "truncate":
+        raw = raw[: len(raw) * 2 // 3]
+    else:
+        raw[:10] = b"garbage!!!"
+    path.write_bytes(bytes(raw))
+    assert cache.load(disc.key, tmp_path) is None
+    assert not path.exists()  # removed, so the next call rebuilds it
+    # reduce_part rebuilds (the builder is called) and stores a good file again
+    calls = []
+
+    def builder(spec, part, s, key, progress=None):
+        calls.append(key)
+        return disc
+
+    monkeypatch.setattr(reduce, "_build", builder)
+    path.write_bytes(bytes(raw))
+    spec = load_reducer("rv40e")
+    reduce.reduce_part(spec, "disc", cache_dir=tmp_path, **COARSE)
+    assert calls == [disc.key]
+    assert cache.load(disc.key, tmp_path) is not None
+
+
+def _writer(src_dir: str, dst_dir: str, key: str, n: int) -> None:
+    from rvflex.fe import cache
+
+    rp = cache.load(key, src_dir)
+    for _ in range(n):
+        cache.store(rp, dst_dir)
+
+
+def test_two_processes_writing_the_same_key(disc, cache_dir, tmp_path):
+    """Concurrent writers of one key never leave a corrupt file or temporary files."""
+    from rvflex.fe import cache
+
+    ctx = mp.get_context("spawn")
+    procs = [ctx.Process(target=_writer, args=(str(cache_dir), str(tmp_path), disc.key, 4)) for _ in range(2)]
+    for p in procs:
+        p.start()
+    seen_valid = 0
+    while any(p.is_alive() for p in procs):  # a reader during the writes sees a complete file or none
+        if cache.path_for(disc.key, tmp_path).exists():
+            rp = cache.load(disc.key, tmp_path)
+            if rp is not None:
+                seen_valid += 1
+                np.testing.assert_array_equal(rp.mode_basis[:, :3], disc.mode_basis[:, :3])
+        time.sleep(0.2)
+    for p in procs:
+        p.join()
+        assert p.exitcode == 0
+    assert cache.load(disc.key, tmp_path) is not None
+    assert not list(tmp_path.glob(".*.tmp"))
+
+
+# --------------------------------------------------------------------------- full size
+
+
+@pytest.fixture(scope="module")
+def default_disc(spec, tmp_path_factory):
+    from rvflex.fe.reduce import reduce_part
+
+    return reduce_part(spec, "disc", cache_dir=tmp_path_factory.mktemp("fe-default"))
+
+
+@pytest.mark.slow
+def test_free_free_frequency_near_plate_estimate(default_disc, spec):
+    """First elastic free–free mode of the default (quadratic-tet) disc vs a free Kirchhoff
+    plate with 2 nodal diameters (λ² = 5.25, Leissa): f = λ²/(2πa²)·√(D/ρh), a = r_p − r_rp
+    ≈ 3.2 kHz. The holes (−15 % of the area, at the crank circle) and the teeth move it:
+    accepted 0.75–1.25 × the estimate."""
+    from rvflex.fe.reduce import free_free_frequencies_hz
+
+    cy, m = spec.cycloid, spec.materials.gears_cranks_discs
+    h, a = cy.disc_thickness_m, cy.pin_circle_radius_m - cy.pin_radius_m
+    D = m.youngs_modulus_Pa * h**3 / (12 * (1 - m.poisson_ratio**2))
+    f_plate = 5.25 / (2 * math.pi * a**2) * math.sqrt(D / (m.density_kg_m3 * h))
+    f = free_free_frequencies_hz(default_disc, 4)
+    assert 0.75 * f_plate < f[0] < 1.25 * f_plate
+
+
+@pytest.mark.slow
+def test_default_disc_mass_and_flank_error(default_disc, spec):
+    """Quadratic (curved) tets: FE mass = ρ·V of the OCC solid to 0.3 %; flank error ≤ 5 %."""
+    from rvflex.fe.geometry import disc_geometry
+
+    M = default_disc.fem.GetMassMatrix(sparse=True)
+    ones = np.zeros(M.shape[0])
+    ones[0::3] = 1.0
+    vol = disc_geometry(spec).volume_m3
+    assert ones @ (M @ ones) == pytest.approx(spec.materials.gears_cranks_discs.density_kg_m3 * vol, rel=3e-3)
+    assert default_disc.check.flank_pct <= 5.0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("part", ["disc", "carrier"])
+def test_cli_reduce_default_settings(part, tmp_path, capsys):
+    """The default (quadratic-tet) reductions through ``rvflex reduce``: JSON keys, flank
+    (pillar) error ≤ 5 %, first fixed-interface mode in the kHz range; the warm run is a
+    cache hit within 2 s."""
+    from rvflex.cli import main
+
+    out = tmp_path / "r.json"
+    args = ["reduce", "--reducer", "rv40e", "--part", part, "--json", str(out), "--cache-dir", str(tmp_path)]
+    assert main(args) == 0
+    doc = json.loads(out.read_text())
+    assert set(doc) == {"n_nodes", "n_modes", "freqs_hz", "static_error_pct", "wall_s", "cached"}
+    assert doc["cached"] is False
+    assert doc["static_error_pct"]["flank"] <= 5.0
+    assert 1e3 < doc["freqs_hz"][0] < 2e4
+    assert main(args) == 0
+    warm = json.loads(out.read_text())
+    assert warm["cached"] is True and warm["wall_s"] < 2.0
+    assert warm["freqs_hz"] == doc["freqs_hz"]
