@@ -206,7 +206,7 @@ def _friction_conditions(run, x, spec):
     if run.kind == "te":
         return dc.replace(run, load_Nm=run.load_Nm + tf)
     t = np.asarray(run.torque_path_Nm)
-    d = np.sign(np.diff(t, prepend=t[0] - (t[1] - t[0])))
+    d = np.sign(np.diff(t, prepend=t[0]))  # the unloaded start has not slid yet: no friction there
     return dc.replace(run, torque_eff_Nm=tuple(float(v) for v in t - tf * d))
 
 

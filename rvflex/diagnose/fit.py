@@ -49,7 +49,7 @@ from rvflex.spec import ErrorSpec, ReducerSpec
 
 __all__ = ["Candidate", "Diagnosis", "diagnose", "withheld_split"]
 
-CACHE_VERSION = "diag-1"
+CACHE_VERSION = "diag-3"
 DELTA_GRID = 2048  # origin shifts tried over one output revolution (0.18° apart), then refined locally
 Z95 = 1.959964
 
@@ -105,7 +105,7 @@ class _Runner:
         return None
 
     def _store(self, key, value) -> None:
-        if self.cache_dir is None or value[0] is None:
+        if self.cache_dir is None:
             return
         self.cache_dir.mkdir(parents=True, exist_ok=True)
         tmp = self.cache_dir / f".{key}.{id(value)}.tmp"
@@ -408,7 +408,11 @@ def diagnose(dataset, *, settings: DiagnosisSettings | None = None, effects: tup
             x[j] = prm.step
             jobs.append(((e, x),))
             owners.append((e.name, j))
-    outs = runner.run(jobs)
+    # other-fidelity (slow) jobs first, so that they run alongside the rigid ones
+    order = sorted(range(len(jobs)), key=lambda i: next(c for c in cands if c.name == owners[i][0]).kind != "fidelity")
+    outs: list = [None] * len(jobs)
+    for i, o in zip(order, runner.run([jobs[i] for i in order])):
+        outs[i] = o
     sens: dict[str, np.ndarray] = {}
     failed: dict[str, str] = {}
     pos = 2 * np.pi * np.arange(settings.positions_per_rev) / settings.positions_per_rev
@@ -565,12 +569,23 @@ def _withheld(prob: _Problem, plan, c: Candidate, J, sens, f0, fitted_runs, pred
     return doc
 
 
+TIE_RSS_RATIO = 1.15  # candidates whose residuals differ by less than this factor are not separated by the data
+
+
+def ties(cands, c) -> list:
+    """Candidates the data cannot tell from ``c``: a residual within TIE_RSS_RATIO of it (or
+    ΔBIC < 2), other effects than ``c``'s."""
+    names = {e.name for e in c.effects}
+    return [o for o in cands if o is not c and o.refined and not {e.name for e in o.effects} <= names
+            and (o.rss <= TIE_RSS_RATIO * c.rss or abs(o.score - c.score) < 2.0)]
+
+
 def _verdict(cands, chosen, none, predicted_runs, settings, unavailable, failed) -> str:
     if not cands:
         return "No candidate effect could be evaluated; the gap is unexplained."
     if chosen is not None:
         c = chosen
-        tie = [o for o in cands if o is not c and o.refined and abs(o.score - c.score) < 2.0]
+        tie = ties(cands, c)
         mag = "; ".join(f"{e.name} {_fmt_mag(e, m)} (95 % {_fmt_mag(e, iv[0])} … {_fmt_mag(e, iv[1])})"
                         for e, m, iv in zip(c.effects, c.magnitude, c.magnitude_interval))
         s = (f"{c.name} explains the gap: {mag}; the weighted gap shrinks by {c.gap_shrink_pct:.0f} %, "
@@ -579,7 +594,8 @@ def _verdict(cands, chosen, none, predicted_runs, settings, unavailable, failed)
         if c.at_bound:
             s += f" The fit hits a parameter bound ({', '.join(c.at_bound)}): the magnitude is a limit, not an estimate."
         if tie:
-            s += f" Tied within ΔBIC < 2 with {', '.join(o.name for o in tie)}: the data cannot separate them."
+            s += (f" Tied with {', '.join(o.name for o in tie)} (residual within {100 * (TIE_RSS_RATIO - 1):.0f} %): "
+                  "the data cannot separate them.")
         return s
     best = cands[0]
     if not predicted_runs and best.score >= settings.bic_threshold and best.gap_shrink_pct >= settings.min_shrink_pct:

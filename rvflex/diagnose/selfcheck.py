@@ -1,0 +1,320 @@
+"""Self-check on withheld-effect data.
+
+:func:`generate_case` writes a synthetic bench dataset from the model with hidden effects
+(one or two, magnitudes drawn around each effect's typical size, or none for a control
+case) and bench realism: encoder quantisation, noise, an unknown encoder origin and offset,
+speed ripple, non-uniform sampling, a torque sensor with noise. The data come from a
+*different* model than the one the diagnosis uses (finer position grid, finer torque cycle,
+contact stiffness off by a few per cent), so no residual is exactly zero. The truth goes to
+a separate file the diagnosis never reads. :func:`selfcheck` diagnoses every case blind and
+scores it.
+
+Scoring (per effect case; the dominant hidden effect is the first one drawn):
+
+- top-1: the accepted diagnosis contains the dominant hidden effect;
+- top-2: the dominant hidden effect is among the two best-ranked candidates;
+- magnitude: for top-1 hits, the fitted magnitude is within ±25 % of the hidden one;
+- gap shrink: the accepted correction's shrink of the weighted gap (0 when none accepted);
+- controls: a control is correct when no effect is accepted.
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+import json
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from rvflex.diagnose.bench import BenchDataset, BenchRun, read_bench, write_bench
+from rvflex.diagnose.effects import Effect, available_effects
+from rvflex.diagnose.replay import DiagnosisSettings, PlanRun, evaluate
+from rvflex.spec import ErrorSpec, ReducerSpec
+
+__all__ = [
+    "BenchRealism",
+    "GeneratorModel",
+    "SelfCheckSettings",
+    "draw_truth",
+    "generate_case",
+    "score_case",
+    "selfcheck",
+]
+
+ARCSEC = math.pi / 648000.0
+
+
+@dataclass(frozen=True)
+class BenchRealism:
+    """Measurement realism of a synthetic bench (SI unless stated).
+
+    sample_rate_hz: TE sampling rate (jittered ±20 %, so non-uniform); input/output encoder
+    counts per revolution; output_noise_arcsec: rms encoder noise; speed_ripple: relative
+    amplitude of a sinusoidal speed ripple at ripple_hz; torque_noise_rel: torque sensor noise
+    (share of the amplitude); hysteresis_samples: samples of a torque cycle.
+    """
+
+    sample_rate_hz: float = 250.0
+    input_counts_per_rev: int = 2**17
+    output_counts_per_rev: int = 2**23
+    output_noise_arcsec: float = 0.1
+    speed_ripple: float = 0.01
+    ripple_hz: float = 2.7
+    torque_noise_rel: float = 0.002
+    hysteresis_samples: int = 400
+
+
+@dataclass(frozen=True)
+class GeneratorModel:
+    """The program that makes the synthetic data: the reducer model at a finer resolution and
+    with its contact stiffness off by ``stiffness_scale`` (Young's moduli of disc and pins in the
+    contact law) — a model-form mismatch the diagnosis must tolerate."""
+
+    positions_per_rev: int = 512
+    hysteresis_steps: int = 120
+    stiffness_scale: float = 1.02
+
+    def law(self, spec: ReducerSpec):
+        """The model's default contact law with both compliances divided by ``stiffness_scale``."""
+        from rvflex.model import default_contact_law
+
+        law = default_contact_law(spec)
+        return dc.replace(law, disc_compliance_1_Pa=law.disc_compliance_1_Pa / self.stiffness_scale,
+                          pin_compliance_1_Pa=law.pin_compliance_1_Pa / self.stiffness_scale)
+
+
+@dataclass(frozen=True)
+class SelfCheckSettings:
+    """Cases, seed, the share of control cases and of two-effect cases, realism, generator and
+    the diagnosis settings."""
+
+    cases: int = 20
+    seed: int = 1
+    control_every: int = 5  # every 5th case is a control (no hidden effect)
+    two_effect_share: float = 0.25
+    reducer: str = "rv40e"
+    effects: tuple[str, ...] | None = None  # candidate (and hidden) effects; None: every available effect
+    draw_fidelity_effects: bool = False  # hide other-fidelity effects too (slow: an FE model per case)
+    realism: BenchRealism = field(default_factory=BenchRealism)
+    generator: GeneratorModel = field(default_factory=GeneratorModel)
+    diagnosis: DiagnosisSettings = field(default_factory=DiagnosisSettings)
+
+
+def draw_truth(rng: np.random.Generator, effects: tuple[Effect, ...], n_effects: int) -> list[tuple[Effect, np.ndarray]]:
+    """Draw ``n_effects`` distinct effects and realistic magnitudes: each parameter 0.6–1.4 × its
+    typical size with a random sign (polar effects: a random phase; the second effect of a pair
+    at 0.6×), clipped to the bounds."""
+    idx = rng.choice(len(effects), size=n_effects, replace=False)
+    out = []
+    for rank, i in enumerate(idx):
+        e = effects[int(i)]
+        scale = 1.0 if rank == 0 else 0.6
+        if e.polar:
+            m = rng.uniform(0.6, 1.4) * e.params[0].step * scale
+            ph = rng.uniform(0, 2 * np.pi)
+            x = np.array([m * math.cos(ph), m * math.sin(ph)])
+        else:
+            x = np.empty(e.n)
+            for j, p in enumerate(e.params):
+                sign = 1.0 if p.low == 0.0 else rng.choice([-1.0, 1.0])
+                x[j] = sign * rng.uniform(0.6, 1.4) * p.step * scale
+        out.append((e, np.clip(x, e.lower, e.upper)))
+    return out
+
+
+def _bench_plan(spec: ReducerSpec, gen: GeneratorModel) -> tuple[tuple[PlanRun, ...], list[dict]]:
+    from rvflex.solve import hysteresis_cycle
+
+    tr = spec.rated_torque_Nm
+    runs = [{"file": "te_fwd_rated.csv", "kind": "te", "direction": "forward", "load_Nm": tr},
+            {"file": "te_rev_rated.csv", "kind": "te", "direction": "reverse", "load_Nm": tr},
+            {"file": "te_fwd_quarter.csv", "kind": "te", "direction": "forward", "load_Nm": 0.25 * tr},
+            {"file": "hysteresis.csv", "kind": "hysteresis", "torque_max_Nm": tr}]
+    plan = []
+    for r in runs:
+        if r["kind"] == "te":
+            plan.append(PlanRun("te", r["file"], 1 if r["direction"] == "forward" else -1, r["load_Nm"]))
+        else:
+            path = hysteresis_cycle(tr, gen.hysteresis_steps)
+            plan.append(PlanRun("hysteresis", r["file"], torque_max_Nm=tr, torque_path_Nm=tuple(map(float, path))))
+    return tuple(plan), runs
+
+
+def _periodic(grid: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """Band-limited (Fourier) interpolation of a periodic grid function at positions p (rad)."""
+    n = len(grid)
+    c = np.fft.rfft(grid) / n
+    k = np.arange(len(c))
+    w = np.full(len(c), 2.0)
+    w[0] = 1.0
+    if n % 2 == 0:
+        w[-1] = 1.0
+    out = np.zeros_like(p)
+    for kk in range(len(c)):  # blocks over orders keep memory small
+        out += w[kk] * (c[kk].real * np.cos(k[kk] * p) - c[kk].imag * np.sin(k[kk] * p))
+    return out
+
+
+def generate_case(folder: str | Path, truth_path: str | Path, spec: ReducerSpec, truth: list, rng: np.random.Generator,
+                  realism: BenchRealism = BenchRealism(), gen: GeneratorModel = GeneratorModel(),
+                  reducer_name: str = "rv40e") -> dict:
+    """Write one synthetic bench dataset to ``folder`` and its truth to ``truth_path``.
+
+    Returns the truth document. Raises :class:`~rvflex.diagnose.replay.EvaluationFailed` when
+    the generator model does not converge for the drawn effects.
+    """
+    plan, runs = _bench_plan(spec, gen)
+    gs = DiagnosisSettings(positions_per_rev=gen.positions_per_rev, max_order=min(127, gen.positions_per_rev // 2 - 1),
+                           hysteresis_steps=gen.hysteresis_steps, workers=1)
+    resp = evaluate(spec, ErrorSpec(), plan, gs, tuple(truth), law=gen.law(spec))
+    ratio = spec.nominal_ratio
+    delta0 = float(rng.uniform(0, 2 * np.pi))  # unknown origin (output revolutions, rad)
+    offset0 = float(rng.uniform(-600, 600)) * ARCSEC  # unknown constant offset
+    q_in = 2 * np.pi / realism.input_counts_per_rev
+    q_out = 2 * np.pi / realism.output_counts_per_rev
+    bench_runs = []
+    for r, (p, meta) in enumerate(zip(plan, runs)):
+        if p.kind == "te":
+            speed = spec.rated_output_speed_rpm
+            omega = 2 * np.pi * speed / 60.0
+            revs = 1.0 + 0.02  # a little more than one output revolution
+            t_end = revs * 2 * np.pi / omega
+            n = int(t_end * realism.sample_rate_hz)
+            t = np.sort(np.linspace(0, t_end, n) + rng.uniform(-0.2, 0.2, n) / realism.sample_rate_hz)
+            t = np.unique(np.clip(t, 0, None))
+            f = realism.ripple_hz
+            travel = omega * t - realism.speed_ripple * omega / (2 * np.pi * f) * (np.cos(2 * np.pi * f * t) - 1)
+            q = float(rng.uniform(0, 2 * np.pi)) + p.direction * travel  # true geometric position
+            te = _periodic(resp.te[r], np.mod(q, 2 * np.pi))
+            th_in = ratio * (q - delta0)
+            th_out = q + te + offset0 - delta0 + rng.normal(0, realism.output_noise_arcsec * ARCSEC, len(t))
+            th_in = np.round(th_in / q_in) * q_in
+            th_out = np.round(th_out / q_out) * q_out
+            torque = p.load_Nm * (1 + rng.normal(0, realism.torque_noise_rel, len(t)))
+            bench_runs.append(BenchRun(meta["file"], "te", t, th_in, th_out, torque, direction=meta["direction"],
+                                       load_Nm=p.load_Nm, speed_out_rpm=speed, temperature_C=25.0))
+        else:
+            path = np.asarray(p.torque_path_Nm)
+            s_model = np.arange(len(path), dtype=float)
+            s = np.linspace(0, len(path) - 1, realism.hysteresis_samples)
+            torque_true = np.interp(s, s_model, path)
+            theta = np.interp(s, s_model, resp.theta[r])
+            c_h = float(rng.uniform(-600, 600)) * ARCSEC
+            th_out = theta + c_h + rng.normal(0, realism.output_noise_arcsec * ARCSEC, len(s))
+            th_out = np.round(th_out / q_out) * q_out
+            torque = torque_true + rng.normal(0, realism.torque_noise_rel * p.torque_max_Nm, len(s))
+            t = s * 0.05
+            bench_runs.append(BenchRun(meta["file"], "hysteresis", t, np.empty(0), th_out, torque,
+                                       torque_max_Nm=p.torque_max_Nm, temperature_C=25.0))
+    write_bench(folder, BenchDataset(spec, reducer_name, tuple(bench_runs)))
+    doc = {"effects": [{"name": e.name, "params": {pp.name: float(v) for pp, v in zip(e.params, x)},
+                        "magnitude": e.magnitude(x)} for e, x in truth],
+           "origin_rad": delta0, "offset_arcsec": offset0 / ARCSEC,
+           "generator": dc.asdict(gen), "realism": dc.asdict(realism)}
+    Path(truth_path).parent.mkdir(parents=True, exist_ok=True)
+    Path(truth_path).write_text(json.dumps(doc, indent=2), encoding="utf-8")
+    return doc
+
+
+def score_case(truth: dict, diag) -> dict:
+    """Score one blind diagnosis against its truth (see the module docstring)."""
+    hidden = [e["name"] for e in truth["effects"]]
+    ranked = [c for c in diag.candidates]
+    chosen = diag.chosen
+    row = {"hidden": hidden, "control": not hidden,
+           "chosen": chosen.name if chosen else None,
+           "ranked": [c.name for c in ranked[:3]],
+           "gap_shrink_pct": float(chosen.gap_shrink_pct) if chosen else 0.0,
+           "verdict": diag.verdict, "wall_s": diag.wall_s, "model_runs": diag.model_runs}
+    if not hidden:
+        row["correct"] = chosen is None
+        return row
+    dom = hidden[0]
+    row["top1"] = bool(chosen and dom in [e.name for e in chosen.effects])
+    row["top2"] = any(dom in [e.name for e in c.effects] for c in ranked[:2])
+    if row["top1"]:
+        i = [e.name for e in chosen.effects].index(dom)
+        fitted = chosen.magnitude[i]
+        true = truth["effects"][0]["magnitude"]
+        row["magnitude_fitted"], row["magnitude_true"] = fitted, true
+        row["magnitude_ok"] = abs(fitted - true) <= 0.25 * abs(true)
+    return row
+
+
+def _generate_job(args):
+    folder, truth_path, spec, truth, seed, realism, gen, name = args
+    from rvflex.diagnose.replay import EvaluationFailed
+
+    try:
+        return generate_case(folder, truth_path, spec, truth, np.random.default_rng(seed), realism, gen, name), ""
+    except EvaluationFailed as err:
+        return None, str(err)
+
+
+def selfcheck(out_dir: str | Path, settings: SelfCheckSettings = SelfCheckSettings(), *, progress=None,
+              cache_dir: str | Path | None = None, log=print) -> dict:
+    """Generate ``settings.cases`` datasets under ``out_dir``, diagnose each blind, score them.
+
+    Returns the JSON document (keys ``cases``, ``top1_rate``, ``top2_rate``,
+    ``magnitude_within_25pct_rate``, ``median_gap_shrink_pct``, ``control_correct_rate``,
+    ``wall_s``, and ``per_case``).
+    """
+    from rvflex import catalog
+    from rvflex.diagnose.fit import diagnose
+
+    t0 = time.perf_counter()
+    out = Path(out_dir)
+    spec = catalog.load(settings.reducer)
+    effects, _ = available_effects(settings.effects)
+    hideable = tuple(e for e in effects if settings.draw_fidelity_effects or e.kind != "fidelity")
+    rng = np.random.default_rng(settings.seed)
+    cache = Path(cache_dir) if cache_dir else out / "cache"
+    rows = []
+    for k in range(settings.cases):
+        control = settings.control_every > 0 and k % settings.control_every == settings.control_every - 1
+        n_eff = 0 if control else (2 if rng.uniform() < settings.two_effect_share else 1)
+        case_seed = int(rng.integers(2**31))
+        folder = out / "datasets" / f"case_{k:02d}"
+        truth_path = out / "truth" / f"case_{k:02d}.json"
+        truth_doc = None
+        for attempt in range(3):  # a draw the generator model cannot solve is redrawn
+            truth = draw_truth(np.random.default_rng(case_seed + attempt), hideable, n_eff) if n_eff else []
+            truth_doc, msg = _generate_job((folder, truth_path, spec, truth, case_seed, settings.realism,
+                                            settings.generator, settings.reducer))
+            if truth_doc is not None:
+                break
+            log(f"case {k}: generator failed ({msg[:120]}); redrawing")
+        if truth_doc is None:
+            rows.append({"case": k, "error": "generator did not converge"})
+            continue
+        diag = diagnose(read_bench(folder), settings=settings.diagnosis, effects=settings.effects, cache_dir=cache)
+        truth_doc = json.loads(truth_path.read_text(encoding="utf-8"))  # scored only after the diagnosis
+        row = {"case": k, **score_case(truth_doc, diag)}
+        rows.append(row)
+        log(f"case {k:2d}: hidden {row['hidden'] or 'none'} → {row['chosen'] or 'no effect'} "
+            f"(ranked {', '.join(row['ranked'][:2])}) shrink {row['gap_shrink_pct']:.0f} % "
+            f"[{diag.wall_s:.0f} s, {diag.model_runs} model runs]")
+        if progress:
+            progress(k + 1, settings.cases)
+    eff = [r for r in rows if not r.get("control") and "error" not in r]
+    ctl = [r for r in rows if r.get("control")]
+    hits = [r for r in eff if r.get("top1")]
+    doc = {
+        "cases": len(rows),
+        "top1_rate": _rate([r["top1"] for r in eff]),
+        "top2_rate": _rate([r["top2"] for r in eff]),
+        "magnitude_within_25pct_rate": _rate([r["magnitude_ok"] for r in hits]),
+        "median_gap_shrink_pct": float(np.median([r["gap_shrink_pct"] for r in eff])) if eff else None,
+        "control_correct_rate": _rate([r["correct"] for r in ctl]),
+        "wall_s": time.perf_counter() - t0,
+        "effect_cases": len(eff), "control_cases": len(ctl),
+        "per_case": rows,
+    }
+    return doc
+
+
+def _rate(flags: list) -> float | None:
+    return float(np.mean(flags)) if flags else None
