@@ -12,7 +12,7 @@ from rvflex.contact.cycloid_pin import ContactLaw, CycloidPinContact, add_cycloi
 from rvflex.parts import bearings
 from rvflex.spec import ErrorSpec, ReducerSpec
 
-__all__ = ["DiscHandles", "FLANK_GRID_PER_TOOTH", "build", "bore_positions", "flank_mode_table"]
+__all__ = ["DiscHandles", "FLANK_GRID_PER_TOOTH", "build", "bore_positions", "contact_mode_table"]
 
 FLANK_GRID_PER_TOOTH = 64  # profile-parameter samples of the modal flank table per tooth
 
@@ -28,54 +28,23 @@ class DiscHandles:
     modal_nodes: tuple[int, ...] = ()  # flexible discs: the NodeGenericODE2 of each disc's modes
 
 
-def flank_mode_table(positions_m: np.ndarray, modes: np.ndarray, profile, offset_rad: float,
-                     grid_per_tooth: int = FLANK_GRID_PER_TOOTH) -> np.ndarray:
-    """In-plane modal displacement of the flank, averaged through the thickness, on the
-    uniform profile-parameter grid the contact element reads (profile frame).
+def contact_mode_table(flank, offset_rad: float, grid_per_tooth: int, teeth: int) -> np.ndarray:
+    """The FE disc's flank mode rows (body frame, :class:`rvflex.fe.reduce.FlankRows`) on the
+    contact element's uniform grid in a disc's profile frame, turned by ``offset_rad`` (a
+    whole number of teeth) against the FE frame.
 
-    Parameters
-    ----------
-    positions_m : ndarray (n_nodes, 3)
-        FE node reference positions in the disc body frame (m).
-    modes : ndarray (3·n_nodes, m)
-        Mode basis, node-major (x, y, z per node).
-    profile : CycloidProfile
-        The disc's exact profile (profile frame = body frame turned by ``offset_rad``).
-    offset_rad : float
-        Profile-frame angle relative to the body frame (rad).
-
-    Returns
-    -------
-    ndarray (n_grid, 2, m)
-        Hat-function (half-width 1.5× the largest node gap along t) average of the flank
-        nodes' mode displacements, turned into the profile frame.
+    A tooth turn shifts the profile parameter by the same angle (p(t + 2π/z_c) =
+    e^{2πi/z_c}·p(t) for z_b = z_c + 1), so profile parameter t sits at t + offset on the FE
+    disc; the rows are turned back by −offset into the profile frame. Returns (n_grid, 2, m).
     """
+    n_grid = teeth * grid_per_tooth
+    t = 2 * math.pi * np.arange(n_grid) / n_grid
+    rows = flank.rows_at(t + offset_rad)
     c, s_ = math.cos(offset_rad), math.sin(offset_rad)
-    xy = positions_m[:, :2] @ np.array([[c, -s_], [s_, c]])  # body → profile frame: R(−offset)·x
-    pr = profile.gap(np.ascontiguousarray(xy), np.zeros(len(xy)))
-    spacing = 2 * math.pi / (profile.stage.disc_teeth * grid_per_tooth)
-    on = np.nonzero(np.abs(pr.gap_m) < 2e-6)[0]  # FE nodes on the flank (the spline is within 1 µm)
-    if len(on) < 4 * profile.stage.disc_teeth:
-        raise ValueError(f"flank mode table: only {len(on)} FE nodes lie on the flank; mesh too coarse or frames differ")
-    t_on = np.mod(pr.t[on], 2 * math.pi)
-    order = np.argsort(t_on)
-    t_on, on = t_on[order], on[order]
-    gaps = np.diff(np.concatenate([t_on, t_on[:1] + 2 * math.pi]))
-    width = max(1.5 * gaps.max(), spacing)  # every grid point sees at least two flank nodes
-    n_grid = profile.stage.disc_teeth * grid_per_tooth
-    tg = 2 * math.pi * np.arange(n_grid) / n_grid
-    ux = modes[3 * on] * c + modes[3 * on + 1] * s_  # rotate displacements into the profile frame
-    uy = -modes[3 * on] * s_ + modes[3 * on + 1] * c
-    out = np.empty((n_grid, 2, modes.shape[1]))
-    for j, t in enumerate(tg):
-        dt = np.abs((t_on - t + math.pi) % (2 * math.pi) - math.pi)
-        w = np.clip(1.0 - dt / width, 0.0, None)
-        sw = w.sum()
-        if sw <= 0:
-            raise ValueError(f"flank mode table: no flank node within {width:.2e} rad of t = {t:.4f}")
-        out[j, 0] = w @ ux / sw
-        out[j, 1] = w @ uy / sw
-    return out
+    out = np.empty_like(rows)
+    out[:, 0] = c * rows[:, 0] + s_ * rows[:, 1]
+    out[:, 1] = -s_ * rows[:, 0] + c * rows[:, 1]
+    return np.ascontiguousarray(out)
 
 
 def bore_positions(spec: ReducerSpec, errors: ErrorSpec, disc: int) -> np.ndarray:
@@ -93,10 +62,11 @@ def build(mbs, spec: ReducerSpec, errors: ErrorSpec, cranks, law: ContactLaw, ec
     """Add the discs at their reference poses (output angle 0): disc d's centre is where its
     eccentrics put it, crank axis + eccentric − bore (averaged over the cranks).
 
-    ``fidelity="flexible"`` needs ``reduced``, the Craig–Bampton disc (``reduced.fem``, an
-    Exudyn FEMinterface with its modes; ``reduced.interface_nodes``, the FE nodes of each
-    crank bore, bore 0 the floating-frame reference) and ``ground_coordinate``, a ground
-    coordinate marker that holds each disc's out-of-plane coordinates (z, ψx, ψy).
+    ``fidelity="flexible"`` needs ``reduced``, the Craig–Bampton disc
+    (:class:`rvflex.fe.reduce.ReducedPart`: FEMinterface with its modes, the bore
+    interfaces, bore 0 the floating-frame reference, and the flank mode rows) and
+    ``ground_coordinate``, a ground coordinate marker that holds each disc's out-of-plane
+    coordinates (z, ψx, ψy).
     """
     if fidelity == "flexible":
         return _build_flexible(mbs, spec, errors, cranks, law, eccentric_offsets, axes, reduced, ground_coordinate)
@@ -132,6 +102,23 @@ def build(mbs, spec: ReducerSpec, errors: ErrorSpec, cranks, law: ContactLaw, ec
     return DiscHandles(tuple(nodes), tuple(bodies), tuple(contacts), tuple(ecc_bearings))
 
 
+def _marker_nodes(positions: np.ndarray, ring: np.ndarray) -> np.ndarray:
+    """Four nodes of an RBE2 bore ring that carry its rigid motion exactly: the ring moves
+    rigidly in every Craig–Bampton mode, so four well-spread nodes (two per face, a quarter
+    turn apart) give the same marker as all of them at a fraction of the cost — the cost of
+    MarkerSuperElementRigid grows with its node count and dominates the Jacobian."""
+    p = positions[ring]
+    c = p.mean(axis=0)
+    ang = np.arctan2(p[:, 1] - c[1], p[:, 0] - c[0])
+    picks = []
+    for z_side, target in ((p[:, 2].min(), 0.0), (p[:, 2].min(), 0.5 * math.pi), (p[:, 2].max(), math.pi),
+                           (p[:, 2].max(), 1.5 * math.pi)):
+        cost = np.abs(np.angle(np.exp(1j * (ang - target)))) + 1e3 * np.abs(p[:, 2] - z_side)
+        picks.append(int(ring[np.argmin(cost)]))
+    picks = list(dict.fromkeys(picks))
+    return np.asarray(picks if len(picks) >= 3 else ring, dtype=int)
+
+
 def _half_turn_symmetric(spec: ReducerSpec) -> bool:
     """z_c odd, and cranks and pillars map onto themselves under a half turn."""
     def symmetric(angles) -> bool:
@@ -148,18 +135,20 @@ def _build_flexible(mbs, spec, errors, cranks, law, eccentric_offsets, axes, red
     """FFRF reduced-order discs (ObjectFFRFreducedOrder on a NodeRigidBodyRxyz held in the
     plane): bearings on MarkerSuperElementRigid at the bores, the contact with the modal flank
     displacement. Global deformation is in the modes; the local Hertz approach stays in the
-    contact law (the flank table averages nodes over a tooth-fraction window, so the
+    contact law (the flank rows average the mesh over a patch of a few mm of flank, so the
     mesh's own local contact deformation is not sampled)."""
-    import exudyn as exu
-    from exudyn.FEM import ObjectFFRFreducedOrderInterface
     from exudyn.itemInterface import CoordinateConstraint, MarkerNodeCoordinate, MarkerSuperElementRigid
+
+    from rvflex.fe.ffrf import ffrf_interface
 
     if reduced is None or int(ground_coordinate) < 0:
         raise ValueError("fidelity = 'flexible': needs the reduced disc and a ground coordinate marker")
     cy = spec.cycloid
-    fem = reduced.fem
-    positions = fem.GetNodePositionsAsArray()
-    modes = np.asarray(fem.modeBasis["matrix"] if isinstance(fem.modeBasis, dict) else fem.modeBasis)
+    positions = reduced.node_positions_m
+    if reduced.flank is None or reduced.flank.rows.shape[0] % cy.disc_teeth:
+        raise ValueError("fidelity = 'flexible': the reduced disc has no flank mode rows on a whole-tooth grid")
+    grid_per_tooth = reduced.flank.rows.shape[0] // cy.disc_teeth
+    ffrf = ffrf_interface(reduced)  # one interface (cached on disk) serves every disc
     nodes, bodies, contacts, ecc_bearings, modal_nodes = [], [], [], [], []
     for d in range(cy.disc_count):
         if errors.disc_bore_distance_error_m and errors.disc_bore_distance_error_m[d]:
@@ -174,7 +163,6 @@ def _build_flexible(mbs, spec, errors, cranks, law, eccentric_offsets, axes, red
             raise ValueError(f"fidelity = 'flexible': disc {d} (phase {cy.disc_phase_rad[d]:.4f} rad) needs its own "
                              "FE geometry; only a layout symmetric under a half turn with odd z_c reuses disc 0")
         rot = np.array([[math.cos(beta), -math.sin(beta), 0.0], [math.sin(beta), math.cos(beta), 0.0], [0, 0, 1.0]])
-        ffrf = ObjectFFRFreducedOrderInterface(fem, rigidBodyNodeType=exu.NodeType.RotationRxyz)
         h = ffrf.AddObjectFFRFreducedOrder(mbs, positionRef=[centre[0], centre[1], 0.0], rotationMatrixRef=rot)
         node, modal, body = int(h["nRigidBody"]), int(h["nGenericODE2"]), int(h["oFFRFreducedOrder"])
         for coord in (2, 3, 4):  # planar: z, ψx, ψy held
@@ -185,10 +173,9 @@ def _build_flexible(mbs, spec, errors, cranks, law, eccentric_offsets, axes, red
             idx = k * cy.disc_count + d
             extra = errors.eccentric_bearing_clearance_m[idx] if errors.eccentric_bearing_clearance_m else 0.0
             # the FE bore that sits at bore k once the FE disc is turned by β
-            fe_bore = int(np.argmin([np.hypot(*(rot[:2, :2] @ (np.asarray(positions[np.asarray(b, int)], float)
-                                                                 .mean(axis=0)[:2]) - bores[k]))
-                                     for b in reduced.interface_nodes]))
-            bnodes = np.asarray(reduced.interface_nodes[fe_bore], dtype=int)
+            fe_bore = int(np.argmin([np.hypot(*(rot[:2, :2] @ itf.centre_m[:2] - bores[k]))
+                                     for itf in reduced.interfaces]))
+            bnodes = _marker_nodes(positions, np.asarray(reduced.interfaces[fe_bore].nodes, dtype=int))
             w = np.full(len(bnodes), 1.0 / len(bnodes))
             ref = w @ positions[bnodes]
             target = rot[:2, :2].T @ bores[k]  # bore centre in the FE frame
@@ -202,7 +189,7 @@ def _build_flexible(mbs, spec, errors, cranks, law, eccentric_offsets, axes, red
         profile = build_profile(cy, errors, d)
         # profile frame against the FE (node) frame: −φ_d/z_c − β, a whole number of teeth for the half turn
         offset = -cy.disc_phase_rad[d] / cy.disc_teeth - beta
-        phi = flank_mode_table(positions, modes, profile, offset)
+        phi = contact_mode_table(reduced.flank, offset, grid_per_tooth, cy.disc_teeth)
         contacts.append(add_cycloid_pin_contact(mbs, node, cy, law, disc=d, errors=errors, profile=profile,
                                                 initial_interference_m=50e-6, modal_node=modal, phi=phi,
                                                 offset_rad=offset))
