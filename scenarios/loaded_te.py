@@ -26,7 +26,8 @@ __all__ = ["LoadedTE", "perfect_spec", "run_loaded_te", "seed001_errors", "write
 @dataclass(frozen=True)
 class LoadedTE:
     """Scenario settings: reducer, errors, output load (N·m), output revolutions, positions per
-    output revolution, direction (+1 forward, −1 reverse)."""
+    output revolution, direction (+1 forward, −1 reverse), mode, output speed (rpm), time
+    step (s) and fidelity ("rigid" or "flexible": FE-reduced cycloid discs)."""
 
     spec: ReducerSpec
     errors: ErrorSpec
@@ -37,8 +38,11 @@ class LoadedTE:
     mode: str = "quasi-static"
     speed_out_rpm: float = 15.0
     step_s: float = 1e-4
+    fidelity: str = "rigid"
 
     def __post_init__(self) -> None:
+        if self.fidelity not in ("rigid", "flexible"):
+            raise SpecError("--fidelity", self.fidelity, "must be 'rigid' or 'flexible'")
         self.spec.check_torque("--load", self.load_Nm, allow_zero=True)
         if not self.revolutions > 0:
             raise SpecError("--revs", self.revolutions, "must be positive (output revolutions)")
@@ -69,7 +73,7 @@ def perfect_spec(spec: ReducerSpec) -> ReducerSpec:
 def run_loaded_te(scenario: LoadedTE, progress=None) -> tuple[QuasiStaticResult, TEMetrics]:
     """Loaded TE over whole output revolutions, quasi-static or dynamic (the constant-speed part
     after the ramp, resampled at ``positions_per_rev``)."""
-    model = build_reducer(scenario.spec, scenario.errors)
+    model = build_reducer(scenario.spec, scenario.errors, scenario.fidelity)
     if scenario.mode == "dynamic":
         ramp = 0.2
         dyn = dynamic(model, scenario.speed_out_rpm, scenario.revolutions, scenario.load_Nm, step_s=scenario.step_s,

@@ -24,22 +24,26 @@ __all__ = ["LostMotion", "run_lost_motion", "write_lost_motion_outputs"]
 
 @dataclass(frozen=True)
 class LostMotion:
-    """Scenario settings: reducer, errors, torque amplitude (default rated, N·m), torque steps."""
+    """Scenario settings: reducer, errors, torque amplitude (default rated, N·m), torque steps,
+    fidelity ("rigid" or "flexible": FE-reduced discs)."""
 
     spec: ReducerSpec
     errors: ErrorSpec
     torque_Nm: float
     steps: int = 200
+    fidelity: str = "rigid"
 
     def __post_init__(self) -> None:
         self.spec.check_torque("--torque", self.torque_Nm)
+        if self.fidelity not in ("rigid", "flexible"):
+            raise SpecError("--fidelity", self.fidelity, "must be 'rigid' or 'flexible'")
         if not self.steps >= 40:
             raise SpecError("--steps", self.steps, "must be at least 40 torque steps")
 
 
 def run_lost_motion(scenario: LostMotion, progress=None) -> tuple[TorqueStepResult, HysteresisMetrics]:
     """Run the torque cycle and evaluate the catalogue metrics."""
-    model = build_reducer(scenario.spec, scenario.errors)
+    model = build_reducer(scenario.spec, scenario.errors, scenario.fidelity)
     res = torque_stepping(model, hysteresis_cycle(scenario.torque_Nm, scenario.steps), progress=progress)
     return res, hysteresis_metrics(res.torque_Nm, res.theta_out, scenario.torque_Nm)
 

@@ -29,23 +29,27 @@ DEFAULT_LOAD_FRACTION = 0.03
 
 @dataclass(frozen=True)
 class ReversalBacklash:
-    """Reducer, errors, resisting load (N·m), input window (output degrees) and positions."""
+    """Reducer, errors, resisting load (N·m), input window (output degrees), positions and
+    fidelity ("rigid" or "flexible")."""
 
     spec: ReducerSpec
     errors: ErrorSpec
     load_Nm: float
     window_out_deg: float = 3.0
     positions: int = 60
+    fidelity: str = "rigid"
 
     def __post_init__(self) -> None:
         self.spec.check_torque("--load", self.load_Nm)
+        if self.fidelity not in ("rigid", "flexible"):
+            raise SpecError("--fidelity", self.fidelity, "must be 'rigid' or 'flexible'")
         if not self.positions >= 8:
             raise SpecError("--positions", self.positions, "must be at least 8")
 
 
 def run_reversal_backlash(sc: ReversalBacklash) -> tuple[float, QuasiStaticResult, QuasiStaticResult]:
     """Reversal backlash (arcmin) and the forward and reverse runs."""
-    model = build_reducer(sc.spec, sc.errors)
+    model = build_reducer(sc.spec, sc.errors, sc.fidelity)
     span = math.radians(sc.window_out_deg) * model.ratio
     grid = np.linspace(0.0, span, sc.positions)
     fwd = quasi_static(model, grid, sc.load_Nm)
