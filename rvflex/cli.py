@@ -115,7 +115,7 @@ def _cmd_te(args: argparse.Namespace) -> int:
     scenario = LoadedTE(spec, errors, spec.rated_torque_Nm if args.load is None else args.load,
                         args.revs, args.positions, 1 if args.direction == "forward" else -1, args.mode,
                         spec.rated_output_speed_rpm if args.speed_out is None else args.speed_out,
-                        fidelity=args.fidelity)
+                        fidelity=args.fidelity, fe=_fe(args))
     (res, met), wall = _with_progress(int(round(args.positions * args.revs)), "loaded TE",
                                       lambda progress: run_loaded_te(scenario, progress=progress))
     doc = {
@@ -136,7 +136,7 @@ def _cmd_lost_motion(args: argparse.Namespace) -> int:
 
     spec, errors = _model_inputs(args)
     sc = LostMotion(spec, errors, spec.rated_torque_Nm if args.torque is None else args.torque,
-                    args.steps, args.fidelity)
+                    args.steps, args.fidelity, _fe(args))
     (res, met), wall = _with_progress(len(hysteresis_cycle(sc.torque_Nm, sc.steps)), "hysteresis",
                                       lambda progress: run_lost_motion(sc, progress=progress))
     doc = {"lost_motion_arcmin": met.lost_motion_arcmin, "hysteresis_loss_arcmin": met.hysteresis_loss_arcmin,
@@ -156,7 +156,7 @@ def _cmd_backlash(args: argparse.Namespace) -> int:
 
     spec, errors = _model_inputs(args)
     sc = ReversalBacklash(spec, errors, DEFAULT_LOAD_FRACTION * spec.rated_torque_Nm if args.load is None else args.load,
-                          fidelity=args.fidelity)
+                          fidelity=args.fidelity, fe=_fe(args))
     t0 = time.perf_counter()
     lost, fwd, rev = run_reversal_backlash(sc)
     doc = {"reversal_backlash_arcmin": lost, "wall_s": time.perf_counter() - t0}
@@ -280,6 +280,21 @@ def _model_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--fidelity", default="rigid", choices=("rigid", "flexible"),
                    help="rigid bodies, or FE-reduced (Craig–Bampton, FFRF) cycloid discs; the reduction is "
                         "cached under $RVFLEX_CACHE_DIR or ~/.cache/rvflex (default rigid)")
+    fe = p.add_argument_group("flexible discs (FE reduction settings; defaults: rvflex reduce's)")
+    fe.add_argument("--fe-maxh", type=float, dest="fe_maxh_m", help="mesh size, m")
+    fe.add_argument("--fe-modes", type=int, dest="fe_n_modes", help="fixed-interface eigenmodes")
+    fe.add_argument("--fe-attach", type=int, dest="fe_attach_per_tooth", help="flank attachment modes per tooth")
+    fe.add_argument("--fe-order", type=int, dest="fe_mesh_order", choices=(1, 2), help="tet order")
+
+
+def _fe(args: argparse.Namespace) -> tuple[tuple[str, float], ...]:
+    """The FE reduction settings given on the command line (``--fe-*``)."""
+    options = {"fe_maxh_m": "--fe-maxh", "fe_n_modes": "--fe-modes", "fe_attach_per_tooth": "--fe-attach",
+               "fe_mesh_order": "--fe-order"}
+    given = [k for k in options if getattr(args, k) is not None]
+    if given and args.fidelity != "flexible":
+        raise SpecError(options[given[0]], getattr(args, given[0]), "applies to --fidelity flexible only")
+    return tuple((k[3:], getattr(args, k)) for k in given)
 
 
 def _output_arguments(p: argparse.ArgumentParser, files: str) -> None:

@@ -110,8 +110,13 @@ class ReducerModel:
 
 
 def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None, fidelity: str = "rigid", *,
-                  law: ContactLaw | None = None, reduced_disc=None) -> ReducerModel:
+                  law: ContactLaw | None = None, reduced_disc=None, fe: dict | None = None) -> ReducerModel:
     """Assemble the reducer of ``spec`` with ``errors`` at ``fidelity``.
+
+    ``fidelity="rigid"``: planar rigid bodies. ``"flexible"``: the cycloid discs are
+    Craig–Bampton-reduced FFRF bodies (``reduced_disc``, a :class:`rvflex.fe.reduce.ReducedPart`,
+    or reduced here from ``spec`` with the reduction settings ``fe``, e.g.
+    ``{"maxh_m": 6e-3, "n_modes": 12}``; cached on disk); the other parts stay rigid.
 
     Raises
     ------
@@ -140,7 +145,7 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None, fidelity: 
     if fidelity == "flexible" and reduced_disc is None:
         from rvflex.fe.reduce import reduce_part
 
-        reduced_disc = reduce_part(spec, "disc")
+        reduced_disc = reduce_part(spec, "disc", **(fe or {}))
     discs = cycloid_disc.build(mbs, spec, errors, cranks, law, ecc, axes, fidelity=fidelity, reduced=reduced_disc,
                                ground_coordinate=ground_coord)
     mbs.Assemble()

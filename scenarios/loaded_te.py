@@ -39,6 +39,7 @@ class LoadedTE:
     speed_out_rpm: float = 15.0
     step_s: float = 1e-4
     fidelity: str = "rigid"
+    fe: tuple[tuple[str, float], ...] = ()  # reduction settings of the flexible discs (rvflex.fe.reduce.PartSettings)
 
     def __post_init__(self) -> None:
         if self.fidelity not in ("rigid", "flexible"):
@@ -73,7 +74,7 @@ def perfect_spec(spec: ReducerSpec) -> ReducerSpec:
 def run_loaded_te(scenario: LoadedTE, progress=None) -> tuple[QuasiStaticResult, TEMetrics]:
     """Loaded TE over whole output revolutions, quasi-static or dynamic (the constant-speed part
     after the ramp, resampled at ``positions_per_rev``)."""
-    model = build_reducer(scenario.spec, scenario.errors, scenario.fidelity)
+    model = build_reducer(scenario.spec, scenario.errors, scenario.fidelity, fe=dict(scenario.fe))
     if scenario.mode == "dynamic":
         ramp = 0.2
         dyn = dynamic(model, scenario.speed_out_rpm, scenario.revolutions, scenario.load_Nm, step_s=scenario.step_s,

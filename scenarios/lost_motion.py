@@ -32,6 +32,7 @@ class LostMotion:
     torque_Nm: float
     steps: int = 200
     fidelity: str = "rigid"
+    fe: tuple[tuple[str, float], ...] = ()  # reduction settings of the flexible discs (rvflex.fe.reduce.PartSettings)
 
     def __post_init__(self) -> None:
         self.spec.check_torque("--torque", self.torque_Nm)
@@ -43,7 +44,7 @@ class LostMotion:
 
 def run_lost_motion(scenario: LostMotion, progress=None) -> tuple[TorqueStepResult, HysteresisMetrics]:
     """Run the torque cycle and evaluate the catalogue metrics."""
-    model = build_reducer(scenario.spec, scenario.errors, scenario.fidelity)
+    model = build_reducer(scenario.spec, scenario.errors, scenario.fidelity, fe=dict(scenario.fe))
     res = torque_stepping(model, hysteresis_cycle(scenario.torque_Nm, scenario.steps), progress=progress)
     return res, hysteresis_metrics(res.torque_Nm, res.theta_out, scenario.torque_Nm)
 

@@ -38,6 +38,7 @@ class ReversalBacklash:
     window_out_deg: float = 3.0
     positions: int = 60
     fidelity: str = "rigid"
+    fe: tuple[tuple[str, float], ...] = ()  # reduction settings of the flexible discs (rvflex.fe.reduce.PartSettings)
 
     def __post_init__(self) -> None:
         self.spec.check_torque("--load", self.load_Nm)
@@ -49,7 +50,7 @@ class ReversalBacklash:
 
 def run_reversal_backlash(sc: ReversalBacklash) -> tuple[float, QuasiStaticResult, QuasiStaticResult]:
     """Reversal backlash (arcmin) and the forward and reverse runs."""
-    model = build_reducer(sc.spec, sc.errors, sc.fidelity)
+    model = build_reducer(sc.spec, sc.errors, sc.fidelity, fe=dict(sc.fe))
     span = math.radians(sc.window_out_deg) * model.ratio
     grid = np.linspace(0.0, span, sc.positions)
     fwd = quasi_static(model, grid, sc.load_Nm)

@@ -85,3 +85,22 @@ def test_the_ffrf_cache_rebuilds_a_corrupt_file(setup, tmp_path):
     again = ffrf_interface(reduced, cache_dir=tmp_path)
     assert np.array_equal(again.stiffnessMatrixReduced, good.stiffnessMatrixReduced)
     assert np.array_equal(again.mPsiTildePsi, good.mPsiTildePsi)
+
+
+def test_flexibility_effect_scenario_writes_its_table(setup, tmp_path):
+    """Smoke run of the scenario at coarse settings: the elastic share of the wind-up at
+    rated torque is positive and below one half (the pin contacts, bearings and first stage
+    stay the larger compliance), and the files are written."""
+    from rvflex.scenarios.flexibility_effect import (FlexibilityEffect, run_flexibility_effect,
+                                                     write_flexibility_outputs)
+    from rvflex.spec import ErrorSpec
+
+    spec, _, _, _ = setup
+    sc = FlexibilityEffect(spec, ErrorSpec(), load_fractions=(0.0, 1.0), positions_per_rev=16, steps=40,
+                           fe=tuple(COARSE.items()))
+    rows = run_flexibility_effect(sc, progress=lambda msg: None)
+    rated = next(r for r in rows if r["fidelity"] == "flexible" and r["load_fraction"] == 1.0)
+    assert 0.0 < rated["elastic_share_windup"] < 0.5
+    assert 0.0 < rated["elastic_share_compliance"] < 0.5
+    paths = write_flexibility_outputs(tmp_path, rows, sc)
+    assert all(p.stat().st_size > 0 for p in paths)
