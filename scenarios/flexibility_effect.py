@@ -17,7 +17,6 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-
 from rvflex.scenarios.loaded_te import LoadedTE, run_loaded_te
 from rvflex.scenarios.lost_motion import LostMotion, run_lost_motion
 from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
