@@ -58,7 +58,7 @@ __all__ = [
 ]
 
 CODE_VERSION = "fe-1"  # bump when the reduction's numbers change for the same inputs (part of the cache key)
-BYTES_PER_TET = {1: 6_000, 2: 30_000}  # measured peak RSS per tet of mesh + import + HCB (docs/fe.md)
+BYTES_PER_TET = {1: 10_000, 2: 60_000}  # measured peak RSS per tet of mesh + import + HCB (docs/fe.md)
 MAX_MODE_FRACTION = 0.05  # at most one internal mode per 20 free DOFs: beyond, the mesh cannot resolve them
 ROWS_PER_TOOTH = 64
 STEPS = ("mesh", "assemble", "factorise", "static modes", "eigenmodes", "attachment modes", "Ritz", "static check")  # grid of the flank mode rows (patch-smoothed, so linear interpolation is accurate)
@@ -83,6 +83,7 @@ class PartSettings:
     patch_half_width_m: float = 2.5e-3
     attach_per_tooth: int = 0
     curvature_safety: float = 2.0
+    patch_shape: str = "hat"
 
     def __post_init__(self) -> None:
         if not (isinstance(self.maxh_m, (int, float)) and 0.3e-3 <= self.maxh_m <= 0.05):
@@ -93,6 +94,8 @@ class PartSettings:
             raise SpecError("mesh_order", self.mesh_order, "must be 1 (linear tets) or 2 (quadratic tets)")
         if not 0.2e-3 <= self.patch_half_width_m <= 20e-3:
             raise SpecError("patch_half_width_m", self.patch_half_width_m, "expected metres, 0.2 mm to 20 mm")
+        if self.patch_shape not in ("hat", "cos2"):
+            raise SpecError("patch_shape", self.patch_shape, "must be 'hat' or 'cos2'")
         if not 0.5 <= self.curvature_safety <= 5.0:
             raise SpecError("curvature_safety", self.curvature_safety, "netgen's curvaturesafety, 0.5 to 5 (2 is its default)")
         if not (isinstance(self.attach_per_tooth, int) and 0 <= self.attach_per_tooth <= 16):
@@ -269,12 +272,12 @@ def _available_bytes() -> int:
     return 8 << 30
 
 
-def estimate_tets(volume_m3: float, maxh_m: float, part: str) -> int:
-    """Tet count estimate: 3·V/maxh³ (fitted to netgen's graded meshes, docs/fe.md) plus the
-    floor that the curvature of the tooth profile forces on the disc (≈ 23 000 tets on an
-    RV-40E disc, whatever maxh)."""
-    floor = 25_000 if part == "disc" else 2_000
-    return int(3.0 * volume_m3 / maxh_m**3 + floor)
+def estimate_tets(volume_m3: float, maxh_m: float, part: str, curvature_safety: float = 2.0) -> int:
+    """Tet count estimate: 4·V/maxh³ (fitted to netgen's graded meshes, docs/fe.md) plus the
+    floor that the curvature of the tooth profile forces on the disc (RV-40E: ≈ 6 000 tets
+    at curvaturesafety 1, 23 000 at 2, whatever maxh)."""
+    floor = 6_000 * curvature_safety**2 if part == "disc" else 3_000
+    return int(4.0 * volume_m3 / maxh_m**3 + floor)
 
 
 def estimate_memory_bytes(n_tets: int, settings: PartSettings, n_extra_modes: int = 0) -> int:
@@ -312,7 +315,7 @@ class _Flank:
     def s_of_t(self, t: np.ndarray) -> np.ndarray:
         return np.interp(np.asarray(t) % (2 * np.pi), self.t_tab, self.s_tab)
 
-    def weights(self, t_centres: np.ndarray, half_width: float) -> sp.csr_matrix:
+    def weights(self, t_centres: np.ndarray, half_width: float, shape: str = "hat") -> sp.csr_matrix:
         """Consistent patch weights (n_centres × n_flank_nodes), each row summing to 1."""
         sc = np.atleast_1d(self.s_of_t(t_centres))
         order = np.argsort(self.s)
@@ -322,7 +325,8 @@ class _Flank:
             for shift in (-self.length, 0.0, self.length):  # periodic in arc length
                 lo, hi = np.searchsorted(s_sorted, [c + shift - half_width, c + shift + half_width])
                 idx = order[lo:hi]
-                h = 1.0 - np.abs(self.s[idx] - c - shift) / half_width
+                x = np.abs(self.s[idx] - c - shift) / half_width
+                h = 1.0 - x if shape == "hat" else np.cos(0.5 * np.pi * x) ** 2
                 rows.append(np.full(idx.size, i))
                 cols.append(idx)
                 vals.append(h)
@@ -543,7 +547,7 @@ def _build(spec: ReducerSpec, part: str, s: PartSettings, key: str, progress=Non
     what = f"{part} (maxh {s.maxh_m * 1e3:g} mm, order {s.mesh_order}, {s.n_modes} modes)"
     geom = part_geometry(spec, part)
     n_att_planned = s.attach_per_tooth * spec.cycloid.disc_teeth if part == "disc" else 0
-    tets_est = estimate_tets(geom.volume_m3, s.maxh_m, part)
+    tets_est = estimate_tets(geom.volume_m3, s.maxh_m, part, s.curvature_safety)
     need = estimate_memory_bytes(tets_est, s, n_att_planned)
     avail = _available_bytes()
     if need > 0.8 * avail:
@@ -608,7 +612,7 @@ def _build(spec: ReducerSpec, part: str, s: PartSettings, key: str, progress=Non
         _progress(progress, "attachment modes")
         if n_att_planned:
             tc = (np.arange(n_att_planned) + 0.5) * 2 * np.pi / n_att_planned
-            W = flank.weights(tc, s.patch_half_width_m)
+            W = flank.weights(tc, s.patch_half_width_m, s.patch_shape)
             nrm = profile.normal(tc)
             F = np.zeros((3 * nn, n_att_planned))
             Wd = W.toarray()
@@ -633,7 +637,7 @@ def _build(spec: ReducerSpec, part: str, s: PartSettings, key: str, progress=Non
     rows = None
     if flank is not None:
         tg = np.arange(spec.cycloid.disc_teeth * ROWS_PER_TOOTH) * 2 * np.pi / (spec.cycloid.disc_teeth * ROWS_PER_TOOTH)
-        W = flank.weights(tg, s.patch_half_width_m)
+        W = flank.weights(tg, s.patch_half_width_m, s.patch_shape)
         Pf = Psi.reshape(nn, 3, -1)[flank.nodes, :2, :]  # (n_flank, 2, modes)
         rows = FlankRows(tg, np.stack([W @ Pf[:, 0, :], W @ Pf[:, 1, :]], axis=1), s.patch_half_width_m)
     _progress(progress, "static check")
@@ -682,7 +686,7 @@ def _galerkin(K, Psi: np.ndarray, F: np.ndarray) -> np.ndarray:
 def _disc_check(spec, profile, flank, s, solver, K, Psi, n_static, T_all, nn) -> StaticCheck:
     """Rated tooth loads, bores held: full K_ii⁻¹f vs reduced internal modes."""
     t, _pts, forces = disc_rated_load_case(spec, profile)
-    W = flank.weights(t, s.patch_half_width_m).toarray()
+    W = flank.weights(t, s.patch_half_width_m, s.patch_shape).toarray()
     F = np.zeros(3 * nn)
     for c in range(2):
         F[3 * flank.nodes + c] = W.T @ forces[:, c]
