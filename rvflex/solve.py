@@ -26,6 +26,7 @@ __all__ = ["DynamicResult", "QuasiStaticResult", "SolveError", "TorqueStepResult
 # to the kinematic output angle (1e6 N·m/rad: 412 N·m turn the output ~85″) holds the
 # floating output while the contacts close, then softens tenfold per step to its working value
 REGULARISER_CONTINUATION_NM_RAD = (1e6, 1e5, 1e4, 1e3, 1e2, 1e1)
+LOAD_CONTINUATION = (0.25, 0.5, 0.75, 1.0)  # of the torque above rated, applied at the first pose
 
 
 class SolveError(RuntimeError):
@@ -138,11 +139,17 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
 
     direction = -1.0 if len(theta_in) > 1 and theta_in[-1] < theta_in[0] else 1.0
     k_work = OUTPUT_REGULARISER_NM_RAD
-    steps = [(theta_in[0], k) for k in REGULARISER_CONTINUATION_NM_RAD] if torque_out_Nm else []
-    steps += [(th, k_work) for th in theta_in]
+    # reach the loaded state by continuation at the first pose: at most rated torque against
+    # a stiff output regulariser softened decade by decade (the backlash closes on the way),
+    # then, above rated torque, the rest of the load in quarters against the engaged unit
+    f0 = min(1.0, model.spec.rated_torque_Nm / torque_out_Nm) if torque_out_Nm else 1.0
+    steps = [(theta_in[0], k, f0, False) for k in REGULARISER_CONTINUATION_NM_RAD] if torque_out_Nm else []
+    if f0 < 1.0:
+        steps += [(theta_in[0], k_work, f0 + (1.0 - f0) * f, False) for f in LOAD_CONTINUATION]
+    steps += [(th, k_work, 1.0, True) for th in theta_in]
     prev_th = theta_in[0]
-    mbs.SetLoadParameter(model.carrier.load, "load", -direction * torque_out_Nm)
-    for th, k_reg in steps:
+    for th, k_reg, frac, record in steps:
+        mbs.SetLoadParameter(model.carrier.load, "load", -direction * frac * torque_out_Nm)
         mbs.SetObjectParameter(model.carrier.regulariser, "stiffness", k_reg)
         try:
             q = _advance(model, ss, q, prev_th, th)
@@ -153,7 +160,7 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
                              f"did not converge even in {2 ** SUBSTEP_LEVELS} sub-steps: {err}; largest coordinate "
                              f"change {np.abs(res + model.reference - guess).max():.3e}", result()) from None
         prev_th = th
-        if k_reg == k_work:
+        if record:
             out[done] = q[car]
             for d, c in enumerate(model.discs.contacts):
                 st = c.pin_state(mbs)
