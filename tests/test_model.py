@@ -38,6 +38,10 @@ def test_windup_is_nearly_proportional_to_load_and_mirrors_in_reverse(rv40e):
     assert full.mean_windup_arcsec < 0 < back.mean_windup_arcsec  # the output lags the motion both ways
     assert full.mean_windup_arcsec / half.mean_windup_arcsec == pytest.approx(2.0, rel=0.1)
     assert back.mean_windup_arcsec == pytest.approx(-full.mean_windup_arcsec, rel=0.01)
+    # above rated torque (150 %: the load is ramped past rated at the first pose) the same
+    # near-linearity holds
+    over = run_loaded_te(LoadedTE(spec, ErrorSpec(), 618.0, revolutions=0.05, positions_per_rev=320))[1]
+    assert over.mean_windup_arcsec / full.mean_windup_arcsec == pytest.approx(1.5, rel=0.1)
 
 
 def test_seed001_errors_run_and_raise_te_above_the_perfect_unit(rv40e):
