@@ -47,7 +47,7 @@ from rvflex.diagnose.replay import (
 )
 from rvflex.spec import ErrorSpec, ReducerSpec
 
-__all__ = ["Candidate", "Diagnosis", "diagnose", "withheld_split"]
+__all__ = ["Candidate", "Diagnosis", "diagnose", "signature_sizes", "ties", "withheld_split"]
 
 CACHE_VERSION = "diag-3"
 DELTA_GRID = 2048  # origin shifts tried over one output revolution (0.18° apart), then refined locally
@@ -323,6 +323,7 @@ class Diagnosis:
     withheld_runs: tuple[tuple[int, ...], tuple[int, ...]]
     unavailable: dict
     failed: dict
+    signature_size: dict
     verdict: str
     model_runs: int
     wall_s: float
@@ -398,43 +399,9 @@ def diagnose(dataset, *, settings: DiagnosisSettings | None = None, effects: tup
     prob = _Problem(y, lay, w, nuis, bool(lay.te_runs))
     n, n_nuis = lay.n, nuis.shape[1]
 
-    # --- sensitivities: one run per parameter (measurement effects need no model run)
-    jobs, owners = [], []
-    for e in cands:
-        if e.kind == "measurement":
-            continue
-        for j, prm in enumerate(e.params):
-            x = np.zeros(e.n)
-            x[j] = prm.step
-            jobs.append(((e, x),))
-            owners.append((e.name, j))
-    # other-fidelity (slow) jobs first, so that they run alongside the rigid ones
-    order = sorted(range(len(jobs)), key=lambda i: next(c for c in cands if c.name == owners[i][0]).kind != "fidelity")
-    outs: list = [None] * len(jobs)
-    for i, o in zip(order, runner.run([jobs[i] for i in order])):
-        outs[i] = o
-    sens: dict[str, np.ndarray] = {}
-    failed: dict[str, str] = {}
-    pos = 2 * np.pi * np.arange(settings.positions_per_rev) / settings.positions_per_rev
-    for e in cands:
-        if e.kind == "measurement":
-            cols = []
-            for j, prm in enumerate(e.params):
-                x = np.zeros(e.n)
-                x[j] = prm.step
-                te = tuple(None if a is None else e.measure(pos, a, x) for a in resp0.te)
-                fj, _ = features(dc.replace(resp0, te=te), plan, settings)
-                cols.append((fj - f0) / prm.step)
-            sens[e.name] = np.column_stack(cols)
-    for (name, j), (fj, _, msg) in zip(owners, outs):
-        if name in failed:
-            continue
-        if fj is None:
-            failed[name] = f"model evaluation failed at the sensitivity step: {msg}"
-            sens.pop(name, None)
-            continue
-        e = next(c for c in cands if c.name == name)
-        sens.setdefault(name, np.zeros((n, e.n)))[:, j] = (fj - f0) / e.params[j].step
+    sens, failed = _sensitivities(runner, cands, f0, resp0, plan, settings, n)
+    size = {e.name: float(np.linalg.norm((sens[e.name] * e.steps[None, :]) * w[:, None]) / math.sqrt(e.n))
+            for e in cands if e.name in sens}
     usable = [e for e in cands if e.name in sens and e.name not in failed]
 
     # --- no effect
@@ -516,8 +483,70 @@ def diagnose(dataset, *, settings: DiagnosisSettings | None = None, effects: tup
             final.append(c)
     verdict = _verdict(final, chosen, none, predicted_runs, settings, unavailable, failed)
     return Diagnosis(dataset, settings, plan, lay, w, y, none, resp0, tuple(final), chosen,
-                     (fitted_runs, predicted_runs), unavailable, failed, verdict, runner.model_runs,
+                     (fitted_runs, predicted_runs), unavailable, failed, size, verdict, runner.model_runs,
                      time.perf_counter() - t0)
+
+
+def _sensitivities(runner, cands, f0, resp0, plan, settings, n):
+    """Secant sensitivity (features per unit parameter) of every candidate, and the failures."""
+    # --- sensitivities: one run per parameter (measurement effects need no model run)
+    jobs, owners = [], []
+    for e in cands:
+        if e.kind == "measurement":
+            continue
+        for j, prm in enumerate(e.params):
+            x = np.zeros(e.n)
+            x[j] = prm.step
+            jobs.append(((e, x),))
+            owners.append((e.name, j))
+    # other-fidelity (slow) jobs first, so that they run alongside the rigid ones
+    order = sorted(range(len(jobs)), key=lambda i: next(c for c in cands if c.name == owners[i][0]).kind != "fidelity")
+    outs: list = [None] * len(jobs)
+    for i, o in zip(order, runner.run([jobs[i] for i in order])):
+        outs[i] = o
+    sens: dict[str, np.ndarray] = {}
+    failed: dict[str, str] = {}
+    pos = 2 * np.pi * np.arange(settings.positions_per_rev) / settings.positions_per_rev
+    for e in cands:
+        if e.kind == "measurement":
+            cols = []
+            for j, prm in enumerate(e.params):
+                x = np.zeros(e.n)
+                x[j] = prm.step
+                te = tuple(None if a is None else e.measure(pos, a, x) for a in resp0.te)
+                fj, _ = features(dc.replace(resp0, te=te), plan, settings)
+                cols.append((fj - f0) / prm.step)
+            sens[e.name] = np.column_stack(cols)
+    for (name, j), (fj, _, msg) in zip(owners, outs):
+        if name in failed:
+            continue
+        if fj is None:
+            failed[name] = f"model evaluation failed at the sensitivity step: {msg}"
+            sens.pop(name, None)
+            continue
+        e = next(c for c in cands if c.name == name)
+        sens.setdefault(name, np.zeros((n, e.n)))[:, j] = (fj - f0) / e.params[j].step
+    return sens, failed
+
+
+def signature_sizes(spec: ReducerSpec, plan, settings: DiagnosisSettings, effects: tuple[str, ...] | None = None,
+                    *, law=None, cache_dir: str | Path | None = None, errors: ErrorSpec | None = None) -> dict:
+    """Size of each effect's model signature at its typical magnitude, in units of the
+    residual floors (measurement noise not included): ||w·ΔF||/√(parameters). Below ~3 an
+    effect is not observable with these runs; NaN when its model evaluation failed."""
+    cands, _ = available_effects(effects)
+    runner = _Runner(spec, errors or ErrorSpec(), plan, settings, law, Path(cache_dir) if cache_dir else None)
+    f0, resp0, msg = runner.run([()])[0]
+    if f0 is None:
+        raise EvaluationFailed(f"the baseline model does not converge: {msg}")
+    _, lay = features(resp0, plan, settings)
+    y0 = f0.copy()
+    for r in lay.te_runs:  # no measurement: the floors alone
+        y0[lay.cos[r]] = y0[lay.sin[r]] = 0.0
+    w = _weights(f0, y0, lay, settings)
+    sens, _ = _sensitivities(runner, cands, f0, resp0, plan, settings, lay.n)
+    return {e.name: (float(np.linalg.norm((sens[e.name] * e.steps[None, :]) * w[:, None]) / math.sqrt(e.n))
+                     if e.name in sens else math.nan) for e in cands}
 
 
 def _split(effects, x) -> list[tuple[Effect, np.ndarray]]:

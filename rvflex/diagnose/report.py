@@ -62,9 +62,9 @@ def where_list(diag: Diagnosis, min_share: float = 0.01) -> list[dict]:
             m = len(HYST_FRACTIONS)
             frac = np.abs(np.tile(np.concatenate([-HYST_FRACTIONS[::-1], HYST_FRACTIONS]), 2))
             low = frac <= 0.05
-            out.append({"metric": "lost motion (hysteresis loop, |T| ≤ 5 %)", "direction": direction,
+            out.append({"metric": "lost motion (hysteresis loop, torque within ±5 %)", "direction": direction,
                         "load_Nm": load, "share": float(np.sum(sl[low] ** 2) / total)})
-            out.append({"metric": "torsional stiffness (hysteresis loop, |T| > 5 %)", "direction": direction,
+            out.append({"metric": "torsional stiffness (hysteresis loop, torque beyond ±5 %)", "direction": direction,
                         "load_Nm": load, "share": float(np.sum(sl[~low] ** 2) / total)})
             del m
     return sorted((w for w in out if w["share"] > 0), key=lambda w: -w["share"])
@@ -206,7 +206,8 @@ def json_document(diag: Diagnosis) -> dict:
     return {"where": where_list(diag), "effects": effects, "gap_before": before, "gap_after": after,
             "withheld_check": withheld, "verdict": diag.verdict, "wall_s": diag.wall_s,
             "origin_rad": float((chosen or diag.baseline).delta), "model_runs": diag.model_runs,
-            "unavailable_effects": diag.unavailable, "failed_effects": diag.failed}
+            "unavailable_effects": diag.unavailable, "failed_effects": diag.failed,
+            "signature_size": diag.signature_size}
 
 
 # ----------------------------------------------------------------------------- plots and Markdown
@@ -362,7 +363,7 @@ def markdown(diag: Diagnosis, doc: dict, pngs: list[str]) -> str:
     lines = [f"# Sim-to-real gap diagnosis — {ds.reducer.name}", "",
              (f"Dataset `{ds.path}`: {len(ds.runs)} runs ({', '.join(r.label for r in ds.runs)}). Model: rigid, "
              f"quasi-static replay at {diag.settings.positions_per_rev} positions per output revolution, orders "
-             f"1…{diag.settings.max_order}; {diag.model_runs} model evaluations in {diag.wall_s:.0f} s."), "",
+             f"1…{diag.settings.max_order}; {diag.model_runs} model evaluations (cached ones not counted) in {diag.wall_s:.0f} s."), "",
              f"**Verdict.** {diag.verdict}", "", "## Where the gap lies", "",
              "| where | direction | load (N·m) | share of the weighted gap |", "|---|---|---:|---:|"]
     for w in doc["where"][:15]:
@@ -380,6 +381,10 @@ def markdown(diag: Diagnosis, doc: dict, pngs: list[str]) -> str:
         note = ("bound hit: " + ", ".join(c.at_bound) + "; " if c.at_bound else "") + c.note
         lines.append(f"| {i} | {c.name} | {mags} | {c.score:.1f} | {c.gap_shrink_pct:.0f} % | "
                      f"{'n/a' if wh is None else f'{wh:+.0f} %'} | {'yes' if c.accepted else ''} | {note} |")
+    weak = sorted(k for k, v in diag.signature_size.items() if v < 3.0)
+    if weak:
+        lines += ["", "Not observable with these runs (model signature at typical size below 3 residual floors): "
+                  + ", ".join(weak) + "."]
     if diag.unavailable:
         lines += ["", "Not evaluated (unavailable): " + "; ".join(f"{k} — {v}" for k, v in diag.unavailable.items())]
     if diag.failed:

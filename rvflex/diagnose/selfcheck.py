@@ -45,6 +45,8 @@ __all__ = [
 ]
 
 ARCSEC = math.pi / 648000.0
+MIN_SIGNATURE = 10.0  # an effect whose model signature is smaller (in residual-floor units) is not hidden:
+# no diagnosis could find it with this bench plan; such effects are listed in the JSON instead
 
 
 @dataclass(frozen=True)
@@ -235,6 +237,11 @@ def score_case(truth: dict, diag) -> dict:
     dom = hidden[0]
     row["top1"] = bool(chosen and dom in [e.name for e in chosen.effects])
     row["top2"] = any(dom in [e.name for e in c.effects] for c in ranked[:2])
+    from rvflex.diagnose.fit import ties
+
+    tied = ties(ranked, chosen) if chosen else []
+    row["ties"] = [c.name for c in tied]
+    row["top1_or_tie"] = row["top1"] or any(dom in [e.name for e in c.effects] for c in tied)
     if row["top1"]:
         i = [e.name for e in chosen.effects].index(dom)
         fitted = chosen.magnitude[i]
@@ -263,16 +270,31 @@ def selfcheck(out_dir: str | Path, settings: SelfCheckSettings = SelfCheckSettin
     ``wall_s``, and ``per_case``).
     """
     from rvflex import catalog
-    from rvflex.diagnose.fit import diagnose
+    from rvflex.diagnose.fit import diagnose, signature_sizes
+    from rvflex.diagnose.replay import plan_from_dataset
 
     t0 = time.perf_counter()
     out = Path(out_dir)
     spec = catalog.load(settings.reducer)
     effects, _ = available_effects(settings.effects)
-    hideable = tuple(e for e in effects if settings.draw_fidelity_effects or e.kind != "fidelity")
     rng = np.random.default_rng(settings.seed)
     cache = Path(cache_dir) if cache_dir else out / "cache"
+    # which effects this bench plan can observe at all: their model signature at typical size,
+    # in units of the residual floors (computed by running the model, shared with the diagnoses)
+    _, meta = _bench_plan(spec, settings.generator)
+    probe = BenchDataset(spec, settings.reducer, tuple(
+        BenchRun(m["file"], m["kind"], np.empty(0), np.empty(0), np.empty(0), np.empty(0),
+                 direction=m.get("direction", "forward"), load_Nm=m.get("load_Nm", 0.0),
+                 torque_max_Nm=m.get("torque_max_Nm", 0.0)) for m in meta))
+    sizes = signature_sizes(spec, plan_from_dataset(probe, settings.diagnosis), settings.diagnosis,
+                            settings.effects, cache_dir=cache)
+    hideable = tuple(e for e in effects if (settings.draw_fidelity_effects or e.kind != "fidelity")
+                     and sizes.get(e.name, 0.0) >= MIN_SIGNATURE)
+    log("signature sizes at typical magnitude (floor units): "
+        + ", ".join(f"{k} {v:.0f}" for k, v in sorted(sizes.items(), key=lambda kv: -np.nan_to_num(kv[1]))))
     rows = []
+    partial_path = out / "selfcheck.partial.json"
+    out.mkdir(parents=True, exist_ok=True)
     for k in range(settings.cases):
         control = settings.control_every > 0 and k % settings.control_every == settings.control_every - 1
         n_eff = 0 if control else (2 if rng.uniform() < settings.two_effect_share else 1)
@@ -294,9 +316,13 @@ def selfcheck(out_dir: str | Path, settings: SelfCheckSettings = SelfCheckSettin
         truth_doc = json.loads(truth_path.read_text(encoding="utf-8"))  # scored only after the diagnosis
         row = {"case": k, **score_case(truth_doc, diag)}
         rows.append(row)
+        top = diag.candidates[0] if diag.candidates else None
+        why = (f"best {top.name}: score {top.score:.0f}, shrink {top.gap_shrink_pct:.0f} %, withheld "
+               f"{top.withheld.get('improvement_pct') or 0:.0f} %, refined {top.refined}") if top else ""
         log(f"case {k:2d}: hidden {row['hidden'] or 'none'} → {row['chosen'] or 'no effect'} "
-            f"(ranked {', '.join(row['ranked'][:2])}) shrink {row['gap_shrink_pct']:.0f} % "
-            f"[{diag.wall_s:.0f} s, {diag.model_runs} model runs]")
+            f"(ranked {', '.join(row['ranked'][:2])}; {why}) [{diag.wall_s:.0f} s, {diag.model_runs} model runs]")
+        if partial_path is not None:
+            partial_path.write_text(json.dumps({"done": len(rows), "per_case": rows}, indent=2, default=float))
         if progress:
             progress(k + 1, settings.cases)
     eff = [r for r in rows if not r.get("control") and "error" not in r]
@@ -306,11 +332,14 @@ def selfcheck(out_dir: str | Path, settings: SelfCheckSettings = SelfCheckSettin
         "cases": len(rows),
         "top1_rate": _rate([r["top1"] for r in eff]),
         "top2_rate": _rate([r["top2"] for r in eff]),
+        "top1_or_tie_rate": _rate([r["top1_or_tie"] for r in eff]),
         "magnitude_within_25pct_rate": _rate([r["magnitude_ok"] for r in hits]),
         "median_gap_shrink_pct": float(np.median([r["gap_shrink_pct"] for r in eff])) if eff else None,
         "control_correct_rate": _rate([r["correct"] for r in ctl]),
         "wall_s": time.perf_counter() - t0,
         "effect_cases": len(eff), "control_cases": len(ctl),
+        "signature_size": sizes,
+        "not_drawn": sorted(e.name for e in effects if e not in hideable),
         "per_case": rows,
     }
     return doc
