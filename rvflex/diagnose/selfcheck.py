@@ -78,6 +78,7 @@ class GeneratorModel:
     positions_per_rev: int = 512
     hysteresis_steps: int = 120
     stiffness_scale: float = 1.02
+    timeout_s: float = 180.0  # per run: the finer generator model is slower than the diagnosis model
 
     def law(self, spec: ReducerSpec):
         """The model's default contact law with both compliances divided by ``stiffness_scale``."""
@@ -170,7 +171,7 @@ def generate_case(folder: str | Path, truth_path: str | Path, spec: ReducerSpec,
     """
     plan, runs = _bench_plan(spec, gen)
     gs = DiagnosisSettings(positions_per_rev=gen.positions_per_rev, max_order=min(127, gen.positions_per_rev // 2 - 1),
-                           hysteresis_steps=gen.hysteresis_steps, workers=1)
+                           hysteresis_steps=gen.hysteresis_steps, workers=1, eval_timeout_s=gen.timeout_s)
     resp = evaluate(spec, ErrorSpec(), plan, gs, tuple(truth), law=gen.law(spec))
     ratio = spec.nominal_ratio
     delta0 = float(rng.uniform(0, 2 * np.pi))  # unknown origin (output revolutions, rad)
