@@ -491,7 +491,9 @@ def _rigid_map(pos: np.ndarray, nodes: np.ndarray, centre: np.ndarray, nn: int) 
 def _interfaces(fem, geom) -> tuple[Interface, ...]:
     """Interface node sets with area weights nudged so that their weighted centroid is the
     nominal centre exactly (a faceted coarse bore is off by up to ~0.1 mm otherwise, and
-    Exudyn's ``MarkerSuperElementRigid`` puts its reference point at that centroid)."""
+    Exudyn's ``MarkerSuperElementRigid`` puts its reference point at that centroid). Where
+    positive weights cannot do it (very coarse linear meshes), the plain area weights stay
+    and ``centre_m`` is still the nominal centre: compare with ``weights @ nodes``."""
     pos = fem.GetNodePositionsAsArray()
     taken: set[int] = set()
     out = []
@@ -516,9 +518,7 @@ def _centred_weights(w: np.ndarray, x: np.ndarray, centre: np.ndarray) -> np.nda
     C, d = C[keep], d[keep]
     Wc = C * w  # C·diag(w)
     w2 = w + Wc.T @ np.linalg.solve(Wc @ C.T, d - C @ w)
-    if np.any(w2 <= 0):
-        raise FEError("interface weights cannot be centred on the nominal centre (mesh too coarse)")
-    return w2
+    return w2 if np.all(w2 > 0) else w  # a very coarse face cannot be centred with positive weights: keep areas
 
 
 def _mass_orthonormal(B: np.ndarray, M) -> np.ndarray:
