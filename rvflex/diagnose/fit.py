@@ -327,6 +327,7 @@ class Diagnosis:
     verdict: str
     model_runs: int
     wall_s: float
+    ties: tuple[str, ...] = ()
 
 
 def withheld_split(plan: tuple[PlanRun, ...]) -> tuple[tuple[int, ...], tuple[int, ...]]:
@@ -481,10 +482,12 @@ def diagnose(dataset, *, settings: DiagnosisSettings | None = None, effects: tup
             final.append(chosen)
         else:
             final.append(c)
-    verdict = _verdict(final, chosen, none, predicted_runs, settings, unavailable, failed)
+    lead = chosen or (final[0] if final else None)
+    tied = tuple(o.name for o in _equivalent(final, lead, sens, f0, w)) if lead is not None else ()
+    verdict = _verdict(final, chosen, none, predicted_runs, settings, unavailable, failed, tied)
     return Diagnosis(dataset, settings, plan, lay, w, y, none, resp0, tuple(final), chosen,
                      (fitted_runs, predicted_runs), unavailable, failed, size, verdict, runner.model_runs,
-                     time.perf_counter() - t0)
+                     time.perf_counter() - t0, tied)
 
 
 def _sensitivities(runner, cands, f0, resp0, plan, settings, n):
@@ -601,20 +604,43 @@ def _withheld(prob: _Problem, plan, c: Candidate, J, sens, f0, fitted_runs, pred
 TIE_RSS_RATIO = 1.15  # candidates whose residuals differ by less than this factor are not separated by the data
 
 
-def ties(cands, c) -> list:
-    """Candidates the data cannot tell from ``c``: a residual within TIE_RSS_RATIO of it (or
-    ΔBIC < 2), other effects than ``c``'s."""
-    names = {e.name for e in c.effects}
-    return [o for o in cands if o is not c and o.refined and not {e.name for e in o.effects} <= names
-            and (o.rss <= TIE_RSS_RATIO * c.rss or abs(o.score - c.score) < 2.0)]
+def ties(diag) -> tuple[str, ...]:
+    """Names of the candidates tied with the diagnosis' lead (see :func:`_equivalent`)."""
+    return diag.ties
 
 
-def _verdict(cands, chosen, none, predicted_runs, settings, unavailable, failed) -> str:
+SIGNATURE_TIE = 0.25  # another candidate reproduces the lead's fitted signature to within this (relative, weighted)
+
+
+def _equivalent(cands, lead, sens, f0, w) -> list:
+    """Candidates the data cannot tell from ``lead``: their residual is within TIE_RSS_RATIO of
+    the lead's, or their own sensitivities reproduce the lead's fitted model change (weighted,
+    origin shift ignored) to within SIGNATURE_TIE — both computed from model runs."""
+    sig = (lead.model_features - f0) * w
+    norm = float(np.linalg.norm(sig))
+    names = {e.name for e in lead.effects}
+    out = []
+    for o in cands:
+        own = {e.name for e in o.effects}
+        if o is lead or own <= names or names <= own or not all(e.name in sens for e in o.effects):
+            continue
+        if o.refined and o.rss <= TIE_RSS_RATIO * lead.rss:
+            out.append(o)
+            continue
+        if norm > 0:
+            A = np.column_stack([sens[e.name] for e in o.effects]) * w[:, None]
+            coef, *_ = np.linalg.lstsq(A, sig, rcond=None)
+            if np.linalg.norm(sig - A @ coef) <= SIGNATURE_TIE * norm:
+                out.append(o)
+    return out
+
+
+def _verdict(cands, chosen, none, predicted_runs, settings, unavailable, failed, tied=()) -> str:
     if not cands:
         return "No candidate effect could be evaluated; the gap is unexplained."
     if chosen is not None:
         c = chosen
-        tie = ties(cands, c)
+        tie = [o for o in cands if o.name in tied]
         mag = "; ".join(f"{e.name} {_fmt_mag(e, m)} (95 % {_fmt_mag(e, iv[0])} … {_fmt_mag(e, iv[1])})"
                         for e, m, iv in zip(c.effects, c.magnitude, c.magnitude_interval))
         s = (f"{c.name} explains the gap: {mag}; the weighted gap shrinks by {c.gap_shrink_pct:.0f} %, "
@@ -623,8 +649,8 @@ def _verdict(cands, chosen, none, predicted_runs, settings, unavailable, failed)
         if c.at_bound:
             s += f" The fit hits a parameter bound ({', '.join(c.at_bound)}): the magnitude is a limit, not an estimate."
         if tie:
-            s += (f" Tied with {', '.join(o.name for o in tie)} (residual within {100 * (TIE_RSS_RATIO - 1):.0f} %): "
-                  "the data cannot separate them.")
+            s += (f" Tied with {', '.join(o.name for o in tie[:3])}: their model signatures reproduce this one "
+                  "(or fit as well), so these runs cannot separate them.")
         return s
     best = cands[0]
     if not predicted_runs and best.score >= settings.bic_threshold and best.gap_shrink_pct >= settings.min_shrink_pct:

@@ -207,7 +207,7 @@ def json_document(diag: Diagnosis) -> dict:
             "withheld_check": withheld, "verdict": diag.verdict, "wall_s": diag.wall_s,
             "origin_rad": float((chosen or diag.baseline).delta), "model_runs": diag.model_runs,
             "unavailable_effects": diag.unavailable, "failed_effects": diag.failed,
-            "signature_size": diag.signature_size}
+            "signature_size": diag.signature_size, "ties": list(diag.ties)}
 
 
 # ----------------------------------------------------------------------------- plots and Markdown

@@ -238,9 +238,7 @@ def score_case(truth: dict, diag) -> dict:
     dom = hidden[0]
     row["top1"] = bool(chosen and dom in [e.name for e in chosen.effects])
     row["top2"] = any(dom in [e.name for e in c.effects] for c in ranked[:2])
-    from rvflex.diagnose.fit import ties
-
-    tied = ties(ranked, chosen) if chosen else []
+    tied = [c for c in ranked if c.name in diag.ties] if chosen else []
     row["ties"] = [c.name for c in tied]
     row["top1_or_tie"] = row["top1"] or any(dom in [e.name for e in c.effects] for c in tied)
     if row["top1"]:
