@@ -246,3 +246,12 @@ def test_selfcheck_two_cases(tmp_path):
     assert doc["control_correct_rate"] == 1.0
     # the truth stays outside the dataset folders the diagnosis reads
     assert not list((tmp_path / "datasets").rglob("*.json"))
+
+
+def test_demo_scenario_is_importable_without_running(tmp_path):
+    """The walk-through computes only when called (plotting and writing only under __main__)."""
+    from rvflex.scenarios.diagnosis_demo import DiagnosisDemo, run_diagnosis_demo
+
+    sc = DiagnosisDemo(tmp_path)
+    assert sc.effect in EFFECTS and len(sc.params) == EFFECTS[sc.effect].n
+    assert callable(run_diagnosis_demo) and not list(tmp_path.iterdir())
