@@ -58,11 +58,11 @@ def test_translation_modes_move_the_flank_like_a_rigid_translation(loaded):
 
 
 def test_jacobian_with_modal_columns_matches_finite_differences(loaded):
-    """K = −∂Q/∂(q, η) against central differences for smooth synthetic flank fields at a
-    deformed state (|u| ≈ 0.3 µm). The modal–modal block is exact (1e-5 of K). Left out of
-    K: the turning of N and the sliding of the contact parameter with the deformation, in
-    the rigid block O(|u|/ρ) ≈ 1e-4, and f·∂(N·Φ)/∂q in the modal–rigid coupling, O(f/(kρ))
-    ≈ 1e-4 — held to 2e-4 and 2e-3 of K."""
+    """K = −∂Q/∂(q, η) against central differences for smooth synthetic flank fields, at the
+    undeformed state and deformed by |u| ≈ 0.3 µm: every block to 1e-5 of K (measured
+    ≤ 1e-7; left out are terms second order in u). The sliding of the flank sample point
+    with the contact parameter is in K: without it the floating disc of an open bearing
+    clearance (regularisers of ~500 N/m) saw an O(f/ρ) error and Newton crawled."""
     contact, q = loaded
     ng = 2048
     t = 2 * math.pi * np.arange(ng) / ng
@@ -71,19 +71,16 @@ def test_jacobian_with_modal_columns_matches_finite_differences(loaded):
     phi[:, 0, 1], phi[:, 1, 1] = 0.5 * np.sin(2 * t), np.cos(5 * t)
     phi[:, 0, 2], phi[:, 1, 2] = np.cos(t) ** 2, 0.3
     flex = _modal(contact, phi)
-    eta = np.array([2e-7, -1e-7, 0.5e-7])
-    f, k, _, out, _ = flex.evaluate(q, eta=eta)
-    assert np.count_nonzero(out[:, 1]) >= 5
-    x = np.concatenate([q, eta])
-    fd = np.empty((6, 6))
-    for j in range(6):
-        h = np.zeros(6)
-        h[j] = 1e-9
-        fp = flex.evaluate((x + h)[:3], eta=(x + h)[3:])[0]
-        fm = flex.evaluate((x - h)[:3], eta=(x - h)[3:])[0]
-        fd[:, j] = -(fp - fm) / 2e-9
-    scale = np.abs(fd).max()
-    rr, mm = np.ix_(range(3), range(3)), np.ix_(range(3, 6), range(3, 6))
-    assert np.max(np.abs(k[rr] - fd[rr])) <= 2e-4 * scale
-    assert np.max(np.abs(k[mm] - fd[mm])) <= 1e-5 * scale
-    assert np.max(np.abs(k - fd)) <= 2e-3 * scale
+    for eta in (np.zeros(3), np.array([2e-7, -1e-7, 0.5e-7])):
+        _, k, _, out, _ = flex.evaluate(q, eta=eta)
+        assert np.count_nonzero(out[:, 1]) >= 5
+        x = np.concatenate([q, eta])
+        fd = np.empty((6, 6))
+        for j in range(6):
+            h = np.zeros(6)
+            h[j] = 1e-9
+            fp = flex.evaluate((x + h)[:3], eta=(x + h)[3:])[0]
+            fm = flex.evaluate((x - h)[:3], eta=(x - h)[3:])[0]
+            fd[:, j] = -(fp - fm) / 2e-9
+        scale = np.abs(fd).max()
+        assert np.max(np.abs(k - fd)) <= 1e-5 * scale

@@ -114,8 +114,8 @@ def evaluate(q, qd, offset, pins, radii, par, herr, hpsi, law, t_cache, phi, eta
     ``phi`` (n_grid, 2, m) holds the in-plane modal displacement of the flank in the profile
     frame on the uniform grid t_j = 2πj/n_grid of the profile parameter (linear
     interpolation); the flank point moves by u = Φ(t)·η, which closes the gap by N·u. A rigid
-    disc passes m = 0. Left out of K (both O(|u|/ρ) ≈ 1e-4 relative): the change of N and of
-    the contact parameter with η in ∂g/∂q, and the rotation of Φ's sample point with θ.
+    disc passes m = 0. The sliding of the sample point t(q) is in ∂g/∂q and K; left out of K,
+    second order in u: ∂²(N·u)/∂q² and the change of the closest point with η.
 
     Returns the largest penetration (m) and the number of closest-point failures.
     """
@@ -135,6 +135,8 @@ def evaluate(q, qd, offset, pins, radii, par, herr, hpsi, law, t_cache, phi, eta
     max_pen = -1e300
     bad = 0
     gq = np.empty(n)
+    sk = np.empty(max(m, 1))
+    h_grid = 2.0 * math.pi / max(ng, 1)
     hq = np.empty((3, 3))
     gt = np.empty(3)
     for i in range(pins.shape[0]):
@@ -183,6 +185,33 @@ def evaluate(q, qd, offset, pins, radii, par, herr, hpsi, law, t_cache, phi, eta
         gq[0] = -wnx
         gq[1] = -wny
         gq[2] = -(cx * ny - cy * nx)
+        # columns of ∂c/∂q: a1 = −R(−θ)e_x, a2 = −R(−θ)e_y, a3 = −J c
+        a1x, a1y = -ct, st
+        a2x, a2y = -st, -ct
+        a3x, a3y = cy, -cx
+        if m > 0:
+            # the flank point of the modal displacement slides with t(q): ∂(N·Φ_k)/∂q =
+            # s_k·∂t/∂q, s_k = N'·Φ_k + N·Φ_k'; it enters ∂g/∂q (through u = Φη) and the
+            # modal–rigid blocks of K (fn·s_k·∂t/∂q, symmetric)
+            qq, q1, q2 = profile_point(t, par, herr, hpsi)
+            sq = math.sqrt(q1.real * q1.real + q1.imag * q1.imag)
+            d12 = (q1.real * q2.real + q1.imag * q2.imag) / (sq * sq * sq)
+            dnx = q2.imag / sq - q1.imag * d12
+            dny = -q2.real / sq + q1.real * d12
+            den = (sq * sq + (qq.real - cx) * q2.real + (qq.imag - cy) * q2.imag)
+            wt0 = (q1.real * a1x + q1.imag * a1y) / den
+            wt1 = (q1.real * a2x + q1.imag * a2y) / den
+            wt2 = (q1.real * a3x + q1.imag * a3y) / den
+            su = 0.0
+            for k in range(m):
+                phx = (1.0 - w) * phi[j0, 0, k] + w * phi[j1, 0, k]
+                phy = (1.0 - w) * phi[j0, 1, k] + w * phi[j1, 1, k]
+                sk[k] = (dnx * phx + dny * phy + nx * (phi[j1, 0, k] - phi[j0, 0, k]) / h_grid
+                         + ny * (phi[j1, 1, k] - phi[j0, 1, k]) / h_grid)
+                su += sk[k] * eta[k]
+            gq[0] -= su * wt0
+            gq[1] -= su * wt1
+            gq[2] -= su * wt2
         pen_rate = -(gq[0] * qd[0] + gq[1] * qd[1] + gq[2] * qd[2])
         for k in range(m):
             pen_rate -= gq[3 + k] * eta_d[k]
@@ -195,10 +224,6 @@ def evaluate(q, qd, offset, pins, radii, par, herr, hpsi, law, t_cache, phi, eta
         tx = -ny  # profile tangent (disc frame), N = −i·T  ⇒  T = i·N
         ty = nx
         keff = kap / (1.0 + kap * d)
-        # columns of ∂c/∂q: a1 = −R(−θ)e_x, a2 = −R(−θ)e_y, a3 = −J c
-        a1x, a1y = -ct, st
-        a2x, a2y = -st, -ct
-        a3x, a3y = cy, -cx
         s1 = tx * a1x + ty * a1y
         s2 = tx * a2x + ty * a2y
         s3 = tx * a3x + ty * a3y
@@ -239,6 +264,15 @@ def evaluate(q, qd, offset, pins, radii, par, herr, hpsi, law, t_cache, phi, eta
         for a in range(3):
             for b in range(3):
                 kmat[a, b] -= fn * hq[a, b]
+        if m > 0:
+            for k in range(m):
+                c0 = fn * sk[k]
+                kmat[3 + k, 0] += c0 * wt0
+                kmat[3 + k, 1] += c0 * wt1
+                kmat[3 + k, 2] += c0 * wt2
+                kmat[0, 3 + k] += c0 * wt0
+                kmat[1, 3 + k] += c0 * wt1
+                kmat[2, 3 + k] += c0 * wt2
         mu = law[L_MU]
         if mu > 0.0:
             # regularised Coulomb friction at the contact point, opposing the disc's sliding
