@@ -27,6 +27,11 @@ __all__ = ["ReducerModel", "build_reducer", "default_contact_law", "FIDELITIES"]
 
 FIDELITIES = ("rigid", "flexible")
 
+FLEXIBLE_DISC_FE = {"maxh_m": 6e-3, "mesh_order": 2, "n_modes": 12, "attach_per_tooth": 0}
+"""Disc reduction of the flexible fidelity: global deformation only — 6 bore (RBE2) modes and 12
+fixed-interface modes on 6 mm quadratic tets, no flank attachment modes, whose patch-local
+compliance the line-contact law already carries (docs/fe.md: convergence study)."""
+
 
 def default_contact_law(spec: ReducerSpec) -> ContactLaw:
     """Seed 002's line contact: disc and pin materials, disc thickness as the width, the
@@ -115,8 +120,8 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None, fidelity: 
 
     ``fidelity="rigid"``: planar rigid bodies. ``"flexible"``: the cycloid discs are
     Craig–Bampton-reduced FFRF bodies (``reduced_disc``, a :class:`rvflex.fe.reduce.ReducedPart`,
-    or reduced here from ``spec`` with the reduction settings ``fe``, e.g.
-    ``{"maxh_m": 6e-3, "n_modes": 12}``; cached on disk); the other parts stay rigid.
+    or reduced here from ``spec`` with :data:`FLEXIBLE_DISC_FE` updated by ``fe``, e.g.
+    ``{"n_modes": 24}``; cached on disk); the other parts stay rigid.
 
     Raises
     ------
@@ -145,7 +150,7 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None, fidelity: 
     if fidelity == "flexible" and reduced_disc is None:
         from rvflex.fe.reduce import reduce_part
 
-        reduced_disc = reduce_part(spec, "disc", **(fe or {}))
+        reduced_disc = reduce_part(spec, "disc", **{**FLEXIBLE_DISC_FE, **(fe or {})})
     discs = cycloid_disc.build(mbs, spec, errors, cranks, law, ecc, axes, fidelity=fidelity, reduced=reduced_disc,
                                ground_coordinate=ground_coord)
     mbs.Assemble()

@@ -25,9 +25,9 @@ from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
 
 __all__ = ["FlexibilityEffect", "run_flexibility_effect", "write_flexibility_outputs", "GLOBAL_MODES"]
 
-GLOBAL_MODES = (("maxh_m", 8e-3), ("n_modes", 12), ("mesh_order", 1), ("attach_per_tooth", 0))
-"""Disc reduction of the scenario's default: 6 bore (RBE2) modes + 12 fixed-interface modes, global
-deformation only (no flank attachment modes), at ~0.1 s per quasi-static step."""
+GLOBAL_MODES = ()
+"""Disc reduction settings of the scenario on top of :data:`rvflex.model.FLEXIBLE_DISC_FE` (none:
+global deformation, 6 bore + 12 fixed-interface modes on 6 mm quadratic tets)."""
 
 
 @dataclass(frozen=True)
@@ -82,8 +82,12 @@ def run_flexibility_effect(sc: FlexibilityEffect, progress=print) -> list[dict]:
 
 
 def _share(flexible: float, rigid: float) -> float:
-    """(flexible − rigid)/flexible of a magnitude; NaN where the flexible one is zero."""
-    return (abs(flexible) - abs(rigid)) / abs(flexible) if flexible else math.nan
+    """(flexible − rigid)/flexible of a magnitude; NaN where it vanishes (below 1e-3 of the unit)."""
+    return (abs(flexible) - abs(rigid)) / abs(flexible) if abs(flexible) > 1e-3 else math.nan
+
+
+def _pct(share: float) -> str:
+    return "–" if math.isnan(share) else f"{100 * share:.0f} %"
 
 
 def write_flexibility_outputs(out: Path, rows: list[dict], sc: FlexibilityEffect) -> list[Path]:
@@ -105,14 +109,16 @@ def write_flexibility_outputs(out: Path, rows: list[dict], sc: FlexibilityEffect
     md = out / "flexibility.md"
     flex = [r for r in rows if r["fidelity"] == "flexible"]
     rig = {r["load_fraction"]: r for r in rows if r["fidelity"] == "rigid"}
-    lines = [f"Disc reduction: {dict(sc.fe)}; carrier rigid in both.", "",
+    from rvflex.model import FLEXIBLE_DISC_FE
+
+    lines = [f"Disc reduction: {FLEXIBLE_DISC_FE | dict(sc.fe)}; carrier rigid in both.", "",
              "| load | TE pp rigid | TE pp flexible | elastic share | wind-up rigid | wind-up flexible | elastic share |",
              "|---|---|---|---|---|---|---|"]
     for r in flex:
         g = rig[r["load_fraction"]]
         lines.append(f"| {r['load_Nm']:.0f} N·m | {g['te_pp_arcsec']:.2f}″ | {r['te_pp_arcsec']:.2f}″ | "
-                     f"{100 * r['elastic_share_te_pp']:.0f} % | {g['mean_windup_arcsec']:.1f}″ | "
-                     f"{r['mean_windup_arcsec']:.1f}″ | {100 * r['elastic_share_windup']:.0f} % |")
+                     f"{_pct(r['elastic_share_te_pp'])} | {g['mean_windup_arcsec']:.1f}″ | "
+                     f"{r['mean_windup_arcsec']:.1f}″ | {_pct(r['elastic_share_windup'])} |")
     r, g = flex[0], rig[flex[0]["load_fraction"]]
     lines += ["", f"Lost motion: rigid {g['lost_motion_arcmin']:.3f}′, flexible {r['lost_motion_arcmin']:.3f}′ "
               f"(elastic share {100 * r['elastic_share_lost_motion']:.0f} %). Torsional stiffness (50–100 % T_r): "
