@@ -136,7 +136,7 @@ def _from_arrays(a) -> object:
     flank = FlankRows(a["flank_t"], a["flank_rows"], meta["patch_half_width_m"]) if "flank_t" in a else None
     return ReducedPart(meta["part"], PartSettings(**meta["settings"]), meta["key"], fem, a["nodes"], itfs,
                        meta["n_static"], meta["n_eigen"], meta["n_attach"], a["freqs_hz"], a["mass_reduced"],
-                       a["stiffness_reduced"], flank, StaticCheck(**meta["check"]), meta["wall_s"],
+                       a["stiffness_reduced"], flank, StaticCheck(**{**meta["check"], "flank_full_by_angle_m": tuple(meta["check"].get("flank_full_by_angle_m", ()))}), meta["wall_s"],
                        {**meta["meta"], "cached": True})
 
 

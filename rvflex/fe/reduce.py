@@ -13,8 +13,8 @@ The basis, in column order (all in the part's body frame, Exudyn node ordering x
    in all modes (``excludeRigidBodyMotion`` in Exudyn's terms);
 2. **internal modes** — the Rayleigh–Ritz combination of ``n_modes`` fixed-interface
    eigenmodes and, for the disc, *attachment modes*: static responses (interfaces held)
-   to unit normal loads on flank patches, ``attach_per_tooth`` per tooth all around the
-   profile. Fixed-interface eigenmodes alone miss the local flank response under pin loads
+   to unit normal (and, with ``attach_tangential``, tangential) loads on flank patches,
+   ``attach_per_tooth`` per tooth all around the profile. Fixed-interface eigenmodes alone miss the local flank response under pin loads
    (measured: see docs/fe.md); the attachment modes make the basis reproduce it. The Ritz
    step makes the internal block of the reduced mass and stiffness matrices diagonal.
 
@@ -57,7 +57,7 @@ __all__ = [
     "static_check",
 ]
 
-CODE_VERSION = "fe-1"  # bump when the reduction's numbers change for the same inputs (part of the cache key)
+CODE_VERSION = "fe-2"  # bump when the reduction's numbers change for the same inputs (part of the cache key)
 BYTES_PER_TET = {1: 10_000, 2: 60_000}  # measured peak RSS per tet of mesh + import + HCB (docs/fe.md)
 MAX_MODE_FRACTION = 0.05  # at most one internal mode per 20 free DOFs: beyond, the mesh cannot resolve them
 ROWS_PER_TOOTH = 64
@@ -73,8 +73,9 @@ class PartSettings:
     """Mesh and reduction settings of one part (lengths in m).
 
     ``n_modes`` counts the fixed-interface eigenmodes; the disc adds
-    ``attach_per_tooth × disc_teeth`` attachment modes and every part ``6 × (interfaces − 1)``
-    static modes, so the reduced body has more coordinates than ``n_modes``.
+    ``attach_per_tooth × disc_teeth`` attachment modes (twice that with ``attach_tangential``)
+    and every part ``6 × (interfaces − 1)`` static modes, so the reduced body has more
+    coordinates than ``n_modes``.
     """
 
     maxh_m: float
@@ -84,6 +85,7 @@ class PartSettings:
     attach_per_tooth: int = 0
     curvature_safety: float = 2.0
     patch_shape: str = "hat"
+    attach_tangential: bool = False
 
     def __post_init__(self) -> None:
         if not (isinstance(self.maxh_m, (int, float)) and 0.3e-3 <= self.maxh_m <= 0.05):
@@ -104,8 +106,8 @@ class PartSettings:
 
 # Chosen by the convergence study of docs/fe.md (static flank/seat response vs maxh and modes).
 DEFAULTS = {
-    "disc": PartSettings(maxh_m=6e-3, n_modes=10, mesh_order=2, patch_half_width_m=3e-3, attach_per_tooth=3,
-                         curvature_safety=1.0),
+    "disc": PartSettings(maxh_m=6e-3, n_modes=10, mesh_order=2, patch_half_width_m=3e-3, attach_per_tooth=2,
+                         curvature_safety=1.0, attach_tangential=True),
     "carrier": PartSettings(maxh_m=6e-3, n_modes=10, mesh_order=2, curvature_safety=1.0),
 }
 
@@ -173,7 +175,9 @@ class StaticCheck:
     carrier — error of the seat displacements (RBE2 seats vs elastic seats) in % of the
     largest. ``case``: words describing the load case. ``flank_full_m``: the largest full
     flank (pillar) displacement (m); ``interface_full``: the largest full bore reaction (N,
-    disc) or seat displacement (m, carrier) — the figures of the convergence study.
+    disc) or seat displacement (m, carrier) — the figures of the convergence study;
+    ``flank_full_by_angle_m``: disc, the largest full flank displacement at each angle of
+    :data:`CHECK_ANGLES_PITCH`.
     """
 
     flank_pct: float
@@ -181,6 +185,7 @@ class StaticCheck:
     case: str
     flank_full_m: float = float("nan")
     interface_full: float = float("nan")
+    flank_full_by_angle_m: tuple = ()
 
     @property
     def max_pct(self) -> float:
@@ -546,7 +551,8 @@ def _build(spec: ReducerSpec, part: str, s: PartSettings, key: str, progress=Non
     t_start = time.perf_counter()
     what = f"{part} (maxh {s.maxh_m * 1e3:g} mm, order {s.mesh_order}, {s.n_modes} modes)"
     geom = part_geometry(spec, part)
-    n_att_planned = s.attach_per_tooth * spec.cycloid.disc_teeth if part == "disc" else 0
+    n_att_planned = (s.attach_per_tooth * spec.cycloid.disc_teeth * (2 if s.attach_tangential else 1)
+                     if part == "disc" else 0)
     tets_est = estimate_tets(geom.volume_m3, s.maxh_m, part, s.curvature_safety)
     need = estimate_memory_bytes(tets_est, s, n_att_planned)
     avail = _available_bytes()
@@ -611,13 +617,15 @@ def _build(spec: ReducerSpec, part: str, s: PartSettings, key: str, progress=Non
             flank = _flank(mesh, fem, profile, s.mesh_order)
         _progress(progress, "attachment modes")
         if n_att_planned:
-            tc = (np.arange(n_att_planned) + 0.5) * 2 * np.pi / n_att_planned
-            W = flank.weights(tc, s.patch_half_width_m, s.patch_shape)
+            n_c = s.attach_per_tooth * spec.cycloid.disc_teeth
+            tc = (np.arange(n_c) + 0.5) * 2 * np.pi / n_c
+            Wd = flank.weights(tc, s.patch_half_width_m, s.patch_shape).toarray()
             nrm = profile.normal(tc)
-            F = np.zeros((3 * nn, n_att_planned))
-            Wd = W.toarray()
-            for c in range(2):
-                F[3 * flank.nodes + c, :] = -(Wd * nrm[:, c][:, None]).T
+            dirs = [nrm, np.column_stack([-nrm[:, 1], nrm[:, 0]])] if s.attach_tangential else [nrm]
+            F = np.zeros((3 * nn, n_c * len(dirs)))
+            for k, d in enumerate(dirs):  # normal (and tangential) unit patch loads
+                for c in range(2):
+                    F[3 * flank.nodes + c, k * n_c:(k + 1) * n_c] = -(Wd * d[:, c][:, None]).T
             A = solver.solve(F)
         # Rayleigh–Ritz on the internal span: diagonal internal mass and stiffness
         _progress(progress, "Ritz")
@@ -683,33 +691,45 @@ def _galerkin(K, Psi: np.ndarray, F: np.ndarray) -> np.ndarray:
     return Psi @ np.linalg.solve(Kr, Psi.T @ F)
 
 
+CHECK_ANGLES_PITCH = (0.12, 0.37, 0.62, 0.87)  # disc angles of the static check, in pin pitches
+
+
 def _disc_check(spec, profile, flank, s, solver, K, Psi, n_static, T_all, nn) -> StaticCheck:
-    """Rated tooth loads, bores held: full K_ii⁻¹f vs reduced internal modes."""
-    t, _pts, forces = disc_rated_load_case(spec, profile)
-    W = flank.weights(t, s.patch_half_width_m, s.patch_shape).toarray()
-    F = np.zeros(3 * nn)
-    for c in range(2):
-        F[3 * flank.nodes + c] = W.T @ forces[:, c]
-    u_full = solver.solve(F[:, None])[:, 0]
-    u_red = _galerkin(K, Psi[:, n_static:], F[:, None])[:, 0]
-    dirs = forces / np.linalg.norm(forces, axis=1, keepdims=True)
-
-    def along(u):
-        U = u.reshape(nn, 3)[flank.nodes, :2]
-        return np.sum((W @ U) * dirs, axis=1)
-
-    d_full, d_red = along(u_full), along(u_red)
-    flank_pct = 100 * np.max(np.abs(d_red - d_full)) / np.max(np.abs(d_full))
-    # reduced bore forces are the generalised forces of the static interface modes (Ψ_sᵀ K u_red = 0
-    # for interior fields, so −Ψ_sᵀ f); full ones are the nodal reactions K u − f summed over each bore
+    """Rated tooth loads, bores held: full K_ii⁻¹f vs reduced internal modes, at the disc
+    angles :data:`CHECK_ANGLES_PITCH` (contact points anywhere between the attachment
+    patches); the worst angle is reported."""
     mask = _free_mask(np.concatenate([T.nonzero()[0] // 3 for T in T_all]), nn)
-    r_full = np.array([(T.T @ (K @ u_full - F))[:3] for T in T_all])
-    r_red = np.array([(-(T.toarray() - solver.solve(K @ T.toarray()) * mask[:, None]).T @ F)[:3] for T in T_all])
-    itf_pct = 100 * np.max(np.abs(r_red - r_full)) / np.max(np.abs(r_full))
+    Ss = [T.toarray() - solver.solve(K @ T.toarray()) * mask[:, None] for T in T_all]
+    Kr = Psi[:, n_static:].T @ (K @ Psi[:, n_static:])
+    flank_pct = itf_pct = d_max = r_max = 0.0
+    by_angle = []
+    for frac in CHECK_ANGLES_PITCH:
+        t, _pts, forces = disc_rated_load_case(spec, profile, disc_angle_rad=frac * 2 * np.pi / spec.cycloid.pin_count)
+        W = flank.weights(t, s.patch_half_width_m, s.patch_shape).toarray()
+        F = np.zeros(3 * nn)
+        for c in range(2):
+            F[3 * flank.nodes + c] = W.T @ forces[:, c]
+        u_full = solver.solve(F[:, None])[:, 0]
+        u_red = Psi[:, n_static:] @ np.linalg.solve(Kr, Psi[:, n_static:].T @ F)
+        dirs = forces / np.linalg.norm(forces, axis=1, keepdims=True)
+
+        def along(u, W=W, dirs=dirs):
+            U = u.reshape(nn, 3)[flank.nodes, :2]
+            return np.sum((W @ U) * dirs, axis=1)
+
+        d_full, d_red = along(u_full), along(u_red)
+        flank_pct = max(flank_pct, 100 * np.max(np.abs(d_red - d_full)) / np.max(np.abs(d_full)))
+        # reduced bore forces are the generalised forces of the static interface modes (Ψ_sᵀ K u_red = 0
+        # for interior fields, so −Ψ_sᵀ f); full ones are the nodal reactions K u − f summed over each bore
+        r_full = np.array([(T.T @ (K @ u_full - F))[:3] for T in T_all])
+        r_red = np.array([(-S.T @ F)[:3] for S in Ss])
+        itf_pct = max(itf_pct, 100 * np.max(np.abs(r_red - r_full)) / np.max(np.abs(r_full)))
+        by_angle.append(float(np.max(np.abs(d_full))))
+        d_max, r_max = max(d_max, by_angle[-1]), max(r_max, float(np.max(np.abs(r_full))))
     return StaticCheck(float(flank_pct), float(itf_pct),
-                       f"rated torque {spec.rated_torque_Nm:g} N·m over {spec.cycloid.disc_count} discs, {len(t)} pins "
-                       f"(rigid-disc load sharing, max {np.linalg.norm(forces, axis=1).max():.0f} N), bores held",
-                       float(np.max(np.abs(d_full))), float(np.max(np.abs(r_full))))
+                       f"rated torque {spec.rated_torque_Nm:g} N·m over {spec.cycloid.disc_count} discs, "
+                       f"{len(t)} loaded pins (rigid-disc load sharing, max {np.linalg.norm(forces, axis=1).max():.0f} N),"
+                       f" bores held, worst of {len(CHECK_ANGLES_PITCH)} disc angles", d_max, r_max, tuple(by_angle))
 
 
 def _carrier_check(spec, bfK, fem, itfs, K, Psi, nn, geom) -> StaticCheck:
