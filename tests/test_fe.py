@@ -105,6 +105,24 @@ def test_oversized_mesh_and_mode_count_refused_with_estimate(spec):
         reduce_part(spec, "carrier", maxh_m=8e-3, n_modes=1500, mesh_order=1, use_cache=False)
 
 
+def test_netgen_failure_names_part_and_settings(spec, monkeypatch):
+    """A meshing failure comes back as FEError naming the part, maxh, order and modes."""
+    import netgen.occ
+
+    from rvflex.fe.reduce import FEError, reduce_part
+
+    class Broken:
+        def __init__(self, shape):
+            pass
+
+        def GenerateMesh(self, **kw):
+            raise RuntimeError("netgen: surface meshing failed")
+
+    monkeypatch.setattr(netgen.occ, "OCCGeometry", Broken)
+    with pytest.raises(FEError, match=r"carrier \(maxh 8 mm, order 1, 6 modes\).*surface meshing failed"):
+        reduce_part(spec, "carrier", maxh_m=8e-3, n_modes=6, mesh_order=1, use_cache=False)
+
+
 # --------------------------------------------------------------------------- reduction
 
 
