@@ -7,7 +7,7 @@ rated torque (from the model's own load sharing). A negative amount (our sign: a
 generating radius) takes that approach out of the flank clearance, which is what seed 002's
 result — less backlash — requires.
 
-    python -m rvflex.scenarios.modification_comparison out/
+    python -m rvflex.scenarios.modification_comparison
 """
 
 from __future__ import annotations
@@ -48,13 +48,14 @@ def compensated_spec(spec: ReducerSpec, delta_max_m: float | None = None) -> Red
     return dc.replace(spec, cycloid=dc.replace(c, modification=dc.replace(c.modification, compensation_m=-delta)))
 
 
-def compare_modifications(spec: ReducerSpec, steps: int = 200) -> dict[str, HysteresisMetrics]:
-    """Hysteresis metrics of the traditional and the compensated profile (no other errors)."""
+def compare_modifications(spec: ReducerSpec, steps: int = 200, fidelity: str = "rigid") -> dict[str, HysteresisMetrics]:
+    """Hysteresis metrics of the traditional and the compensated profile (no other errors),
+    with rigid or FE-reduced (``fidelity="flexible"``) discs."""
     from rvflex.scenarios.lost_motion import LostMotion, run_lost_motion
 
     out = {}
     for name, s in (("traditional", spec), ("compensated", compensated_spec(spec))):
-        out[name] = run_lost_motion(LostMotion(s, ErrorSpec(), spec.rated_torque_Nm, steps))[1]
+        out[name] = run_lost_motion(LostMotion(s, ErrorSpec(), spec.rated_torque_Nm, steps, fidelity))[1]
     return out
 
 
@@ -63,6 +64,7 @@ if __name__ == "__main__":
 
     spec = catalog.load("rv40e")
     print(f"δ_max = {compensation_amount_m(spec) * 1e6:.3f} µm")
-    for name, m in compare_modifications(spec).items():
-        print(f"{name:12s} backlash {m.backlash_arcmin:.4f}′, lost motion {m.lost_motion_arcmin:.4f}′, "
-              f"stiffness {m.torsional_stiffness_Nm_per_arcmin:.2f} N·m/arcmin")
+    for fidelity in ("rigid", "flexible"):
+        for name, m in compare_modifications(spec, fidelity=fidelity).items():
+            print(f"{fidelity:8s} {name:12s} backlash {m.backlash_arcmin:.4f}′, lost motion {m.lost_motion_arcmin:.4f}′, "
+                  f"stiffness {m.torsional_stiffness_Nm_per_arcmin:.2f} N·m/arcmin")
