@@ -57,11 +57,17 @@ Z95 = 1.959964
 # ----------------------------------------------------------------------------- workers (module level: picklable)
 
 def _eval_job(spec, errors, plan, settings, law, active):
-    """Features and response of one model evaluation, or the failure message."""
+    """Features and response of one model evaluation, or the failure message. Exudyn's console
+    banners of retried static steps are silenced meanwhile (the retries are expected)."""
+    import exudyn as exu
+
+    exu.SetWriteToConsole(False)
     try:
         resp = evaluate(spec, errors, plan, settings, active, law=law)
     except EvaluationFailed as err:
         return None, None, str(err)
+    finally:
+        exu.SetWriteToConsole(True)
     f, _ = features(resp, plan, settings)
     return f, resp, ""
 
