@@ -61,13 +61,14 @@ def _eval_job(spec, errors, plan, settings, law, active):
     banners of retried static steps are silenced meanwhile (the retries are expected)."""
     import exudyn as exu
 
-    exu.SetWriteToConsole(False)
+    before = exu.config.printToConsole
+    exu.config.printToConsole = False
     try:
         resp = evaluate(spec, errors, plan, settings, active, law=law)
     except EvaluationFailed as err:
         return None, None, str(err)
     finally:
-        exu.SetWriteToConsole(True)
+        exu.config.printToConsole = before
     f, _ = features(resp, plan, settings)
     return f, resp, ""
 
