@@ -505,10 +505,11 @@ def _sensitivities(runner, cands, f0, resp0, plan, settings, n):
         if e.kind == "measurement":
             continue
         for j, prm in enumerate(e.params):
-            x = np.zeros(e.n)
-            x[j] = prm.step
-            jobs.append(((e, x),))
-            owners.append((e.name, j))
+            for sign in ((1.0, -1.0) if e.central else (1.0,)):
+                x = np.zeros(e.n)
+                x[j] = sign * prm.step
+                jobs.append(((e, x),))
+                owners.append((e.name, j, sign))
     # other-fidelity (slow) jobs first, so that they run alongside the rigid ones
     order = sorted(range(len(jobs)), key=lambda i: next(c for c in cands if c.name == owners[i][0]).kind != "fidelity")
     outs: list = [None] * len(jobs)
@@ -527,7 +528,7 @@ def _sensitivities(runner, cands, f0, resp0, plan, settings, n):
                 fj, _ = features(dc.replace(resp0, te=te), plan, settings)
                 cols.append((fj - f0) / prm.step)
             sens[e.name] = np.column_stack(cols)
-    for (name, j), (fj, _, msg) in zip(owners, outs):
+    for (name, j, sign), (fj, _, msg) in zip(owners, outs):
         if name in failed:
             continue
         if fj is None:
@@ -535,7 +536,9 @@ def _sensitivities(runner, cands, f0, resp0, plan, settings, n):
             sens.pop(name, None)
             continue
         e = next(c for c in cands if c.name == name)
-        sens.setdefault(name, np.zeros((n, e.n)))[:, j] = (fj - f0) / e.params[j].step
+        # one-sided: the secant (f+ − f0)/h; central: (f+ − f0)/(2h) + (f0 − f−)/(2h)
+        scale = e.params[j].step * (2.0 if e.central else 1.0)
+        sens.setdefault(name, np.zeros((n, e.n)))[:, j] += sign * (fj - f0) / scale
     return sens, failed
 
 
