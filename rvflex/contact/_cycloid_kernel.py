@@ -135,7 +135,7 @@ def evaluate(q, qd, offset, pins, radii, par, herr, hpsi, law, t_cache, phi, eta
     max_pen = -1e300
     bad = 0
     gq = np.empty(n)
-    sk = np.empty(max(m, 1))
+    sk = np.empty(m)
     h_grid = 2.0 * math.pi / max(ng, 1)
     hq = np.empty((3, 3))
     gt = np.empty(3)

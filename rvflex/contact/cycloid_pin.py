@@ -237,17 +237,21 @@ class CycloidPinContact:
     # ------------------------------------------------------------------ user functions
     def _force_uf(self, mbs, t, item, q, q_t):
         w = self._work
-        q = np.asarray(q)
-        q_t = np.asarray(q_t)
-        w.q_obj[:] = q
-        w.qd_obj[:] = q_t
-        ri, nn = self.rigid_index, len(self.reference)
-        for a in range(3):
-            w.q[a] = self.reference[ri[a]] + q[ri[a]]
-            w.qd[a] = q_t[ri[a]]
+        q = np.asarray(q, float)
+        q_t = np.asarray(q_t, float)
+        w.key = q.tobytes() + q_t.tobytes()  # the Jacobian call checks it is asked at this state
+        if w.scatter is None:  # a rigid disc: the object's coordinates are (x, y, θ)
+            np.add(self.reference, q, out=w.q)
+            w.qd[:] = q_t
+            eta = eta_d = w.no_modes
+        else:
+            ri, nn = w.rigid, len(self.reference)
+            np.add(self.reference[ri], q[ri], out=w.q)
+            w.qd[:] = q_t[ri]
+            eta, eta_d = q[nn:], q_t[nn:]
         w.penetration, w.bad = K.evaluate(w.q, w.qd, self.offset_rad, self.pins_m, self.radii_m, self.profile.par,
                                           self.profile.herr, self.profile.hpsi, self._law_vec, self._t_cache,
-                                          self.phi, q[nn:], q_t[nn:], w.f, w.k, w.d, w.out)
+                                          self.phi, eta, eta_d, w.f, w.k, w.d, w.out)
         if w.scatter is None:
             return w.f
         w.f_obj[w.scatter] = w.f
@@ -264,9 +268,12 @@ class CycloidPinContact:
 
     def _jacobian_uf(self, mbs, t, item, q, q_t, f_ode2, f_ode2_t):
         w = self._work
-        if not (np.array_equal(w.q_obj, q) and np.array_equal(w.qd_obj, q_t)):
+        # bitwise compare with the last evaluated state (tobytes: ~0.2 µs, (a == b).all(): ~3 µs)
+        if w.key != np.asarray(q, float).tobytes() + np.asarray(q_t, float).tobytes():
             self._force_uf(mbs, t, item, q, q_t)  # Newton asks at a state the force was not evaluated at (rare)
         if w.scatter is None:
+            if f_ode2_t == 0.0:  # statics: no damping term, no temporary
+                return w.k if f_ode2 == 1.0 else f_ode2 * w.k
             return f_ode2 * w.k + f_ode2_t * w.d
         ix = np.ix_(w.scatter, w.scatter)
         w.k_obj[ix] = f_ode2 * w.k + f_ode2_t * w.d
@@ -283,9 +290,10 @@ class _Workspace:
     k: np.ndarray
     d: np.ndarray
     out: np.ndarray
-    q_obj: np.ndarray  # the object's coordinates at the last evaluation (all its nodes)
-    qd_obj: np.ndarray
+    key: bytes  # the object's coordinates and velocities at the last evaluation
+    no_modes: np.ndarray  # empty modal coordinates of a rigid disc
     scatter: np.ndarray | None  # positions of (x, y, θ, η…) in the object's coordinates; None: identity
+    rigid: np.ndarray  # positions of (x, y, θ) in the object's coordinates
     f_obj: np.ndarray
     k_obj: np.ndarray
     penetration: float = -math.inf
@@ -300,8 +308,8 @@ class _Workspace:
         if tuple(rigid_index) != (0, 1, 2) or node_coords != 3:
             scatter = np.array(list(rigid_index) + list(range(node_coords, nobj)), dtype=np.intp)
         return cls(np.full(3, np.nan), np.full(3, np.nan), np.zeros(k), np.zeros((k, k)), np.zeros((k, k)),
-                   np.zeros((n, K.N_OUT)), np.full(nobj, np.nan), np.full(nobj, np.nan), scatter, np.zeros(nobj),
-                   np.zeros((nobj, nobj)))
+                   np.zeros((n, K.N_OUT)), b"", np.zeros(0), scatter,
+                   np.asarray(rigid_index, dtype=np.intp), np.zeros(nobj), np.zeros((nobj, nobj)))
 
 
 def install_penetration_guard(mbs, contacts: list[CycloidPinContact]) -> None:

@@ -268,15 +268,14 @@ def closest_point(c, par, herr, hpsi, t0=math.nan):
     ok : bool
         Newton converged to a minimum.
     """
-    guess = _polar_guess(c, par)
-    # a warm start that is off by more than a quarter tooth (e.g. cached at a wild Newton
-    # iterate) or does not converge must not decide the answer: the contact force would
-    # then depend on the solver's history and Newton can cycle
-    if not math.isnan(t0) and abs(_wrap(t0 - guess)) < 0.5 * math.pi / par[P_ZC]:
+    if not math.isnan(t0):
         res = _closest_from(c, par, herr, hpsi, t0, True)
-        if res[5]:
+        # a warm start that ends more than a quarter tooth away from where it started (cached at
+        # a wild Newton iterate, another tooth's minimum) or does not converge must not decide
+        # the answer: the contact force would depend on the solver's history and Newton can cycle
+        if res[5] and abs(_wrap(res[0] - t0)) < 0.5 * math.pi / par[P_ZC]:
             return res
-    return _closest_from(c, par, herr, hpsi, guess, False)
+    return _closest_from(c, par, herr, hpsi, _polar_guess(c, par), False)
 
 
 @_jit
