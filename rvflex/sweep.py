@@ -696,7 +696,7 @@ def monte_carlo_design(points: int, seed: int = 1, positions_per_rev: int = 2048
                  Factor("pin_circle_radius", low=-3 * um, high=3 * um), Factor("pin_radius", low=-1 * um, high=1 * um)))
 
 
-def bench_sweep(store_dir: Path, points: int = 100, speedup_points: int = 16, progress=print) -> dict:
+def bench_sweep(store_dir: Path, points: int = 100, speedup_points: int = 32, progress=print) -> dict:
     """Wall time of a ``points``-point Monte Carlo with the process executor (2 workers), and the
     speed-up from 1 to 2 workers on the same ``speedup_points`` points, measured in one run.
 
