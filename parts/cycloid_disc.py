@@ -12,9 +12,7 @@ from rvflex.contact.cycloid_pin import ContactLaw, CycloidPinContact, add_cycloi
 from rvflex.parts import bearings
 from rvflex.spec import ErrorSpec, ReducerSpec
 
-__all__ = ["DiscHandles", "FLANK_GRID_PER_TOOTH", "build", "bore_positions", "contact_mode_table"]
-
-FLANK_GRID_PER_TOOTH = 64  # profile-parameter samples of the modal flank table per tooth
+__all__ = ["DiscHandles", "build", "bore_positions", "contact_mode_table"]
 
 
 @dataclass(frozen=True)
