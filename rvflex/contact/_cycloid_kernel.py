@@ -99,6 +99,16 @@ def _normal_law(x, kap, r_pin, law):
 
 
 @_jit
+def _parameter_rate(t, par, herr, hpsi, cx, cy, a1x, a1y, a2x, a2y, a3x, a3y):
+    """Profile derivatives Q', Q'' at the contact parameter t and its rate ∂t/∂q (3 values)
+    from (Q − c)·Q' = 0: ∂t/∂c = Q'ᵀ/(|Q'|² + (Q − c)·Q''), with the columns a_b = ∂c/∂q_b."""
+    qq, q1, q2 = profile_point(t, par, herr, hpsi)
+    den = q1.real * q1.real + q1.imag * q1.imag + (qq.real - cx) * q2.real + (qq.imag - cy) * q2.imag
+    return (q1, q2, (q1.real * a1x + q1.imag * a1y) / den, (q1.real * a2x + q1.imag * a2y) / den,
+            (q1.real * a3x + q1.imag * a3y) / den)
+
+
+@_jit
 def _curvature(t, par, herr, hpsi):
     """Signed curvature of the profile at parameter t (1/m)."""
     _q, q1, q2 = profile_point(t, par, herr, hpsi)
@@ -193,15 +203,11 @@ def evaluate(q, qd, offset, pins, radii, par, herr, hpsi, law, t_cache, phi, eta
             # the flank point of the modal displacement slides with t(q): ∂(N·Φ_k)/∂q =
             # s_k·∂t/∂q, s_k = N'·Φ_k + N·Φ_k'; it enters ∂g/∂q (through u = Φη) and the
             # modal–rigid blocks of K (fn·s_k·∂t/∂q, symmetric)
-            qq, q1, q2 = profile_point(t, par, herr, hpsi)
+            q1, q2, wt0, wt1, wt2 = _parameter_rate(t, par, herr, hpsi, cx, cy, a1x, a1y, a2x, a2y, a3x, a3y)
             sq = math.sqrt(q1.real * q1.real + q1.imag * q1.imag)
             d12 = (q1.real * q2.real + q1.imag * q2.imag) / (sq * sq * sq)
             dnx = q2.imag / sq - q1.imag * d12
             dny = -q2.real / sq + q1.real * d12
-            den = (sq * sq + (qq.real - cx) * q2.real + (qq.imag - cy) * q2.imag)
-            wt0 = (q1.real * a1x + q1.imag * a1y) / den
-            wt1 = (q1.real * a2x + q1.imag * a2y) / den
-            wt2 = (q1.real * a3x + q1.imag * a3y) / den
             su = 0.0
             for k in range(m):
                 phx = (1.0 - w) * phi[j0, 0, k] + w * phi[j1, 0, k]
@@ -233,15 +239,14 @@ def evaluate(q, qd, offset, pins, radii, par, herr, hpsi, law, t_cache, phi, eta
                 hq[a, b] = keff * sv[a] * sv[b]
         if dfk != 0.0:
             # the law depends on the curvature at the contact point, which slides along the
-            # flank: ∂κ/∂q = κ'(t)·∂t/∂q, ∂t/∂c = Q'ᵀ/(|Q'|² + (Q − c)·Q'') from (Q − c)·Q' = 0
-            qq, q1, q2 = profile_point(t, par, herr, hpsi)
+            # flank: ∂κ/∂q = κ'(t)·∂t/∂q (∂t/∂q already known for a flexible disc)
+            if m == 0:
+                q1, q2, wt0, wt1, wt2 = _parameter_rate(t, par, herr, hpsi, cx, cy, a1x, a1y, a2x, a2y, a3x, a3y)
             h = CURVATURE_STEP_T
-            dkdt = (_curvature(t + h, par, herr, hpsi) - _curvature(t - h, par, herr, hpsi)) / (2.0 * h)
-            den = (q1.real * q1.real + q1.imag * q1.imag + (qq.real - cx) * q2.real + (qq.imag - cy) * q2.imag)
-            gk = dfk * dkdt / den
-            dk0 = gk * (q1.real * a1x + q1.imag * a1y)
-            dk1 = gk * (q1.real * a2x + q1.imag * a2y)
-            dk2 = gk * (q1.real * a3x + q1.imag * a3y)
+            gk = dfk * (_curvature(t + h, par, herr, hpsi) - _curvature(t - h, par, herr, hpsi)) / (2.0 * h)
+            dk0 = gk * wt0
+            dk1 = gk * wt1
+            dk2 = gk * wt2
             for a in range(n):
                 kmat[a, 0] -= gq[a] * dk0
                 kmat[a, 1] -= gq[a] * dk1
