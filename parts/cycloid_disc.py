@@ -182,13 +182,10 @@ def _build_flexible(mbs, spec, errors, cranks, law, eccentric_offsets, axes, red
                 meshNodeNumbers=bnodes.tolist(), weightingFactors=w.tolist()))
             pairs.append(bearings.build(mbs, cranks.eccentric_markers[k][d], marker, spec.bearings.eccentric,
                                         extra_clearance_m=extra))
-        from rvflex.geometry.profile import build_profile
-
-        profile = build_profile(cy, errors, d)
         # profile frame against the FE (node) frame: −φ_d/z_c − β, a whole number of teeth for the half turn
         offset = -cy.disc_phase_rad[d] / cy.disc_teeth - beta
         phi = contact_mode_table(reduced.flank, offset, grid_per_tooth, cy.disc_teeth)
-        contacts.append(add_cycloid_pin_contact(mbs, node, cy, law, disc=d, errors=errors, profile=profile,
+        contacts.append(add_cycloid_pin_contact(mbs, node, cy, law, disc=d, errors=errors,
                                                 initial_interference_m=50e-6, modal_node=modal, phi=phi,
                                                 offset_rad=offset))
         nodes.append(node)

@@ -21,9 +21,9 @@ import numpy as np
 from rvflex.contact.cycloid_pin import ContactLaw
 from rvflex.parts import carrier as carrier_part
 from rvflex.parts import crankshaft, cycloid_disc, input_stage, pin_ring
-from rvflex.spec import ErrorSpec, ReducerSpec
+from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
 
-__all__ = ["ReducerModel", "build_reducer", "default_contact_law", "FIDELITIES"]
+__all__ = ["ReducerModel", "build_reducer", "check_fidelity", "default_contact_law", "FIDELITIES"]
 
 FIDELITIES = ("rigid", "flexible")
 
@@ -31,6 +31,12 @@ FLEXIBLE_DISC_FE = {"maxh_m": 6e-3, "mesh_order": 2, "n_modes": 12, "attach_per_
 """Disc reduction of the flexible fidelity: global deformation only — 6 bore (RBE2) modes and 12
 fixed-interface modes on 6 mm quadratic tets, no flank attachment modes, whose patch-local
 compliance the line-contact law already carries (docs/fe.md: convergence study)."""
+
+
+def check_fidelity(fidelity: str, field: str = "--fidelity") -> None:
+    """Refuse a fidelity the model does not build (SpecError naming ``field``)."""
+    if fidelity not in FIDELITIES:
+        raise SpecError(field, fidelity, f"must be one of {', '.join(map(repr, FIDELITIES))}")
 
 
 def default_contact_law(spec: ReducerSpec) -> ContactLaw:
@@ -131,8 +137,7 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None, fidelity: 
     import exudyn as exu
     from exudyn.itemInterface import MarkerNodeCoordinate, NodePointGround, ObjectGround
 
-    if fidelity not in FIDELITIES:
-        raise ValueError(f"fidelity = {fidelity!r}: available {', '.join(FIDELITIES)}")
+    check_fidelity(fidelity, "fidelity")
     errors = errors or ErrorSpec()
     errors.check_against(spec)
     law = law or default_contact_law(spec)

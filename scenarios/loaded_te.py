@@ -16,7 +16,7 @@ import numpy as np
 
 from rvflex.geometry.formulas import ARCSEC_PER_RAD
 from rvflex.metrics import TEMetrics, order_spectrum, te_metrics
-from rvflex.model import build_reducer
+from rvflex.model import build_reducer, check_fidelity
 from rvflex.solve import QuasiStaticResult, dynamic, quasi_static
 from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
 
@@ -42,8 +42,7 @@ class LoadedTE:
     fe: tuple[tuple[str, float], ...] = ()  # reduction settings of the flexible discs (rvflex.fe.reduce.PartSettings)
 
     def __post_init__(self) -> None:
-        if self.fidelity not in ("rigid", "flexible"):
-            raise SpecError("--fidelity", self.fidelity, "must be 'rigid' or 'flexible'")
+        check_fidelity(self.fidelity)
         self.spec.check_torque("--load", self.load_Nm, allow_zero=True)
         if not self.revolutions > 0:
             raise SpecError("--revs", self.revolutions, "must be positive (output revolutions)")

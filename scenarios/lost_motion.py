@@ -15,7 +15,7 @@ import numpy as np
 
 from rvflex.geometry.formulas import ARCSEC_PER_RAD
 from rvflex.metrics import HysteresisMetrics, hysteresis_metrics
-from rvflex.model import build_reducer
+from rvflex.model import build_reducer, check_fidelity
 from rvflex.solve import TorqueStepResult, hysteresis_cycle, torque_stepping
 from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
 
@@ -36,8 +36,7 @@ class LostMotion:
 
     def __post_init__(self) -> None:
         self.spec.check_torque("--torque", self.torque_Nm)
-        if self.fidelity not in ("rigid", "flexible"):
-            raise SpecError("--fidelity", self.fidelity, "must be 'rigid' or 'flexible'")
+        check_fidelity(self.fidelity)
         if not self.steps >= 40:
             raise SpecError("--steps", self.steps, "must be at least 40 torque steps")
 

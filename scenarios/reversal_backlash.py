@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from rvflex.geometry.formulas import ARCMIN_PER_RAD
-from rvflex.model import build_reducer
+from rvflex.model import build_reducer, check_fidelity
 from rvflex.solve import QuasiStaticResult, quasi_static
 from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
 
@@ -42,8 +42,7 @@ class ReversalBacklash:
 
     def __post_init__(self) -> None:
         self.spec.check_torque("--load", self.load_Nm)
-        if self.fidelity not in ("rigid", "flexible"):
-            raise SpecError("--fidelity", self.fidelity, "must be 'rigid' or 'flexible'")
+        check_fidelity(self.fidelity)
         if not self.positions >= 8:
             raise SpecError("--positions", self.positions, "must be at least 8")
 
