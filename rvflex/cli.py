@@ -141,9 +141,11 @@ def _cmd_lost_motion(args: argparse.Namespace) -> int:
                                       lambda progress: run_lost_motion(sc, progress=progress))
     doc = {"lost_motion_arcmin": met.lost_motion_arcmin, "hysteresis_loss_arcmin": met.hysteresis_loss_arcmin,
            "torsional_stiffness_Nm_per_arcmin": met.torsional_stiffness_Nm_per_arcmin,
-           "backlash_arcmin": met.backlash_arcmin, "wall_s": wall}
+           "backlash_arcmin": met.backlash_arcmin,
+           "secant_stiffness_Nm_per_arcmin": met.secant_stiffness_Nm_per_arcmin, "wall_s": wall}
     print(f"lost motion {met.lost_motion_arcmin:.4f}′, hysteresis loss {met.hysteresis_loss_arcmin:.4f}′, "
-          f"torsional stiffness {met.torsional_stiffness_Nm_per_arcmin:.2f} N·m/arcmin, "
+          f"torsional stiffness {met.torsional_stiffness_Nm_per_arcmin:.2f} N·m/arcmin "
+          f"(secant ±T {met.secant_stiffness_Nm_per_arcmin:.2f}), "
           f"backlash {met.backlash_arcmin:.4f}′ ({len(res.torque_Nm)} steps in {wall:.1f} s)")
     return _emit(args, doc, lambda out: write_lost_motion_outputs(out, res, met, sc))
 

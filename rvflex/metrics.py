@@ -56,13 +56,18 @@ class HysteresisMetrics:
     lost_motion_arcmin: width between the branch midpoints at ±3 % T_r; hysteresis_loss_arcmin:
     width between the branches at zero torque; torsional_stiffness_Nm_per_arcmin: slope between
     50 % and 100 % T_r (mean of both signs); backlash_arcmin: distance at zero torque between
-    the two elastic lines (50–100 % T_r, each sign) extrapolated.
+    the two elastic lines (50–100 % T_r, each sign) extrapolated;
+    secant_stiffness_Nm_per_arcmin: 2·T_r over the loop's whole angular span from −T_r to
+    +T_r, free play included (the overall stiffness a bench reads off the loop end points;
+    seed 002 reports this kind of figure, which rises when the clearance shrinks, while the
+    50–100 % slope is set by the loaded contacts alone).
     """
 
     lost_motion_arcmin: float
     hysteresis_loss_arcmin: float
     torsional_stiffness_Nm_per_arcmin: float
     backlash_arcmin: float
+    secant_stiffness_Nm_per_arcmin: float
 
 
 def _branch_angle(torque: np.ndarray, angle: np.ndarray, at: float) -> float:
@@ -94,4 +99,5 @@ def hysteresis_metrics(torque_Nm: np.ndarray, theta_out_rad: np.ndarray, rated_N
         lines.append((slope, -intercept / slope))  # angle at zero torque
     stiffness = 0.5 * (lines[0][0] + lines[1][0])
     backlash = lines[0][1] - lines[1][1]
-    return HysteresisMetrics(float(lost), float(loss), float(stiffness), float(backlash))
+    secant = (t[k_max] - t[k_min]) / (a[k_max] - a[k_min])
+    return HysteresisMetrics(float(lost), float(loss), float(stiffness), float(backlash), float(secant))

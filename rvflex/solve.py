@@ -94,11 +94,144 @@ def _solve_at(model: ReducerModel, ss, theta_in: float, q_abs: np.ndarray) -> np
 
 SUBSTEP_LEVELS = 3  # a step that fails is retried in 2, 4, then 8 sub-steps from the last converged state
 
+# Chord Newton of the quasi-static stepping (see _ChordNewton). Caps on one iteration's move:
+# clearances are µm-scale, and a lightly loaded crank that sits at the edge of its mesh
+# backlash makes the Jacobian soft in its spin, so an uncapped Newton step can throw it
+# millimetres into the mesh (measured: a 0.02 rad crank step where the answer was 6e-4 rad away)
+NEWTON_CAP_M = 1e-5  # largest translation of a body in one iteration, m
+NEWTON_CAP_RADIUS_M = 0.03  # rotations are capped at NEWTON_CAP_M over this radius (a crank's eccentric/gear scale)
+NEWTON_TOLERANCE = 1e-10  # converged when the last correction is below this (m, rad; 1e-10 rad = 2e-5″) ...
+NEWTON_RESIDUAL = 1e-2  # ... and the residual norm below this (N, N·m): 1e-10 m against the contact stiffness
+NEWTON_CONTRACTION = 0.25  # the Jacobian is re-evaluated when an iteration shrinks the residual by less than this
+NEWTON_MAX_ITERATIONS = 40
 
-def _advance(model: ReducerModel, ss, q: np.ndarray, th0: float, th1: float, level: int = 0) -> np.ndarray:
-    """Static equilibrium at input angle ``th1`` from the converged state ``q`` at ``th0``;
-    on failure, bisect the step (contact sets that change within one step can stall Newton)."""
-    guess = q + model.kinematic_coordinates(th1) - model.kinematic_coordinates(th0)
+
+class _NotConverged(RuntimeError):
+    pass
+
+
+class _ChordNewton:
+    """Static equilibria by a chord Newton iteration on Exudyn's own static residual and
+    Jacobian (``MainSolverStatic.ComputeNewtonResidual``/``ComputeNewtonJacobian``).
+
+    The Jacobian is kept from step to step and re-evaluated only when an iteration contracts
+    poorly; each iteration's move is capped (:data:`NEWTON_CAP_M`). With FE discs the
+    Jacobian of the FFRF bodies and their superelement markers is ~6× the residual's cost,
+    and Exudyn's own static solver evaluates it every iteration; the equilibria are the same
+    (``tests/test_solve.py`` compares both to 1e-5″). A step that does not converge raises
+    :class:`_NotConverged` and is solved again by Exudyn's static solver.
+    """
+
+    def __init__(self, model: ReducerModel):
+        self.model = model
+        self.ss = static_settings()
+        self.ss.staticSolver.useLoadFactor = False  # loads as set, no load-step ramp
+        self.solver = None
+        self.lu = None
+        mbs = model.mbs
+        self.n2, nae = mbs.systemData.ODE2Size(), mbs.systemData.AEsize()
+        self.cap = np.full(self.n2 + nae, np.inf)  # modal coordinates and multipliers are not capped
+        for idx in model.planar_index().values():
+            self.cap[idx[:2]] = NEWTON_CAP_M
+            self.cap[idx[2]] = NEWTON_CAP_M / NEWTON_CAP_RADIUS_M
+        self.iterations = 0
+        self.jacobians = 0
+        self.fallbacks = 0
+
+    def _set(self, x: np.ndarray) -> None:
+        import exudyn as exu
+
+        sd = self.model.mbs.systemData
+        sd.SetODE2Coordinates(x[:self.n2], configuration=exu.ConfigurationType.Current)
+        sd.SetAECoordinates(x[self.n2:], configuration=exu.ConfigurationType.Current)
+
+    def _residual(self) -> np.ndarray:
+        self.solver.ComputeNewtonResidual(self.model.mbs, self.ss)
+        return np.asarray(self.solver.GetSystemResidual())
+
+    def _factorize(self) -> None:
+        from scipy.linalg import lu_factor
+
+        self.solver.ComputeNewtonJacobian(self.model.mbs, self.ss)
+        self.lu = lu_factor(self.solver.GetSystemJacobian(), check_finite=False)
+        self.jacobians += 1
+
+    def solve(self, q_abs: np.ndarray) -> np.ndarray:
+        """Equilibrium from the guess ``q_abs`` (absolute ODE2 coordinates) with the loads and
+        prescribed offsets as currently set in the system."""
+        import exudyn as exu
+        from scipy.linalg import lu_solve
+
+        mbs, ref = self.model.mbs, self.model.reference
+        if self.solver is None:
+            mbs.systemData.SetODE2Coordinates(q_abs - ref, configuration=exu.ConfigurationType.Initial)
+            self.solver = exu.MainSolverStatic()
+            self.solver.InitializeSolver(mbs, self.ss)
+        lam = np.asarray(mbs.systemData.GetAECoordinates(configuration=exu.ConfigurationType.Current))
+        x = np.concatenate([q_abs - ref, lam])
+        self._set(x)
+        r = self._residual()
+        if self.lu is None:
+            self._factorize()
+        last = np.linalg.norm(r)
+        for _ in range(NEWTON_MAX_ITERATIONS):
+            dx = lu_solve(self.lu, r, check_finite=False)
+            excess = np.max(np.abs(dx) / self.cap)
+            if excess > 1.0:
+                dx /= excess
+            x -= dx
+            self._set(x)
+            r = self._residual()
+            norm = np.linalg.norm(r)
+            self.iterations += 1
+            if not np.isfinite(norm):
+                break
+            if np.max(np.abs(dx[:self.n2])) < NEWTON_TOLERANCE and norm < NEWTON_RESIDUAL:
+                for c in self.model.discs.contacts:
+                    c.check_penetration()
+                return x[:self.n2] + ref
+            if norm > NEWTON_CONTRACTION * last:
+                self._factorize()
+            last = norm
+        self.lu = None
+        raise _NotConverged(f"chord Newton stalled at residual {norm:.3e}")
+
+
+def _extrapolated_guess(model: ReducerModel, history: list[tuple[float, np.ndarray]], theta: float) -> np.ndarray:
+    """Guess at input angle ``theta``: the ideal kinematics plus the elastic part (the
+    coordinates' deviation from the kinematics) extrapolated quadratically from the last
+    three converged steps (linearly from two, held from one)."""
+    kin = model.kinematic_coordinates(theta)
+    if not history:
+        return kin
+    ths = [h[0] for h in history]
+    elastic = np.zeros_like(kin)
+    for j, (tj, ej) in enumerate(history):  # Lagrange weights at theta
+        w = 1.0
+        for m, tm in enumerate(ths):
+            if m != j:
+                w *= (theta - tm) / (tj - tm)
+        elastic += w * ej
+    return kin + elastic
+
+
+def _advance(model: ReducerModel, ss, q: np.ndarray, th0: float, th1: float, level: int = 0, *,
+             newton: _ChordNewton | None = None, guess: np.ndarray | None = None) -> np.ndarray:
+    """Static equilibrium at input angle ``th1`` from the converged state ``q`` at ``th0``
+    (or from ``guess``), by ``newton`` if given and else, or when it fails, by Exudyn's static
+    solver; on failure, bisect the step (contact sets that change within one step can stall Newton)."""
+    if guess is None:
+        guess = q + model.kinematic_coordinates(th1) - model.kinematic_coordinates(th0)
+    if newton is not None:
+        mbs = model.mbs
+        mbs.SetObjectParameter(model.sun.drive, "offset", th1)
+        mbs.SetObjectParameter(model.carrier.regulariser, "offset", th1 / model.ratio)
+        try:
+            return newton.solve(guess)
+        except Exception:  # stalled, or a contact guard tripped on a wild iterate: Exudyn's solver decides
+            newton.fallbacks += 1
+            newton.lu = None
+            guess = q + model.kinematic_coordinates(th1) - model.kinematic_coordinates(th0)
     try:
         return _solve_at(model, ss, th1, guess)
     except Exception:
@@ -110,10 +243,11 @@ def _advance(model: ReducerModel, ss, q: np.ndarray, th0: float, th1: float, lev
 
 
 def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float = 0.0, *,
-                 progress=None) -> QuasiStaticResult:
+                 progress=None, chord_newton: bool = True) -> QuasiStaticResult:
     """Static equilibria at the input angles ``theta_in`` (rad; increasing runs forward,
     decreasing runs reverse) under the output torque ``torque_out_Nm`` (N·m, ≥ 0) resisting
-    the motion.
+    the motion. The steps are solved by :class:`_ChordNewton` from an extrapolated guess
+    (``chord_newton=False``: Exudyn's static solver from the kinematic guess, every step).
 
     Raises
     ------
@@ -123,8 +257,7 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
     """
     mbs = model.mbs
     ss = static_settings()
-    sl = model.node_slices()
-    car = sl["carrier"].start + 2
+    car = model.planar_index()["carrier"][2]  # θ_out: coordinate 2 of a rigid, 5 of an FFRF carrier node
     theta_in = np.asarray(theta_in, float)
     n, nd, npins = len(theta_in), len(model.discs.nodes), model.spec.cycloid.pin_count
     out = np.full(n, np.nan)
@@ -151,11 +284,17 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
         steps += [(theta_in[0], k_work, f0 + (1.0 - f0) * f, False) for f in LOAD_CONTINUATION]
     steps += [(th, k_work, 1.0, True) for th in theta_in]
     prev_th = theta_in[0]
+    newton = _ChordNewton(model) if chord_newton else None
+    history: list[tuple[float, np.ndarray]] = []  # (θ_in, elastic part) of the last converged recorded steps
     for th, k_reg, frac, record in steps:
         mbs.SetLoadParameter(model.carrier.load, "load", -direction * frac * torque_out_Nm)
         mbs.SetObjectParameter(model.carrier.regulariser, "stiffness", k_reg)
         try:
-            q = _advance(model, ss, q, prev_th, th)
+            if record and newton is not None:
+                q = _advance(model, ss, q, prev_th, th, newton=newton,
+                             guess=_extrapolated_guess(model, history, th) if history else None)
+            else:
+                q = _advance(model, ss, q, prev_th, th)
         except Exception as err:  # Exudyn raises its own error types; report the step
             res = np.asarray(mbs.systemData.GetODE2Coordinates())
             guess = q + model.kinematic_coordinates(th) - model.kinematic_coordinates(prev_th)
@@ -164,6 +303,7 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
                              f"change {np.abs(res + model.reference - guess).max():.3e}", result()) from None
         prev_th = th
         if record:
+            history = (history + [(th, q - model.kinematic_coordinates(th))])[-3:]
             out[done] = q[car]
             for d, c in enumerate(model.discs.contacts):
                 st = c.pin_state(mbs)
@@ -204,9 +344,11 @@ def hysteresis_cycle(rated_Nm: float, steps: int = 200) -> np.ndarray:
     return np.concatenate([leg(0.0, rated_Nm), leg(rated_Nm, -rated_Nm)[1:], leg(-rated_Nm, 0.0)[1:]])
 
 
-def torque_stepping(model: ReducerModel, torques_Nm: np.ndarray, *, progress=None) -> TorqueStepResult:
+def torque_stepping(model: ReducerModel, torques_Nm: np.ndarray, *, progress=None,
+                    chord_newton: bool = True) -> TorqueStepResult:
     """Input locked at angle 0, output torque stepped along ``torques_Nm`` (each step a static
-    equilibrium from the previous one): the torsional hysteresis test of the catalogues.
+    equilibrium from the previous one, by :class:`_ChordNewton` unless ``chord_newton=False``,
+    Exudyn's static solver when it stalls): the torsional hysteresis test of the catalogues.
 
     Raises
     ------
@@ -215,17 +357,18 @@ def torque_stepping(model: ReducerModel, torques_Nm: np.ndarray, *, progress=Non
     """
     mbs = model.mbs
     ss = static_settings()
-    car = model.node_slices()["carrier"].start + 2
+    car = model.planar_index()["carrier"][2]
     torques = np.asarray(torques_Nm, float)
     out = np.full(len(torques), np.nan)
     t0 = time.perf_counter()
     q = model.kinematic_coordinates(0.0)
     done = 0
     mbs.SetObjectParameter(model.carrier.regulariser, "stiffness", OUTPUT_REGULARISER_NM_RAD)
+    newton = _ChordNewton(model) if chord_newton else None
     for j, torque in enumerate(torques):
         mbs.SetLoadParameter(model.carrier.load, "load", float(torque))
         try:
-            q = _solve_at(model, ss, 0.0, q)
+            q = _advance(model, ss, q, 0.0, 0.0, SUBSTEP_LEVELS, newton=newton) if j else _solve_at(model, ss, 0.0, q)
         except Exception as err:
             raise SolveError(f"torque step {j} ({torque:.3f} N·m) did not converge: {err}",
                              TorqueStepResult(torques[:done], out[:done], time.perf_counter() - t0)) from None
@@ -317,5 +460,5 @@ def dynamic(model: ReducerModel, speed_out_rpm: float, output_revolutions: float
     wall = time.perf_counter() - t0
     a_in = np.asarray(mbs.GetSensorStoredData(s_in))
     a_out = np.asarray(mbs.GetSensorStoredData(s_out))
-    th_in, th_out = a_in[:, 3], a_out[:, 3]
+    th_in, th_out = a_in[:, 3], a_out[:, 1 + model.carrier.angle_coordinate]
     return DynamicResult(a_in[:, 0], th_in, th_out, th_out - th_in / model.ratio, model.ratio, wall)

@@ -67,4 +67,5 @@ if __name__ == "__main__":
     for fidelity in ("rigid", "flexible"):
         for name, m in compare_modifications(spec, fidelity=fidelity).items():
             print(f"{fidelity:8s} {name:12s} backlash {m.backlash_arcmin:.4f}′, lost motion {m.lost_motion_arcmin:.4f}′, "
-                  f"stiffness {m.torsional_stiffness_Nm_per_arcmin:.2f} N·m/arcmin")
+                  f"stiffness {m.torsional_stiffness_Nm_per_arcmin:.2f} N·m/arcmin (50–100 % T_r slope), "
+                  f"{m.secant_stiffness_Nm_per_arcmin:.2f} N·m/arcmin (secant over ±T_r)")

@@ -61,6 +61,16 @@ def test_flexible_discs_wind_up_more_than_rigid_ones(setup):
     assert np.ptp(flex) > np.ptp(rigid)
 
 
+def test_chord_newton_matches_exudyns_static_solver_with_fe_discs(setup):
+    """FE discs (modal coordinates uncapped, FFRF Jacobians reused between steps): the chord
+    Newton's equilibria are Exudyn's static solver's to 1e-4″."""
+    spec, reduced, theta, _ = setup
+    model = build_reducer(spec, None, "flexible", reduced_disc=reduced)
+    chord = quasi_static(model, theta, spec.rated_torque_Nm).te_rad
+    exudyn = quasi_static(model, theta, spec.rated_torque_Nm, chord_newton=False).te_rad
+    assert np.abs(chord - exudyn).max() * ARCSEC_PER_RAD < 1e-4
+
+
 def test_stiff_limit_recovers_the_rigid_model_and_elasticity_is_linear(setup, monkeypatch):
     """Scaling the reduced stiffness by s scales the elastic TE by 1/s (the contact is
     nonlinear, so within 15 % at s = 10) and at s = 1e5 the flexible model is the rigid one
