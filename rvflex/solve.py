@@ -103,7 +103,7 @@ NEWTON_CAP_RADIUS_M = 0.03  # rotations are capped at NEWTON_CAP_M over this rad
 NEWTON_TOLERANCE = 1e-10  # converged when the last correction is below this (m, rad; 1e-10 rad = 2e-5″) ...
 NEWTON_RESIDUAL = 1e-2  # ... and the residual norm below this (N, N·m): 1e-10 m against the contact stiffness
 NEWTON_CONTRACTION = 0.25  # the Jacobian is re-evaluated when an iteration shrinks the residual by less than this
-NEWTON_MAX_ITERATIONS = 40
+NEWTON_MAX_ITERATIONS = 100  # a unit crossing its free play needs ~60 capped iterations, still far cheaper than a fallback
 
 
 class _NotConverged(RuntimeError):
