@@ -1,5 +1,15 @@
 """Carrier (output flange): a planar body on the main bearing, loaded by the output torque,
-with the crank bores at the (error-shifted) crank positions."""
+with the crank bores at the (error-shifted) crank positions.
+
+``fidelity="flexible"`` (:func:`build` with ``reduced``, a carrier
+:class:`rvflex.fe.reduce.ReducedPart`): the carrier is an ``ObjectFFRFreducedOrder`` on a
+``NodeRigidBodyRxyz`` held in the plane (z, ψx, ψy), whose floating frame is the output face
+(clamped in every mode): the output angle, the output load, its regulariser and the main
+bearing act on that frame — the output face, where the driven machine is bolted and the
+output encoder measures. Each crank has two support bearings, one per plate seat, each half
+of the spec's lumped pair (``split_support_bearing``), on distributing (RBE3)
+``MarkerSuperElementRigid`` seat markers (all seat nodes, the reduction's weights).
+"""
 
 from __future__ import annotations
 
@@ -11,7 +21,8 @@ import numpy as np
 from rvflex.spec import ErrorSpec, ReducerSpec
 from rvflex.parts import bearings
 
-__all__ = ["CarrierHandles", "build", "crank_axis_positions", "OUTPUT_REGULARISER_NM_RAD"]
+__all__ = ["CarrierHandles", "build", "crank_axis_positions", "OUTPUT_REGULARISER_NM_RAD", "add_input_seat_bearings",
+           "split_support_bearing"]
 
 OUTPUT_REGULARISER_NM_RAD = 1.0  # to the kinematic output angle: 1e-4 N·m per 1e-4 rad of TE
 
@@ -28,6 +39,14 @@ class CarrierHandles:
     load: int
     regulariser: int
     main: bearings.BearingPair
+    modal_node: int = -1  # flexible carrier: the NodeGenericODE2 of its modal coordinates
+    input_seat_markers: tuple[int, ...] = ()  # flexible carrier: the input-plate seat markers (bore_markers: output plate)
+
+    @property
+    def angle_coordinate(self) -> int:
+        """Index of the output angle θ_out among the node's coordinates: 2 (NodeRigidBody2D x, y, θ)
+        or 5 (the flexible carrier's NodeRigidBodyRxyz x, y, z, ψx, ψy, ψz)."""
+        return 2 if self.modal_node < 0 else 5
 
 
 def crank_axis_positions(spec: ReducerSpec, errors: ErrorSpec) -> np.ndarray:
@@ -46,15 +65,50 @@ def crank_axis_positions(spec: ReducerSpec, errors: ErrorSpec) -> np.ndarray:
     return pos
 
 
+def split_support_bearing(spec: ReducerSpec) -> ReducerSpec:
+    """``spec`` with the crank support bearing halved (stiffness and damping): one of the two
+    tapered roller bearings of a crank that the rigid planar model lumps into one (rv40e.toml:
+    seed 003's 1.6e8 N/m × 2). The flexible carrier seats each of them in its own plate."""
+    import dataclasses
+
+    b = spec.bearings.crank_support
+    half = dataclasses.replace(b, radial_stiffness_N_m=0.5 * b.radial_stiffness_N_m,
+                               axial_stiffness_N_m=0.5 * b.axial_stiffness_N_m,
+                               tilt_stiffness_Nm_rad=0.5 * b.tilt_stiffness_Nm_rad,
+                               radial_damping_Ns_m=0.5 * b.radial_damping_Ns_m)
+    return dataclasses.replace(spec, bearings=dataclasses.replace(spec.bearings, crank_support=half))
+
+
+def add_input_seat_bearings(mbs, spec: ReducerSpec, errors: ErrorSpec, carrier: CarrierHandles,
+                            cranks) -> tuple[bearings.BearingPair, ...]:
+    """Flexible carrier: the second support bearing of each crank, in the input-plate seat
+    (half of the lumped pair, the same clearance error as the first), on the crank marker of
+    the first (``cranks.supports[k].marker1``)."""
+    half = split_support_bearing(spec).bearings.crank_support
+    out = []
+    for k, seat in enumerate(carrier.input_seat_markers):
+        extra = errors.crank_support_clearance_m[k] if errors.crank_support_clearance_m else 0.0
+        out.append(bearings.build(mbs, seat, cranks.supports[k].marker1, half, extra_clearance_m=extra))
+    return tuple(out)
+
+
 def build(mbs, spec: ReducerSpec, errors: ErrorSpec, ground_body: int, ground_coordinate: int, *,
-          fidelity: str = "rigid") -> CarrierHandles:
+          fidelity: str = "rigid", reduced=None) -> CarrierHandles:
     """Add the carrier, its main bearing to the housing (with the carrier runout as an
-    offset of the bearing seat) and the output load."""
+    offset of the bearing seat) and the output load.
+
+    ``fidelity="flexible"`` needs ``reduced`` (the Craig–Bampton carrier, output face the
+    reference interface, ``seat_out<k>``/``seat_in<k>`` seat interfaces); ``bore_markers`` are
+    then the output-plate seats and ``input_seat_markers`` the input-plate seats (the crank
+    builder puts one support bearing on the first, :func:`add_input_seat_bearings` the other).
+    """
     from exudyn.itemInterface import (LoadCoordinate, MarkerBodyRigid, MarkerNodeCoordinate, NodeRigidBody2D,
                                       ObjectConnectorCoordinateSpringDamper, ObjectRigidBody2D)
 
+    if fidelity == "flexible":
+        return _build_flexible(mbs, spec, errors, ground_body, ground_coordinate, reduced)
     if fidelity != "rigid":
-        raise NotImplementedError(f"fidelity = {fidelity!r}: the flexible carrier comes with the FE issue")
+        raise ValueError(f"fidelity = {fidelity!r}: 'rigid' or 'flexible'")
     ca = spec.carrier
     rho = spec.materials.carriers.density_kg_m3
     mass = rho * math.pi * ca.outer_radius_m**2 * 2 * ca.plate_thickness_m
@@ -72,3 +126,48 @@ def build(mbs, spec: ReducerSpec, errors: ErrorSpec, ground_body: int, ground_co
     reg = mbs.AddObject(ObjectConnectorCoordinateSpringDamper(markerNumbers=[ground_coordinate, theta],
                                                               stiffness=OUTPUT_REGULARISER_NM_RAD, offset=0.0))
     return CarrierHandles(int(node), int(body), bores, int(load), int(reg), main)
+
+
+def _build_flexible(mbs, spec, errors, ground_body, ground_coordinate, reduced) -> CarrierHandles:
+    """The FFRF carrier: reference frame = output face (clamped in all modes), planar-held."""
+    from exudyn.itemInterface import (CoordinateConstraint, LoadCoordinate, MarkerBodyRigid, MarkerNodeCoordinate,
+                                      MarkerNodeRigid, MarkerSuperElementRigid,
+                                      ObjectConnectorCoordinateSpringDamper)
+
+    from rvflex.fe.ffrf import ffrf_interface
+
+    if reduced is None or reduced.part != "carrier" or int(ground_coordinate) < 0:
+        raise ValueError("flexible carrier: needs the reduced carrier (reduce_part(spec, 'carrier')) and a ground "
+                         "coordinate marker")
+    if reduced.interfaces[0].name != "output":
+        raise ValueError("flexible carrier: the reduction's reference interface must be the output face")
+    ffrf = ffrf_interface(reduced)
+    h = ffrf.AddObjectFFRFreducedOrder(mbs, positionRef=[0.0, 0.0, 0.0], rotationMatrixRef=np.eye(3))
+    node, modal, body = int(h["nRigidBody"]), int(h["nGenericODE2"]), int(h["oFFRFreducedOrder"])
+    for coord in (2, 3, 4):  # planar: z, ψx, ψy held
+        m = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=node, coordinate=coord))
+        mbs.AddObject(CoordinateConstraint(markerNumbers=[ground_coordinate, m]))
+    seat = errors.carrier_runout_m * np.array([math.cos(errors.carrier_runout_phase_rad),
+                                               math.sin(errors.carrier_runout_phase_rad)])
+    # main bearing on the reference frame: the output face's rigid motion (frame origin on the axis)
+    main = bearings.build(mbs, mbs.AddMarker(MarkerBodyRigid(bodyNumber=ground_body, localPosition=[seat[0], seat[1], 0])),
+                          mbs.AddMarker(MarkerNodeRigid(nodeNumber=node)),
+                          spec.bearings.main, extra_clearance_m=errors.main_bearing_clearance_m)
+    pos = reduced.node_positions_m
+    axes = crank_axis_positions(spec, errors)
+
+    def seat_marker(name: str, target: np.ndarray) -> int:
+        itf = reduced.interface(name)
+        w = np.asarray(itf.weights, float)
+        ref = w @ pos[itf.nodes]  # the marker's reference point: the weighted centroid
+        return int(mbs.AddMarker(MarkerSuperElementRigid(
+            bodyNumber=body, offset=[target[0] - ref[0], target[1] - ref[1], -ref[2]],
+            meshNodeNumbers=np.asarray(itf.nodes, int).tolist(), weightingFactors=w.tolist())))
+
+    bores = tuple(seat_marker(f"seat_out{k}", p) for k, p in enumerate(axes))
+    inputs = tuple(seat_marker(f"seat_in{k}", p) for k, p in enumerate(axes))
+    theta = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=node, coordinate=5))
+    load = mbs.AddLoad(LoadCoordinate(markerNumber=theta, load=0.0))
+    reg = mbs.AddObject(ObjectConnectorCoordinateSpringDamper(markerNumbers=[ground_coordinate, theta],
+                                                              stiffness=OUTPUT_REGULARISER_NM_RAD, offset=0.0))
+    return CarrierHandles(node, body, bores, int(load), int(reg), main, modal, inputs)

@@ -287,6 +287,9 @@ def _model_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--fidelity", default="rigid", choices=("rigid", "flexible"),
                    help="rigid bodies, or FE-reduced (Craig–Bampton, FFRF) cycloid discs; the reduction is "
                         "cached under $RVFLEX_CACHE_DIR or ~/.cache/rvflex (default rigid)")
+    p.add_argument("--flexible-carrier", action="store_true",
+                   help="with --fidelity flexible: the carrier is an FE-reduced body too (rvflex reduce --part "
+                        "carrier; output face = output frame, two support bearings per crank)")
     fe = p.add_argument_group("flexible discs (FE reduction settings; defaults: rvflex reduce's)")
     fe.add_argument("--fe-maxh", type=float, dest="fe_maxh_m", help="mesh size, m")
     fe.add_argument("--fe-modes", type=int, dest="fe_n_modes", help="fixed-interface eigenmodes")
@@ -301,7 +304,11 @@ def _fe(args: argparse.Namespace) -> tuple[tuple[str, float], ...]:
     given = [k for k in options if getattr(args, k) is not None]
     if given and args.fidelity != "flexible":
         raise SpecError(options[given[0]], getattr(args, given[0]), "applies to --fidelity flexible only")
-    return tuple((k[3:], getattr(args, k)) for k in given)
+    carrier = getattr(args, "flexible_carrier", False)
+    if carrier and args.fidelity != "flexible":
+        raise SpecError("--flexible-carrier", True, "applies to --fidelity flexible only")
+    # the scenarios pass these settings to build_reducer(fe=...), which takes the carrier switch out of them
+    return tuple((k[3:], getattr(args, k)) for k in given) + ((("flexible_carrier", True),) if carrier else ())
 
 
 def _output_arguments(p: argparse.ArgumentParser, files: str) -> None:

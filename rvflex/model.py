@@ -33,6 +33,12 @@ fixed-interface modes on 6 mm quadratic tets, no flank attachment modes, whose p
 compliance the line-contact law already carries (docs/fe.md: convergence study)."""
 
 
+FLEXIBLE_CARRIER_FE = {"maxh_m": 6e-3, "mesh_order": 2, "n_modes": 10, "seat_coupling": "rbe3"}
+"""Carrier reduction of the flexible carrier: the ``rvflex reduce --part carrier`` default — output face the
+reference, 4 distributing (RBE3) seats with 6 attachment modes each, 10 fixed-interface modes, 6 mm quadratic
+tets (static check 3.3 % at the seats, 0.1 % at the pillars: docs/fe.md)."""
+
+
 def check_fidelity(fidelity: str, field: str = "--fidelity") -> None:
     """Refuse a fidelity the model does not build (SpecError naming ``field``)."""
     if fidelity not in FIDELITIES:
@@ -65,6 +71,17 @@ class ReducerModel:
     reference: np.ndarray  # absolute reference coordinates of all ODE2 coordinates
     crank_axes: np.ndarray
     disc_centres: np.ndarray
+    input_seat_supports: tuple = ()  # flexible carrier: each crank's second support bearing (input-plate seat)
+
+    @property
+    def flexible_carrier(self) -> bool:
+        """True when the carrier is the FE-reduced (FFRF) body."""
+        return self.carrier.modal_node >= 0
+
+    @property
+    def output_index(self) -> int:
+        """ODE2 index of the output angle θ_out (the carrier's reference-frame rotation)."""
+        return int(self.planar_index()["carrier"][2])
 
     @property
     def ratio(self) -> float:
@@ -72,8 +89,9 @@ class ReducerModel:
         return self.spec.nominal_ratio
 
     def node_slices(self) -> dict[str, slice]:
-        """ODE2 coordinate ranges of the planar (x, y, θ) nodes: sun, carrier, cranks and rigid discs."""
-        idx = {"sun": self.sun.node, "carrier": self.carrier.node}
+        """ODE2 coordinate ranges of the planar (x, y, θ) nodes: sun, rigid carrier, cranks and rigid
+        discs (FFRF bodies have no contiguous (x, y, θ): use :meth:`planar_index`)."""
+        idx = {"sun": self.sun.node} if self.flexible_carrier else {"sun": self.sun.node, "carrier": self.carrier.node}
         idx.update({f"crank{k}": n for k, n in enumerate(self.cranks.nodes)})
         if not self.discs.modal_nodes:
             idx.update({f"disc{d}": n for d, n in enumerate(self.discs.nodes)})
@@ -84,9 +102,12 @@ class ReducerModel:
         return out
 
     def planar_index(self) -> dict[str, np.ndarray]:
-        """ODE2 indices of (x, y, θ) of every body, discs included (a flexible disc's reference
-        node is a NodeRigidBodyRxyz: x, y, ψz)."""
+        """ODE2 indices of (x, y, θ) of every body, discs and carrier included (a flexible disc's or
+        carrier's reference node is a NodeRigidBodyRxyz: x, y, ψz)."""
         out = {name: np.arange(s.start, s.stop) for name, s in self.node_slices().items()}
+        if self.flexible_carrier:
+            i = self.mbs.GetNodeODE2Index(self.carrier.node)
+            out = {"sun": out.pop("sun"), "carrier": np.array([i, i + 1, i + 5]), **out}
         for d, n in enumerate(self.discs.nodes):
             i = self.mbs.GetNodeODE2Index(n)
             out[f"disc{d}"] = np.array([i, i + 1, i + 5] if self.discs.modal_nodes else [i, i + 1, i + 2])
@@ -114,20 +135,29 @@ class ReducerModel:
                                                                         math.sin(cy.disc_phase_rad[d])])
             q[s[:2]] = rot @ (base + ecc)
             q[s[2]] = self.reference[s[2]] + th_c  # a flexible disc may sit turned by a half turn
-        for n in self.discs.modal_nodes:
+        for n in self.discs.modal_nodes + ((self.carrier.modal_node,) if self.flexible_carrier else ()):
             i = self.mbs.GetNodeODE2Index(n)
             q[i:i + self.mbs.GetNode(n)["numberOfODE2Coordinates"]] = 0.0
         return q
 
 
 def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None, fidelity: str = "rigid", *,
-                  law: ContactLaw | None = None, reduced_disc=None, fe: dict | None = None) -> ReducerModel:
+                  law: ContactLaw | None = None, reduced_disc=None, fe: dict | None = None,
+                  flexible_carrier: bool = False, reduced_carrier=None) -> ReducerModel:
     """Assemble the reducer of ``spec`` with ``errors`` at ``fidelity``.
 
     ``fidelity="rigid"``: planar rigid bodies. ``"flexible"``: the cycloid discs are
     Craig–Bampton-reduced FFRF bodies (``reduced_disc``, a :class:`rvflex.fe.reduce.ReducedPart`,
     or reduced here from ``spec`` with :data:`FLEXIBLE_DISC_FE` updated by ``fe``, e.g.
     ``{"n_modes": 24}``; cached on disk); the other parts stay rigid.
+
+    ``flexible_carrier=True`` (any fidelity; also ``fe={"flexible_carrier": True}``, as the CLI's
+    ``--flexible-carrier`` arrives through the scenarios' ``fe`` settings; ``fe`` keys ``carrier_<setting>``
+    override :data:`FLEXIBLE_CARRIER_FE`, e.g. ``{"carrier_maxh_m": 8e-3}``) makes the carrier a Craig–Bampton FFRF body too
+    (``reduced_carrier``, or ``reduce_part(spec, "carrier", **FLEXIBLE_CARRIER_FE)``: output
+    face the reference frame, distributing seat couplings): each crank then has two support
+    bearings (one per plate seat, half the lumped pair each); output angle, load, regulariser
+    and main bearing act on the output face's frame (docs/flexible.md).
 
     Raises
     ------
@@ -148,17 +178,28 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None, fidelity: 
     # "flexible" makes the cycloid discs FE-reduced bodies; the other parts stay rigid so far
     pins = pin_ring.build(mbs, spec, errors, fidelity="rigid")
     sun = input_stage.build(mbs, spec, ground_coord, fidelity="rigid")
-    carrier = carrier_part.build(mbs, spec, errors, ground_body, ground_coord, fidelity="rigid")
+    fe = dict(fe or {})
+    flexible_carrier = bool(fe.pop("flexible_carrier", flexible_carrier))  # the CLI's --flexible-carrier comes in fe
+    carrier_fe = {k[len("carrier_"):]: fe.pop(k) for k in list(fe) if k.startswith("carrier_")}
+    if flexible_carrier and reduced_carrier is None:
+        from rvflex.fe.reduce import reduce_part
+
+        reduced_carrier = reduce_part(spec, "carrier", **{**FLEXIBLE_CARRIER_FE, **carrier_fe})
+    carrier = carrier_part.build(mbs, spec, errors, ground_body, ground_coord,
+                                 fidelity="flexible" if flexible_carrier else "rigid", reduced=reduced_carrier)
     axes = carrier_part.crank_axis_positions(spec, errors)
-    cranks = crankshaft.build(mbs, spec, errors, carrier, sun.node, axes, fidelity="rigid")
+    # flexible carrier: the lumped support pair splits into one bearing per plate seat
+    cranks = crankshaft.build(mbs, carrier_part.split_support_bearing(spec) if flexible_carrier else spec, errors,
+                              carrier, sun.node, axes, fidelity="rigid")
+    seat_in = carrier_part.add_input_seat_bearings(mbs, spec, errors, carrier, cranks) if flexible_carrier else ()
     ecc = crankshaft.eccentric_offsets(spec, errors)
     if fidelity == "flexible" and reduced_disc is None:
         from rvflex.fe.reduce import reduce_part
 
-        reduced_disc = reduce_part(spec, "disc", **{**FLEXIBLE_DISC_FE, **(fe or {})})
+        reduced_disc = reduce_part(spec, "disc", **{**FLEXIBLE_DISC_FE, **fe})
     discs = cycloid_disc.build(mbs, spec, errors, cranks, law, ecc, axes, fidelity=fidelity, reduced=reduced_disc,
                                ground_coordinate=ground_coord)
     mbs.Assemble()
     ref = np.asarray(mbs.systemData.GetODE2Coordinates(configuration=exu.ConfigurationType.Reference))
     centres = np.array([np.asarray(mbs.GetNode(n)["referenceCoordinates"])[:2] for n in discs.nodes])
-    return ReducerModel(spec, errors, fidelity, sc, mbs, sun, carrier, cranks, discs, pins, ref, axes, centres)
+    return ReducerModel(spec, errors, fidelity, sc, mbs, sun, carrier, cranks, discs, pins, ref, axes, centres, seat_in)

@@ -288,7 +288,7 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
     steps += [(th, k_work, 1.0, True) for th in theta_in]
     prev_th = theta_in[0]
     if chord_newton is None:
-        chord_newton = bool(model.discs.modal_nodes)
+        chord_newton = bool(model.discs.modal_nodes) or model.flexible_carrier
     newton = _ChordNewton(model) if chord_newton else None
     history: list[tuple[float, np.ndarray]] = []  # (θ_in, elastic part) of the last converged recorded steps
     for th, k_reg, frac, record in steps:

@@ -1,10 +1,12 @@
 """Flexibility effect: loaded TE, lost motion and torsional stiffness of the RV reducer with
-rigid and with FE-reduced (Craig–Bampton) cycloid discs, at 0, 50, 100 and 150 % of rated
-torque, and the elastic share of each figure.
+rigid parts, with FE-reduced (Craig–Bampton) cycloid discs, and (``carrier_fe`` not None)
+with FE-reduced discs and carrier, at 0, 50, 100 and 150 % of rated torque, and the elastic
+share of each figure.
 
-The two fidelities run the same model code; only ``fidelity`` differs. Global disc
-deformation comes from the reduced modes, the local contact approach from the line-contact
-law in both. A flexible carrier is not modelled yet (the carrier stays rigid in both rows).
+The variants run the same model code; only ``fidelity`` and ``flexible_carrier`` differ.
+Global disc and carrier deformation come from the reduced modes, the local contact approach
+from the line-contact law in all rows. Variants: ``rigid``, ``flexible`` (discs),
+``flexible+carrier`` (discs and carrier).
 
 Run as a script for the catalogue RV-40E (its tooth modification, no manufacturing
 errors: with seed 001's 12 µm bearing clearances the flexible torque cycle does not yet
@@ -41,6 +43,9 @@ class FlexibilityEffect:
     positions_per_rev: int = 256
     steps: int = 80
     fe: tuple[tuple[str, float], ...] = GLOBAL_MODES
+    carrier_fe: tuple[tuple[str, float], ...] | None = None
+    """Carrier reduction settings on top of :data:`rvflex.model.FLEXIBLE_CARRIER_FE` for the
+    ``flexible+carrier`` row; None leaves that row out (the script runs it with ``()``)."""
 
     def __post_init__(self) -> None:
         for f in self.load_fractions:
@@ -54,24 +59,34 @@ def run_flexibility_effect(sc: FlexibilityEffect, progress=print) -> list[dict]:
     (arcsec), and per fidelity the hysteresis metrics at rated torque (lost motion, arcmin;
     torsional stiffness, N·m/arcmin). Elastic shares are added to the flexible rows."""
     rows = []
-    for fidelity in ("rigid", "flexible"):
-        fe = sc.fe if fidelity == "flexible" else ()
+    variants = {"rigid": ("rigid", ()), "flexible": ("flexible", sc.fe)}
+    if sc.carrier_fe is not None:  # build_reducer takes the carrier switch and settings from fe
+        variants["flexible+carrier"] = ("flexible", sc.fe + (("flexible_carrier", True),)
+                                        + tuple((f"carrier_{k}", v) for k, v in sc.carrier_fe))
+    for name, (fidelity, fe) in variants.items():
         lm = run_lost_motion(LostMotion(sc.spec, sc.errors, sc.spec.rated_torque_Nm, sc.steps, fidelity, fe))[1]
         for f in sc.load_fractions:
             load = f * sc.spec.rated_torque_Nm
             met = run_loaded_te(LoadedTE(sc.spec, sc.errors, load, 1.0, sc.positions_per_rev, fidelity=fidelity,
                                          fe=fe))[1]
-            rows.append({"fidelity": fidelity, "load_fraction": f, "load_Nm": load, "te_pp_arcsec": met.te_pp_arcsec,
+            rows.append({"fidelity": name, "load_fraction": f, "load_Nm": load, "te_pp_arcsec": met.te_pp_arcsec,
                          "mean_windup_arcsec": met.mean_windup_arcsec,
                          "lost_motion_arcmin": lm.lost_motion_arcmin,
                          "torsional_stiffness_Nm_per_arcmin": lm.torsional_stiffness_Nm_per_arcmin})
-            progress(f"{fidelity:8s} {load:7.1f} N·m: TE pp {met.te_pp_arcsec:7.3f}″, wind-up "
+            progress(f"{name:16s} {load:7.1f} N·m: TE pp {met.te_pp_arcsec:7.3f}″, wind-up "
                      f"{met.mean_windup_arcsec:8.2f}″")
     rigid = {r["load_fraction"]: r for r in rows if r["fidelity"] == "rigid"}
+    discs = {r["load_fraction"]: r for r in rows if r["fidelity"] == "flexible"}
     for r in rows:
-        if r["fidelity"] != "flexible":
+        if r["fidelity"] == "rigid":
             continue
         g = rigid[r["load_fraction"]]
+        if r["fidelity"] == "flexible+carrier":  # the carrier's own share, against the flexible-disc row
+            d = discs[r["load_fraction"]]
+            r["carrier_share_te_pp"] = _share(r["te_pp_arcsec"], d["te_pp_arcsec"])
+            r["carrier_share_windup"] = _share(r["mean_windup_arcsec"], d["mean_windup_arcsec"])
+            r["carrier_share_compliance"] = _share(1 / r["torsional_stiffness_Nm_per_arcmin"],
+                                                   1 / d["torsional_stiffness_Nm_per_arcmin"])
         r["elastic_share_te_pp"] = _share(r["te_pp_arcsec"], g["te_pp_arcsec"])
         r["elastic_share_windup"] = _share(r["mean_windup_arcsec"], g["mean_windup_arcsec"])
         r["elastic_share_lost_motion"] = _share(r["lost_motion_arcmin"], g["lost_motion_arcmin"])
@@ -107,28 +122,36 @@ def write_flexibility_outputs(out: Path, rows: list[dict], sc: FlexibilityEffect
         w.writeheader()
         w.writerows(rows)
     md = out / "flexibility.md"
-    flex = [r for r in rows if r["fidelity"] == "flexible"]
-    rig = {r["load_fraction"]: r for r in rows if r["fidelity"] == "rigid"}
-    from rvflex.model import FLEXIBLE_DISC_FE
+    from rvflex.model import FLEXIBLE_CARRIER_FE, FLEXIBLE_DISC_FE
 
-    lines = [f"Disc reduction: {FLEXIBLE_DISC_FE | dict(sc.fe)}; carrier rigid in both.", "",
-             "| load | TE pp rigid | TE pp flexible | elastic share | wind-up rigid | wind-up flexible | elastic share |",
-             "|---|---|---|---|---|---|---|"]
-    for r in flex:
-        g = rig[r["load_fraction"]]
-        lines.append(f"| {r['load_Nm']:.0f} N·m | {g['te_pp_arcsec']:.2f}″ | {r['te_pp_arcsec']:.2f}″ | "
-                     f"{_pct(r['elastic_share_te_pp'])} | {g['mean_windup_arcsec']:.1f}″ | "
-                     f"{r['mean_windup_arcsec']:.1f}″ | {_pct(r['elastic_share_windup'])} |")
-    r, g = flex[0], rig[flex[0]["load_fraction"]]
-    lines += ["", f"Lost motion: rigid {g['lost_motion_arcmin']:.3f}′, flexible {r['lost_motion_arcmin']:.3f}′ "
-              f"(elastic share {100 * r['elastic_share_lost_motion']:.0f} %). Torsional stiffness (50–100 % T_r): "
-              f"rigid {g['torsional_stiffness_Nm_per_arcmin']:.1f}, flexible "
-              f"{r['torsional_stiffness_Nm_per_arcmin']:.1f} N·m/arcmin (disc share of the compliance "
-              f"{100 * r['elastic_share_compliance']:.0f} %)."]
+    carrier = (f"carrier reduction (flexible+carrier row): {FLEXIBLE_CARRIER_FE | dict(sc.carrier_fe)}"
+               if sc.carrier_fe is not None else "carrier rigid in every row")
+    lines = [f"Disc reduction: {FLEXIBLE_DISC_FE | dict(sc.fe)}; {carrier}. Elastic share = (flexible − rigid)/flexible "
+             "of each magnitude.", "",
+             "| variant | load | TE pp | elastic share | wind-up | elastic share |", "|---|---|---|---|---|---|"]
+    for r in rows:
+        es_te = _pct(r.get("elastic_share_te_pp", math.nan))
+        es_w = _pct(r.get("elastic_share_windup", math.nan))
+        lines.append(f"| {r['fidelity']} | {r['load_Nm']:.0f} N·m | {r['te_pp_arcsec']:.2f}″ | {es_te} | "
+                     f"{r['mean_windup_arcsec']:.1f}″ | {es_w} |")
+    lines += ["", "| variant | lost motion | elastic share | stiffness 50–100 % T_r | share of the compliance |",
+              "|---|---|---|---|---|"]
+    for name in dict.fromkeys(r["fidelity"] for r in rows):
+        r = next(x for x in rows if x["fidelity"] == name)
+        lines.append(f"| {name} | {r['lost_motion_arcmin']:.3f}′ | {_pct(r.get('elastic_share_lost_motion', math.nan))} "
+                     f"| {r['torsional_stiffness_Nm_per_arcmin']:.1f} N·m/arcmin | "
+                     f"{_pct(r.get('elastic_share_compliance', math.nan))} |")
+    car = [r for r in rows if r["fidelity"] == "flexible+carrier"]
+    if car:
+        lines += ["", "Carrier's own share (flexible+carrier against flexible discs): " + ", ".join(
+            f"{r['load_Nm']:.0f} N·m: TE pp {_pct(r['carrier_share_te_pp'])}, wind-up {_pct(r['carrier_share_windup'])}"
+            for r in car) + f"; compliance {_pct(car[0]['carrier_share_compliance'])}."]
     md.write_text("\n".join(lines) + "\n")
     fig, ax = plt.subplots(1, 2, figsize=(11, 4.2))
-    for fid, style in (("rigid", "o-"), ("flexible", "s-")):
+    for fid, style in (("rigid", "o-"), ("flexible", "s-"), ("flexible+carrier", "^-")):
         sel = [x for x in rows if x["fidelity"] == fid]
+        if not sel:
+            continue
         ax[0].plot([x["load_Nm"] for x in sel], [x["te_pp_arcsec"] for x in sel], style, label=fid)
         ax[1].plot([x["load_Nm"] for x in sel], [-x["mean_windup_arcsec"] for x in sel], style, label=fid)
     ax[0].set(xlabel="output torque (N·m)", ylabel="TE peak-to-peak (″)", title="Loaded TE over one output revolution")
@@ -136,7 +159,7 @@ def write_flexibility_outputs(out: Path, rows: list[dict], sc: FlexibilityEffect
     for a in ax:
         a.grid(alpha=0.3)
         a.legend()
-    fig.suptitle(f"{sc.spec.name}: rigid vs FE-reduced cycloid discs")
+    fig.suptitle(f"{sc.spec.name}: rigid vs FE-reduced cycloid discs (and carrier)")
     fig.tight_layout()
     png = out / "flexibility.png"
     fig.savefig(png, dpi=130)
@@ -150,7 +173,7 @@ if __name__ == "__main__":
     from rvflex import catalog
 
     spec = catalog.load("rv40e")
-    scenario = FlexibilityEffect(spec, ErrorSpec())
+    scenario = FlexibilityEffect(spec, ErrorSpec(), carrier_fe=())
     result = run_flexibility_effect(scenario)
     for p in write_flexibility_outputs(Path(sys.argv[1] if len(sys.argv) > 1 else "out"), result, scenario):
         print("wrote", p)

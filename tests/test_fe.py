@@ -306,8 +306,8 @@ def test_default_disc_mass_and_flank_error(default_disc, spec):
 @pytest.mark.parametrize("part", ["disc", "carrier"])
 def test_cli_reduce_default_settings(part, tmp_path, capsys):
     """The default (quadratic-tet) reductions through ``rvflex reduce``: JSON keys, flank
-    (pillar) error ≤ 5 %, first fixed-interface mode in the kHz range; the warm run is a
-    cache hit within 2 s."""
+    (pillar) error ≤ 5 % (carrier: seats too), first fixed-interface mode in the kHz range
+    (carrier: above 300 Hz); the warm run is a cache hit within 2 s."""
     from rvflex.cli import main
 
     out = tmp_path / "r.json"
@@ -317,7 +317,11 @@ def test_cli_reduce_default_settings(part, tmp_path, capsys):
     assert set(doc) == {"n_nodes", "n_modes", "freqs_hz", "static_error_pct", "wall_s", "cached"}
     assert doc["cached"] is False
     assert doc["static_error_pct"]["flank"] <= 5.0
-    assert 1e3 < doc["freqs_hz"][0] < 2e4
+    # carrier: only the output face is held (distributing seats), so its first mode is the input plate
+    # twisting on the pillars (≈ 760 Hz); the seat error (model's RBE3 seats vs bearing pressure) ≤ 5 %
+    assert (3e2 if part == "carrier" else 1e3) < doc["freqs_hz"][0] < 2e4
+    if part == "carrier":
+        assert doc["static_error_pct"]["max"] <= 5.0
     assert main(args) == 0
     warm = json.loads(out.read_text())
     assert warm["cached"] is True and warm["wall_s"] < 2.0

@@ -7,30 +7,23 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rvflex import catalog
 from rvflex.geometry.formulas import ARCSEC_PER_RAD
 from rvflex.model import build_reducer
 from rvflex.solve import quasi_static
+from conftest import COARSE_DISC
 
 pytestmark = pytest.mark.flexible
 
-COARSE = {"maxh_m": 8e-3, "n_modes": 12, "mesh_order": 1, "attach_per_tooth": 0}
+COARSE = COARSE_DISC
 
 
 @pytest.fixture(scope="module")
-def setup(tmp_path_factory):
-    from rvflex.fe.reduce import reduce_part
-
-    cache = tmp_path_factory.mktemp("fe-cache")
-    mp = pytest.MonkeyPatch()
-    mp.setenv("RVFLEX_CACHE_DIR", str(cache))
-    spec = catalog.load("rv40e")
-    reduced = reduce_part(spec, "disc", **COARSE)
+def setup(coarse_disc):
+    spec, reduced = coarse_disc
     # one pin pitch of the output (a full crank turn relative to the carrier) at 12 positions
     theta = np.linspace(0.0, 2 * np.pi * spec.nominal_ratio / spec.cycloid.pin_count, 12, endpoint=False)
     rigid = quasi_static(build_reducer(spec, None, "rigid"), theta, spec.rated_torque_Nm).te_rad * ARCSEC_PER_RAD
-    yield spec, reduced, theta, rigid
-    mp.undo()
+    return spec, reduced, theta, rigid
 
 
 def _flexible_te(spec, reduced, theta, monkeypatch=None, scale=1.0):

@@ -60,7 +60,10 @@ def key_for(spec: ReducerSpec, part: str, settings, code_version: str) -> str:
 
     from rvflex.fe import geometry
 
-    doc = {"part": part, "inputs": _inputs(spec, part), "settings": dataclasses.asdict(settings),
+    sett = dataclasses.asdict(settings)
+    if part != "carrier":
+        sett.pop("seat_coupling", None)  # a carrier setting: disc keys stay what they were
+    doc = {"part": part, "inputs": _inputs(spec, part), "settings": sett,
            "code": code_version, "samples_per_tooth": geometry.SAMPLES_PER_TOOTH, "axial_gap": geometry.AXIAL_GAP_M,
            "exudyn": version("exudyn"), "ngsolve": version("ngsolve")}
     return hashlib.sha256(json.dumps(doc, sort_keys=True, default=float).encode()).hexdigest()[:24]

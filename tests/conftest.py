@@ -1,0 +1,29 @@
+"""Shared fixtures: one FE cache directory and one coarse disc reduction per test session, so
+the flexible test modules reduce the coarse disc once (a cold reduction is ~15 s in CI)."""
+
+from __future__ import annotations
+
+import pytest
+
+COARSE_DISC = {"maxh_m": 8e-3, "n_modes": 12, "mesh_order": 1, "attach_per_tooth": 0}
+"""8 mm linear tets, 6 static + 12 fixed-interface modes: quick, and elastic enough to test with."""
+
+
+@pytest.fixture(scope="session")
+def fe_cache(tmp_path_factory):
+    """A private FE cache (``RVFLEX_CACHE_DIR``) for the session: cold, never the user's."""
+    cache = tmp_path_factory.mktemp("fe-cache")
+    mp = pytest.MonkeyPatch()
+    mp.setenv("RVFLEX_CACHE_DIR", str(cache))
+    yield cache
+    mp.undo()
+
+
+@pytest.fixture(scope="session")
+def coarse_disc(fe_cache):
+    """(RV-40E spec, its coarse disc reduction)."""
+    from rvflex import catalog
+    from rvflex.fe.reduce import reduce_part
+
+    spec = catalog.load("rv40e")
+    return spec, reduce_part(spec, "disc", **COARSE_DISC)
