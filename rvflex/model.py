@@ -143,7 +143,8 @@ class ReducerModel:
 
 def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None, fidelity: str = "rigid", *,
                   law: ContactLaw | None = None, reduced_disc=None, fe: dict | None = None,
-                  flexible_carrier: bool = False, reduced_carrier=None) -> ReducerModel:
+                  flexible_carrier: bool = False, reduced_carrier=None,
+                  carrier_seat_marker: str = "virtual") -> ReducerModel:
     """Assemble the reducer of ``spec`` with ``errors`` at ``fidelity``.
 
     ``fidelity="rigid"``: planar rigid bodies. ``"flexible"``: the cycloid discs are
@@ -157,7 +158,9 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None, fidelity: 
     (``reduced_carrier``, or ``reduce_part(spec, "carrier", **FLEXIBLE_CARRIER_FE)``: output
     face the reference frame, distributing seat couplings): each crank then has two support
     bearings (one per plate seat, half the lumped pair each); output angle, load, regulariser
-    and main bearing act on the output face's frame (docs/flexible.md).
+    and main bearing act on the output face's frame (docs/flexible.md). ``carrier_seat_marker``:
+    ``"virtual"`` (default: seat markers on four massless nodes carrying each seat's RBE3 motion)
+    or ``"all_nodes"`` (on all seat nodes; the same coupling, slow — for comparison).
 
     Raises
     ------
@@ -186,7 +189,8 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None, fidelity: 
 
         reduced_carrier = reduce_part(spec, "carrier", **{**FLEXIBLE_CARRIER_FE, **carrier_fe})
     carrier = carrier_part.build(mbs, spec, errors, ground_body, ground_coord,
-                                 fidelity="flexible" if flexible_carrier else "rigid", reduced=reduced_carrier)
+                                 fidelity="flexible" if flexible_carrier else "rigid", reduced=reduced_carrier,
+                                 seat_marker=carrier_seat_marker)
     axes = carrier_part.crank_axis_positions(spec, errors)
     # flexible carrier: the lumped support pair splits into one bearing per plate seat
     cranks = crankshaft.build(mbs, carrier_part.split_support_bearing(spec) if flexible_carrier else spec, errors,

@@ -33,7 +33,7 @@ def setup(coarse_disc):
     return spec, disc, carrier, theta, discs_only
 
 
-def _te(spec, disc, carrier, theta, monkeypatch=None, scale=1.0):
+def _te(spec, disc, carrier, theta, monkeypatch=None, scale=1.0, seat_marker="virtual"):
     if scale != 1.0:
         import rvflex.fe.ffrf as ffrf
 
@@ -46,7 +46,8 @@ def _te(spec, disc, carrier, theta, monkeypatch=None, scale=1.0):
             return o
 
         monkeypatch.setattr(ffrf, "ffrf_interface", stiffer)
-    model = build_reducer(spec, None, "flexible", reduced_disc=disc, flexible_carrier=True, reduced_carrier=carrier)
+    model = build_reducer(spec, None, "flexible", reduced_disc=disc, flexible_carrier=True, reduced_carrier=carrier,
+                          carrier_seat_marker=seat_marker)
     return quasi_static(model, theta, spec.rated_torque_Nm).te_rad * ARCSEC_PER_RAD
 
 
@@ -92,6 +93,92 @@ def test_seat_attachment_modes_make_the_reduction_exact_for_the_coupling_loads(s
     Ur = P @ np.linalg.solve(P.T @ (K @ P), P.T @ F)
     assert np.abs(Ur - U).max() <= 1e-8 * np.abs(U).max()
     assert carrier.check.flank_pct < 1.0  # pillar mid-span under the bearing pressure
+
+
+def _seat_marker_outputs(model, q_modal, frame):
+    """Position and rotation matrix of every seat marker at the carrier's modal coordinates
+    ``q_modal`` and reference-node coordinates ``frame`` (x, y, z, ψx, ψy, ψz)."""
+    import exudyn as exu
+
+    mbs = model.mbs
+    mbs.Assemble()
+    q = np.array(mbs.systemData.GetODE2Coordinates())
+    i, j = mbs.GetNodeODE2Index(model.carrier.node), mbs.GetNodeODE2Index(model.carrier.modal_node)
+    q[i:i + 6] = frame
+    q[j:j + len(q_modal)] = q_modal
+    mbs.systemData.SetODE2Coordinates(q)
+    return np.array([np.concatenate([mbs.GetMarkerOutput(mk, exu.OutputVariableType.Position),
+                                     mbs.GetMarkerOutput(mk, exu.OutputVariableType.RotationMatrix)])
+                     for mk in model.carrier.bore_markers + model.carrier.input_seat_markers])
+
+
+def _mass_matrix(model) -> np.ndarray:
+    """The system mass matrix at the current state (FFRF terms included)."""
+    import exudyn as exu
+
+    solver = exu.MainSolverImplicitSecondOrder()
+    solver.InitializeSolver(model.mbs, exu.SimulationSettings())
+    solver.ComputeMassMatrix(model.mbs)
+    return np.array(solver.GetSystemMassMatrix())
+
+
+def test_virtual_seat_nodes_move_like_the_all_node_seat_markers(setup):
+    """The default seat markers sit on 4 massless virtual nodes per seat whose mode rows are the
+    seat's RBE3 motion: for any carrier state their positions and rotations equal those of the
+    markers on all seat nodes (Exudyn's weighted mean translation and its rotation
+    W⁻¹ Σ w_i p_i × u_i, W = Σ w_i (|p_i|²1 − p_i p_iᵀ)) to round-off — also with a large
+    elastic deformation (exponential rotation map) and a turned, shifted frame. The nodes are
+    massless: the system mass matrix (FFRF inertia terms) is the same, bit for bit."""
+    spec, disc, carrier, _, _ = setup
+    q_modal = np.random.default_rng(1).normal(size=carrier.n_modes) * 1e-5
+    frame = [1e-5, -2e-5, 0.0, 0.0, 0.0, 0.3]
+    outs, masses = {}, {}
+    for mode in ("all_nodes", "virtual"):
+        m = build_reducer(spec, None, "flexible", reduced_disc=disc, flexible_carrier=True, reduced_carrier=carrier,
+                          carrier_seat_marker=mode)
+        deformed = _seat_marker_outputs(m, q_modal, frame)
+        masses[mode] = _mass_matrix(m)  # at the deformed, turned state just set
+        outs[mode] = (deformed, _seat_marker_outputs(m, 0 * q_modal, frame))
+        nodes = [len(m.mbs.GetMarker(mk)["meshNodeNumbers"]) for mk in m.carrier.bore_markers]
+        assert (max(nodes) == 4) == (mode == "virtual")
+    elastic = outs["virtual"][0] - outs["virtual"][1]
+    assert np.abs(elastic[:, :3]).max() > 1e-5 and np.abs(elastic[:, 3:]).max() > 1e-3  # a real deformation
+    d = outs["virtual"][0] - outs["all_nodes"][0]
+    assert np.abs(d[:, :3]).max() < 1e-15 and np.abs(d[:, 3:]).max() < 1e-13
+    assert np.array_equal(masses["virtual"], masses["all_nodes"])  # the virtual nodes are massless
+
+
+def test_virtual_seat_nodes_apply_the_rbe3_loads(setup):
+    """Virtual work: a unit force or moment on a virtual-node seat marker (weights ¼: force rows
+    Σ ¼ Φ_v, moment rows the RBE3 rotation map) gives the same generalised forces as the RBE3
+    nodal loads the seat attachment modes were computed for (``rbe3_loads``): Ψᵀ F."""
+    from rvflex.fe.reduce import rbe3_loads, rbe3_virtual_nodes
+
+    _, _, carrier, _, _ = setup
+    pos, P = carrier.node_positions_m, carrier.mode_basis
+    seats = carrier.interfaces[1:]
+    vn = rbe3_virtual_nodes(P, pos, seats)
+    for itf in seats:
+        g = np.asarray(vn.group(itf.name))
+        rows = vn.rows.reshape(-1, 3, P.shape[1])[g]  # (4, 3, m)
+        s = vn.positions_m[g] - vn.positions_m[g].mean(axis=0)
+        assert np.allclose(vn.positions_m[g].mean(axis=0), itf.weights @ pos[itf.nodes], atol=1e-15)
+        # Exudyn's rotation map of a marker on these 4 nodes (weights ¼, centroid reference)
+        W = sum(0.25 * ((v @ v) * np.eye(3) - np.outer(v, v)) for v in s)
+        rot = np.linalg.solve(W, sum(0.25 * np.cross(v[:, None], r, axis=0) for v, r in zip(s, rows)))
+        Q = P.T @ rbe3_loads(pos, itf, carrier.n_nodes)  # (m, 6)
+        scale = np.abs(Q).max(axis=0)
+        assert np.abs(rows.mean(axis=0).T - Q[:, :3]).max(axis=0) / scale[:3] == pytest.approx(0, abs=1e-10)
+        assert np.abs(rot.T - Q[:, 3:]).max(axis=0) / scale[3:] == pytest.approx(0, abs=1e-10)
+
+
+def test_virtual_seat_nodes_give_the_all_node_te(setup):
+    """Loaded TE at rated torque with the virtual-node seat markers equals the all-node seat
+    markers' (the same coupling, exactly) to 1e-3″ — measured 1e-10″."""
+    spec, disc, carrier, theta, _ = setup
+    virtual = _te(spec, disc, carrier, theta[:3])
+    all_nodes = _te(spec, disc, carrier, theta[:3], seat_marker="all_nodes")
+    assert np.abs(virtual - all_nodes).max() < 1e-3
 
 
 def test_flexible_carrier_adds_wind_up(setup):

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["ffrf_interface"]
+__all__ = ["ffrf_interface", "with_virtual_nodes"]
 
 _FORMAT = "rvflex-ffrf-1"
 _SCALARS = ("nModes", "nNodes", "dim3D", "nODE2rot", "nODE2rigid", "nODE2FFRFreduced", "totalMass")
@@ -85,3 +85,28 @@ def ffrf_interface(reduced, *, cache_dir: str | os.PathLike | None = None):
     obj = _build(reduced, node_type)
     _save(obj, path)
     return obj
+
+
+def with_virtual_nodes(obj, virtual):
+    """A copy of the interface ``obj`` with the massless nodes ``virtual`` (a
+    :class:`rvflex.fe.reduce.VirtualNodes`) appended after the mesh nodes: their rows go to the
+    mode basis and their positions to the reference positions, nothing else. The FFRF inertia
+    terms (mass, inertia, χ_u, the mΨ… tensors) were computed from the mesh's mass matrix, in
+    which these nodes have no rows, so they stay as they are: the nodes are massless and only
+    give markers something to hold. Returns (copy, index of the first virtual node).
+    ``obj`` itself (and its cache file) is unchanged."""
+    import copy
+
+    from exudyn.FEM import ComputeSkewMatrix
+
+    out = copy.copy(obj)
+    first = int(obj.nNodes)
+    rows = np.asarray(virtual.rows, float)
+    if rows.shape != (3 * len(virtual.positions_m), obj.modeBasis.shape[1]):
+        raise ValueError(f"virtual node rows {rows.shape} do not fit the mode basis {obj.modeBasis.shape}")
+    out.modeBasis = np.vstack([obj.modeBasis, rows])
+    out.xRef = np.concatenate([np.asarray(obj.xRef, float), np.asarray(virtual.positions_m, float).ravel()])
+    out.nNodes = first + len(virtual.positions_m)
+    if getattr(obj, "PsiTilde", None) is not None:  # only the Python user-function path reads it
+        out.PsiTilde = np.vstack([obj.PsiTilde, ComputeSkewMatrix(rows)])
+    return out, first

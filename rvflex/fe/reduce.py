@@ -48,10 +48,12 @@ __all__ = [
     "PartSettings",
     "ReducedPart",
     "StaticCheck",
+    "VirtualNodes",
     "convergence_study",
     "disc_rated_load_case",
     "estimate_memory_bytes",
     "free_free_frequencies_hz",
+    "rbe3_virtual_nodes",
     "reduce_part",
     "settings_for",
     "static_check",
@@ -546,6 +548,65 @@ def rbe3_loads(pos: np.ndarray, itf: Interface, nn: int) -> np.ndarray:
         a = np.linalg.solve(inertia, np.eye(3)[k])
         F[(3 * itf.nodes[:, None] + np.arange(3)).ravel(), 3 + k] = (w[:, None] * np.cross(a, r)).ravel()
     return F
+
+
+@dataclass(frozen=True, eq=False)
+class VirtualNodes:
+    """Massless nodes that carry the distributing (RBE3) motion of interfaces (body frame).
+
+    ``positions_m`` (n, 3) and mode rows ``rows`` (3·n × n_modes, Exudyn ordering x0, y0, z0, x1, …);
+    ``groups[k]`` are the indices (into ``positions_m``) of the nodes of ``names[k]``.
+    """
+
+    names: tuple[str, ...]
+    positions_m: np.ndarray
+    rows: np.ndarray
+    groups: tuple[tuple[int, ...], ...]
+
+    def group(self, name: str) -> tuple[int, ...]:
+        return self.groups[self.names.index(name)]
+
+
+# a regular tetrahedron with centroid 0 and ¼·Σ t tᵀ = 1: scaled by S^½ it has the seat's second moment
+_TETRA = np.array([[1.0, 1.0, 1.0], [1.0, -1.0, -1.0], [-1.0, 1.0, -1.0], [-1.0, -1.0, 1.0]])
+
+
+def rbe3_virtual_nodes(mode_basis: np.ndarray, pos: np.ndarray, interfaces) -> VirtualNodes:
+    """Four virtual nodes per interface whose rigid motion is the interface's RBE3 motion.
+
+    For an interface with nodes x_i, weights w_i (Σ w = 1), centroid c = Σ w_i x_i, r_i = x_i − c,
+    second moment S = Σ w_i r_i r_iᵀ and J = tr(S)·1 − S: the mean translation a = Σ w_i Φ_i and
+    the weighted rotation θ = J⁻¹ Σ w_i r_i × Φ_i (the rows Φ_i of the mode basis). The four
+    nodes sit at c + s_j, s_j = V Λ^½ t_j (S = V Λ Vᵀ, t_j a regular tetrahedron), so they have
+    the interface's centroid and second moment; their rows are a + θ × s_j. A
+    ``MarkerSuperElementRigid`` with weights ¼ on them then has exactly the position map (Σ w_i Φ_i)
+    and rotation map ((J + D)⁻¹ (Σ w_i p_i × Φ_i), p_i = x_i − reference point, D from the reference
+    point's distance to c) of the marker on all interface nodes — for any marker offset — and by
+    virtual work the same load distribution.
+    """
+    names, ps, rows, groups = [], [], [], []
+    for itf in interfaces:
+        w = np.asarray(itf.weights, float)
+        if abs(w.sum() - 1.0) > 1e-9:
+            raise ValueError(f"interface {itf.name}: weights sum to {w.sum()}, not 1")
+        nodes = np.asarray(itf.nodes, int)
+        x = pos[nodes]
+        c = w @ x
+        r = x - c
+        S = np.einsum("i,ij,ik->jk", w, r, r)
+        J = np.trace(S) * np.eye(3) - S
+        phi = mode_basis[(3 * nodes[:, None] + np.arange(3)).ravel()].reshape(len(nodes), 3, -1)  # (n, 3, m)
+        a = np.einsum("i,ijm->jm", w, phi)
+        b = np.einsum("i,ijm->jm", w, np.cross(r[:, :, None], phi, axisa=1, axisb=1, axisc=1))
+        theta = np.linalg.solve(J, b)  # (3, m)
+        lam, V = np.linalg.eigh(S)
+        s = _TETRA @ (V * np.sqrt(np.clip(lam, 0.0, None))).T  # (4, 3)
+        start = sum(len(g) for g in groups)
+        names.append(itf.name)
+        groups.append(tuple(range(start, start + len(s))))
+        ps.append(c + s)
+        rows.append((a[None] + np.cross(theta[None], s[:, :, None], axisa=1, axisb=1, axisc=1)).reshape(-1, a.shape[1]))
+    return VirtualNodes(tuple(names), np.vstack(ps), np.vstack(rows), tuple(groups))
 
 
 def _mass_orthonormal(B: np.ndarray, M) -> np.ndarray:
