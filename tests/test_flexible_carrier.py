@@ -116,8 +116,10 @@ def _mass_matrix(model) -> np.ndarray:
     """The system mass matrix at the current state (FFRF terms included)."""
     import exudyn as exu
 
+    ss = exu.SimulationSettings()
+    ss.solution.file.write = False  # InitializeSolver would open coordinatesSolution.txt in the cwd
     solver = exu.MainSolverImplicitSecondOrder()
-    solver.InitializeSolver(model.mbs, exu.SimulationSettings())
+    solver.InitializeSolver(model.mbs, ss)
     solver.ComputeMassMatrix(model.mbs)
     return np.array(solver.GetSystemMassMatrix())
 
