@@ -99,10 +99,12 @@ class BenchRun:
 
     @property
     def label(self) -> str:
-        """Short human label: ``te forward 412 N·m`` or ``hysteresis ±412 N·m``."""
+        """Short human label: ``te forward 412 N·m`` or ``hysteresis ±412 N·m``, with
+        `` at 40 °C`` when the run records its temperature."""
+        at = f" at {self.temperature_C:g} °C" if math.isfinite(self.temperature_C) else ""
         if self.kind == "te":
-            return f"te {self.direction} {self.load_Nm:g} N·m"
-        return f"hysteresis ±{self.torque_max_Nm:g} N·m"
+            return f"te {self.direction} {self.load_Nm:g} N·m{at}"
+        return f"hysteresis ±{self.torque_max_Nm:g} N·m{at}"
 
 
 @dataclass(frozen=True, eq=False)

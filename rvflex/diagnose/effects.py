@@ -5,7 +5,9 @@ An :class:`Effect` acts in one of four ways (``kind``):
 
 ``"model"``
     ``apply(spec, errors, x) -> (spec, errors)``: a spec/ErrorSpec variant (made with
-    :func:`dataclasses.replace`) that the model is rebuilt with.
+    :func:`dataclasses.replace`) that the model is rebuilt with. With ``per_run=True`` the
+    function also receives the run, ``apply(spec, errors, x, run)``, and the variant may differ
+    from run to run (thermal expansion: each run at its own recorded temperature).
 ``"conditions"``
     ``conditions(plan_run, x, spec) -> plan_run``: changes what the model is loaded with
     (pin-contact friction: a Coulomb torque opposing the motion).
@@ -41,13 +43,17 @@ import numpy as np
 
 from rvflex.spec import ErrorSpec, ReducerSpec
 
-__all__ = ["EFFECTS", "THERMAL_ALPHA_MISMATCH_PER_K", "Effect", "Param", "available_effects", "register"]
+__all__ = ["EFFECTS", "REFERENCE_TEMPERATURE_C", "THERMAL_ALPHA_MISMATCH_PER_K", "Effect", "Param",
+           "available_effects", "register"]
 
 UM = 1e-6
 ARCSEC = math.pi / 648000.0
 # housing-to-steel expansion mismatch: an aluminium-alloy housing (23e-6/K) around steel pins
 # and discs (11.5e-6/K); a nodular-iron housing (QT500-7, 10.5e-6/K) gives −1e-6/K.
 THERMAL_ALPHA_MISMATCH_PER_K = 11.5e-6
+# the temperature the reducer's dimensions refer to (ISO 1 reference temperature for dimensional
+# specifications): the spec's pin circle and disc profile hold at 20 °C
+REFERENCE_TEMPERATURE_C = 20.0
 
 
 @dataclass(frozen=True)
@@ -85,7 +91,14 @@ class Effect:
     vector (a runout and its phase): its magnitude is their norm. ``central`` asks for central
     sensitivities (two model runs per parameter): for effects whose response is one-sided at the
     typical step (a pin pattern moves some pins into contact and others out of it), the secant
-    of one side mis-states the signature.
+    of one side mis-states the signature. ``two_sided`` also runs the model at −step and keeps
+    both secants: the fit uses the +step secant for a positive parameter value and the −step
+    secant for a negative one (for responses whose slope differs on the two sides of zero, as
+    a clearance that opens on one side and closes into preload on the other).
+    ``per_run`` (kind ``"model"``): ``apply`` receives the run as a fourth argument.
+    ``run_fields``: run attributes (of :class:`~rvflex.diagnose.replay.PlanRun`) that must be
+    known (finite) for every run of a dataset for the effect to be evaluated, e.g.
+    ``("temperature_C",)``.
     """
 
     name: str
@@ -98,6 +111,9 @@ class Effect:
     fidelity: str = "rigid"
     polar: bool = False
     central: bool = False
+    two_sided: bool = False
+    per_run: bool = False
+    run_fields: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         need = {"model": self.apply, "conditions": self.conditions, "measurement": self.measure, "fidelity": True}
@@ -105,6 +121,10 @@ class Effect:
             raise ValueError(f"effect {self.name}: kind must be one of {', '.join(need)}")
         if need[self.kind] is None:
             raise ValueError(f"effect {self.name}: kind {self.kind!r} needs its function")
+        if self.central and self.two_sided:
+            raise ValueError(f"effect {self.name}: central and two_sided sensitivities exclude each other")
+        if self.per_run and self.kind != "model":
+            raise ValueError(f"effect {self.name}: per_run applies to kind 'model' only")
 
     @property
     def n(self) -> int:
@@ -140,6 +160,23 @@ class Effect:
         if self.fidelity not in model.FIDELITIES:
             return False, f"needs build_reducer(..., {self.fidelity!r}), not available yet"
         return True, ""
+
+    def available_for(self, plan) -> tuple[bool, str]:
+        """Whether the runs ``plan`` (:class:`~rvflex.diagnose.replay.PlanRun` sequence) carry what
+        this effect needs (``run_fields``), and why not."""
+        for fld in self.run_fields:
+            missing = [p.label for p in plan if not math.isfinite(float(getattr(p, fld, math.nan)))]
+            if missing:
+                return False, (f"needs '{fld}' for every run in bench.toml; missing for "
+                               f"{', '.join(missing[:3])}{' …' if len(missing) > 3 else ''}")
+        return True, ""
+
+    def apply_to(self, spec: ReducerSpec, errors: ErrorSpec, x, run=None) -> tuple[ReducerSpec, ErrorSpec]:
+        """The spec/ErrorSpec variant of a ``"model"`` effect at parameters ``x`` (for ``run`` when
+        the effect is ``per_run``)."""
+        if self.per_run:
+            return self.apply(spec, errors, x, run)
+        return self.apply(spec, errors, x)
 
 
 # ----------------------------------------------------------------------------- apply functions (module level: picklable)
@@ -198,20 +235,29 @@ def _carrier_holes(spec, errors, x):
                             output_carrier_hole_distance_error_m=errors.output_carrier_hole_distance_error_m + d)
 
 
-def _thermal(spec, errors, x):
-    growth = THERMAL_ALPHA_MISMATCH_PER_K * spec.cycloid.pin_circle_radius_m * float(x[0])
+def _thermal(spec, errors, x, run):
+    """Uniform temperature T of the run (``run.temperature_C``, °C) with a housing-to-steel
+    expansion mismatch x[0] (1/K): the pin circle (in the housing) grows against the steel discs
+    by Δα·r_b·(T − T_ref), T_ref = REFERENCE_TEMPERATURE_C, where the spec's dimensions hold."""
+    dT = float(run.temperature_C) - REFERENCE_TEMPERATURE_C
+    growth = float(x[0]) * spec.cycloid.pin_circle_radius_m * dT
     return spec, dc.replace(errors, pin_circle_radius_error_m=errors.pin_circle_radius_error_m + growth)
 
 
 def _friction_conditions(run, x, spec):
     """Coulomb friction torque T_f = x·T_rated referred to the output, opposing the relative
-    motion: a TE run's load grows by T_f; a torque cycle sees T − T_f·sgn(dT/dt)."""
+    motion: a TE run (sliding all the time) sees its load grow by T_f; in a torque cycle the
+    mesh sees the applied torque T through a Coulomb play of ±T_f — T − T_f·sgn(dT/dt) while
+    it slides, held (stuck) while T changes by less than 2·T_f after a reversal and, from the
+    unloaded start, until T first exceeds T_f."""
     tf = float(x[0]) * spec.rated_torque_Nm
     if run.kind == "te":
         return dc.replace(run, load_Nm=run.load_Nm + tf)
-    t = np.asarray(run.torque_path_Nm)
-    d = np.sign(np.diff(t, prepend=t[0]))  # the unloaded start has not slid yet: no friction there
-    return dc.replace(run, torque_eff_Nm=tuple(float(v) for v in t - tf * d))
+    eff, held = [], 0.0
+    for t in run.torque_path_Nm:
+        held = min(max(held, t - tf), t + tf)
+        eff.append(float(held))
+    return dc.replace(run, torque_eff_Nm=tuple(eff))
 
 
 def _encoder_eccentricity(position_rad, te_rad, x):
@@ -254,16 +300,21 @@ def _builtin() -> tuple[Effect, ...]:
         Effect("crank_phase_error", "eccentric phase error of each crankshaft",
                tuple(Param(f"crank{k}_rad", "rad", -2e-3, 2e-3, 5e-4) for k in range(2)),
                apply=partial(_per_crank, field="crank_phase_error_rad")),
+        # two-sided: a negative deviation takes clearance away (towards preload), a positive one adds it
         Effect("disc_modification_deviation", "deviation of the moved (Δr_p) and equidistant (Δr_rp) modification",
                (Param("moved_m", "m", -10 * um, 10 * um, 4 * um), Param("equidistant_m", "m", -10 * um, 10 * um, 4 * um)),
-               apply=_modification),
+               apply=_modification, two_sided=True),
         Effect("cycloid_pitch_error", "cumulative pitch error of the discs, once-per-disc harmonic (cos/sin)",
                polar(15 * um, 5 * um, ("cos_m", "sin_m")), apply=_pitch_harmonic, polar=True),
         Effect("carrier_hole_position", "crank-hole distance error of both carrier plates",
                (Param("hole_distance_error_m", "m", -20 * um, 20 * um, 6 * um),), apply=_carrier_holes),
-        Effect("thermal_expansion", "uniform temperature rise with a housing-to-steel expansion mismatch of "
-               f"{THERMAL_ALPHA_MISMATCH_PER_K:.3g}/K (the pin circle grows against the discs)",
-               (Param("delta_T_K", "K", -20.0, 40.0, 15.0),), apply=_thermal),
+        # each run at its recorded temperature: the pin circle grows against the discs by
+        # Δα·r_b·(T_run − 20 °C); typical Δα: an aluminium-alloy housing around steel (11.5e-6/K); the
+        # lower bound covers iron housings and discs running warmer than the housing
+        Effect("thermal_expansion", "housing-to-steel thermal expansion mismatch Δα: at each run's recorded "
+               f"temperature T the pin circle grows against the discs by Δα·r_b·(T − {REFERENCE_TEMPERATURE_C:g} °C)",
+               (Param("alpha_mismatch_per_K", "1/K", -5e-6, 25e-6, THERMAL_ALPHA_MISMATCH_PER_K),), apply=_thermal,
+               per_run=True, run_fields=("temperature_C",), two_sided=True),
         Effect("input_stage_runout", "sun (input shaft) runout, x/y components",
                polar(20 * um, 5 * um), apply=partial(_runout, field="sun_runout_m"), polar=True),
         Effect("pin_contact_friction", "Coulomb friction at the pin contacts as a torque opposing the motion "

@@ -64,9 +64,13 @@ class DiagnosisSettings:
     refine_top : int
         Candidates refined with model-in-the-loop (Broyden) iterations.
     refine_iterations : int
-        Model evaluations per refined candidate.
-    pair_top : int
-        Pairs are formed among the best ``pair_top`` single effects.
+        Most model evaluations per refined candidate; after the second, a candidate stops once
+        an evaluation lowers its residual by less than ``refine_min_gain`` (or its step converges).
+    refine_min_gain : float
+        Relative residual decrease an evaluation must bring to go on refining.
+    pair_top : int or None
+        None: every pair of effects is fitted; an int: only pairs with one of the best
+        ``pair_top`` single effects.
     bic_threshold : float
         Minimum BIC improvement over "no effect" for an effect to count (10: very strong).
     min_shrink_pct : float
@@ -87,8 +91,9 @@ class DiagnosisSettings:
     hysteresis_steps: int = 40
     workers: int = 2
     refine_top: int = 3
-    refine_iterations: int = 2
-    pair_top: int = 4
+    refine_iterations: int = 5
+    refine_min_gain: float = 0.02
+    pair_top: int | None = None
     bic_threshold: float = 10.0
     min_shrink_pct: float = 25.0
     min_withheld_pct: float = 10.0
@@ -110,7 +115,9 @@ class PlanRun:
     """What the model is run under for one bench run (SI).
 
     ``torque_path_Nm``: the replayed torque cycle (hysteresis); ``torque_eff_Nm``: the torque
-    the model actually sees when an effect changes it (friction), else empty.
+    the model actually sees when an effect changes it (friction), else empty;
+    ``temperature_C``: the run's recorded temperature (°C), NaN when the bench did not give it
+    (the model itself is temperature-free; per-run effects such as thermal expansion use it).
     """
 
     kind: str
@@ -120,6 +127,7 @@ class PlanRun:
     torque_max_Nm: float = 0.0
     torque_path_Nm: tuple[float, ...] = ()
     torque_eff_Nm: tuple[float, ...] = ()
+    temperature_C: float = math.nan
 
 
 @dataclass(frozen=True, eq=False)
@@ -169,12 +177,14 @@ def plan_from_dataset(dataset, settings: DiagnosisSettings) -> tuple[PlanRun, ..
 
     out = []
     for r in dataset.runs:
+        temp = float(r.temperature_C)
         if r.kind == "te":
-            out.append(PlanRun("te", r.label, 1 if r.direction == "forward" else -1, float(r.load_Nm)))
+            out.append(PlanRun("te", r.label, 1 if r.direction == "forward" else -1, float(r.load_Nm),
+                               temperature_C=temp))
         else:
             path = hysteresis_cycle(r.torque_max_Nm, settings.hysteresis_steps)
             out.append(PlanRun("hysteresis", r.label, torque_max_Nm=float(r.torque_max_Nm),
-                               torque_path_Nm=tuple(float(t) for t in path)))
+                               torque_path_Nm=tuple(float(t) for t in path), temperature_C=temp))
     return tuple(out)
 
 
@@ -196,6 +206,10 @@ def _layout(plan: tuple[PlanRun, ...], max_order: int) -> Layout:
 FIDELITY_TIME_FACTOR = 4.0  # a flexible run may take this many times the rigid budget (FE reduction on first use)
 MAX_CYCLE_ANGLE_RAD = 0.02  # ≈ 69′: far beyond any lost motion plus wind-up of a torque cycle
 ZERO_TORQUE_SHIFT = 2e-3  # an exactly unloaded step is taken at ±0.2 % of the amplitude (the side it comes from)
+CYCLE_MIN_LOAD_STEP = 1e-3  # smallest load increment of the static solver within one torque step (share of the step)
+# output-regulariser stiffnesses (N·m/rad) of the continuation through the free play, down to the working value
+# (rvflex.parts.carrier.OUTPUT_REGULARISER_NM_RAD); the first holds 1 % of the rated torque within ~1″
+REGULARISER_CONTINUATION_NM_RAD = (1e6, 1e5, 1e4, 1e3, 1e2, 1e1)
 
 
 def _torque_cycle(model, torques: np.ndarray, torque_max: float, budget) -> np.ndarray:
@@ -203,19 +217,25 @@ def _torque_cycle(model, torques: np.ndarray, torque_max: float, budget) -> np.n
     robust in the free play: a failing step is bisected (up to 3 levels) from the last converged
     state, through zero torque when it changes sign, and a zero torque that does not converge
     (the clearance lets the bodies float) is taken at a small torque on the side the path comes
-    from. Returns the output angle per torque (rad)."""
+    from; a step that still fails is solved by a stiff-to-working continuation of the output
+    regulariser, from the last state and then from the unloaded kinematic configuration. The
+    wall-time budget is checked before every solve. Returns the output angle per torque (rad)."""
     from rvflex.parts.carrier import OUTPUT_REGULARISER_NM_RAD
     from rvflex.solve import _solve_at, static_settings
 
     mbs = model.mbs
     ss = static_settings()
-    car = model.node_slices()["carrier"].start + 2
+    # fail fast: a step the static solver cannot take in load increments down to 1e-3 is bisected
+    # here instead (the solver's default 1e-8 let one failing step run for minutes)
+    ss.staticSolver.minimumStepSize = CYCLE_MIN_LOAD_STEP
+    car = model.output_index
     mbs.SetObjectParameter(model.carrier.regulariser, "stiffness", OUTPUT_REGULARISER_NM_RAD)
     q = model.kinematic_coordinates(0.0)
     out = np.empty(len(torques))
     prev = 0.0
 
     def solve(q0, t):
+        budget(j_now[0], len(torques))
         mbs.SetLoadParameter(model.carrier.load, "load", float(t))
         q1 = _solve_at(model, ss, 0.0, q0)
         if abs(q1[car]) > MAX_CYCLE_ANGLE_RAD:  # Newton jumped across the free play to another tooth
@@ -225,6 +245,8 @@ def _torque_cycle(model, torques: np.ndarray, torque_max: float, budget) -> np.n
     def advance(q0, t0, t1, level=0):
         try:
             return solve(q0, t1)
+        except EvaluationFailed:  # over the time budget
+            raise
         except Exception:
             if t1 == 0.0:  # floating at zero torque: take a small torque on the side the path comes from
                 return solve(q0, (np.sign(t0) or 1.0) * ZERO_TORQUE_SHIFT * torque_max)
@@ -233,16 +255,48 @@ def _torque_cycle(model, torques: np.ndarray, torque_max: float, budget) -> np.n
             mid = 0.0 if t0 * t1 < 0 else 0.5 * (t0 + t1)  # cross the free play through zero torque
             return advance(advance(q0, t0, mid, level + 1), mid, t1, level + 1)
 
+    def stiffened(q0, t):
+        """Solve at torque t by continuation of the output regulariser from stiff to its working
+        value: out of the free play the weak regulariser alone holds the output, and Newton's first
+        step from a floating state can throw it across a tooth (measured: 0.3–1.8 N·m from the
+        unloaded RV-40E landed 18° away, 2 N·m converged). The answer is the one at the working
+        regulariser."""
+        try:
+            for k in REGULARISER_CONTINUATION_NM_RAD:
+                mbs.SetObjectParameter(model.carrier.regulariser, "stiffness", k)
+                q0 = solve(q0, t)
+        finally:
+            mbs.SetObjectParameter(model.carrier.regulariser, "stiffness", OUTPUT_REGULARISER_NM_RAD)
+        return solve(q0, t)
+
+    q_kin = q.copy()
+    j_now = [0]
     for j, t in enumerate(np.asarray(torques, float)):
-        q = advance(q, prev, float(t))
+        j_now[0] = j
+        try:
+            q = advance(q, prev, float(t))
+        except EvaluationFailed:
+            raise
+        except Exception:
+            # Newton in the free play is sensitive to its start: from the last state, then from the
+            # unloaded kinematic configuration, each with a stiff-to-working regulariser. The model
+            # has no friction (a friction effect changes the torque path instead), so the
+            # equilibrium at a non-zero torque does not depend on the path that led to it
+            try:
+                q = stiffened(q, float(t))
+            except EvaluationFailed:
+                raise
+            except Exception:
+                q = stiffened(q_kin, float(t))
         out[j] = q[car]
         prev = float(t)
         budget(j + 1, len(torques))
     return out
 
 
-def _run_model(spec: ReducerSpec, errors: ErrorSpec, plan: tuple[PlanRun, ...], settings: DiagnosisSettings,
-               fidelity: str, law) -> Response:
+def _run_model(variants: list[tuple[ReducerSpec, ErrorSpec]], plan: tuple[PlanRun, ...],
+               settings: DiagnosisSettings, fidelity: str, law) -> Response:
+    """Run every plan run with its own (spec, errors) variant (``variants[r]`` for run r)."""
     import time
 
     from rvflex.model import build_reducer
@@ -257,7 +311,7 @@ def _run_model(spec: ReducerSpec, errors: ErrorSpec, plan: tuple[PlanRun, ...], 
         if time.perf_counter() > t_end[0]:
             raise EvaluationFailed(f"over the {limit:g} s budget of a run after {done}/{total} steps")
 
-    for p in plan:
+    for p, (spec, errors) in zip(plan, variants):
         t_end[0] = time.perf_counter() + limit
         try:
             model = build_reducer(spec, errors, fidelity, law=law)
@@ -285,6 +339,10 @@ def evaluate(spec: ReducerSpec, errors: ErrorSpec, plan: tuple[PlanRun, ...], se
              active: tuple = (), *, law=None, fidelity: str = "rigid") -> Response:
     """Run the model under ``plan`` with the effects ``active`` ((Effect, x) pairs) switched on.
 
+    Model effects change the spec/ErrorSpec the model is built with (``per_run`` ones per run,
+    e.g. thermal expansion at each run's ``temperature_C``); condition effects change the plan;
+    measurement effects transform the recorded TE; a fidelity effect blends in another fidelity.
+
     Raises
     ------
     EvaluationFailed
@@ -292,21 +350,26 @@ def evaluate(spec: ReducerSpec, errors: ErrorSpec, plan: tuple[PlanRun, ...], se
     """
     from rvflex.spec import SpecError
 
-    s, e = spec, errors
+    variants = [(spec, errors)] * len(plan)
     blend = None
     try:
         for eff, x in active:
+            x = np.asarray(x, float)
             if eff.kind == "model":
-                s, e = eff.apply(s, e, np.asarray(x, float))
+                for fld in eff.run_fields:
+                    bad = [p.label for p in plan if not math.isfinite(float(getattr(p, fld, math.nan)))]
+                    if bad:
+                        raise EvaluationFailed(f"effect {eff.name} needs '{fld}' of run {bad[0]}")
+                variants = [eff.apply_to(s, e, x, p) for (s, e), p in zip(variants, plan)]
             elif eff.kind == "conditions":
-                plan = tuple(eff.conditions(p, np.asarray(x, float), s) for p in plan)
+                plan = tuple(eff.conditions(p, x, variants[0][0]) for p in plan)
             elif eff.kind == "fidelity":
-                blend = (eff, float(np.asarray(x)[0]))
+                blend = (eff, float(x[0]))
     except SpecError as err:
         raise EvaluationFailed(f"effect value breaks a spec rule: {err}") from None
-    resp = _run_model(s, e, plan, settings, fidelity, law)
+    resp = _run_model(variants, plan, settings, fidelity, law)
     if blend is not None and blend[1] != 0.0:
-        flex = _run_model(s, e, plan, settings, blend[0].fidelity, law)
+        flex = _run_model(variants, plan, settings, blend[0].fidelity, law)
         w = blend[1]
         resp = Response(tuple(None if a is None else (1 - w) * a + w * b for a, b in zip(resp.te, flex.te)),
                         resp.torque,

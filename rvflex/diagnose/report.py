@@ -22,6 +22,19 @@ def _run_meta(diag: Diagnosis, r: int) -> tuple[str, float]:
     return "cycle", p.torque_max_Nm
 
 
+def _run_keys(diag: Diagnosis, r: int) -> dict:
+    """The keys that name run ``r`` in the JSON rows: its index, direction, load and temperature
+    (°C, None when the bench did not record it); runs may share direction and load."""
+    direction, load = _run_meta(diag, r)
+    t = diag.plan[r].temperature_C
+    return {"run": r, "direction": direction, "load_Nm": load, "temperature_C": float(t) if math.isfinite(t) else None}
+
+
+def _run_text(row: dict) -> str:
+    at = f" at {row['temperature_C']:g} °C" if row.get("temperature_C") is not None else ""
+    return f"{row['direction']} {row['load_Nm']:g} N·m{at}"
+
+
 def _residual(diag: Diagnosis, c: Candidate) -> np.ndarray:
     """Measured − model features (arcsec) with the candidate's origin and offsets applied."""
     y = shift_measured(diag.measured, diag.layout, c.delta)[:, 0]
@@ -44,28 +57,26 @@ def where_list(diag: Diagnosis, min_share: float = 0.01) -> list[dict]:
     total = float(r @ r) or 1.0
     out = []
     for run in range(len(diag.plan)):
-        direction, load = _run_meta(diag, run)
+        keys = _run_keys(diag, run)
         if run in lay.dc:
-            out.append({"metric": "mean wind-up", "direction": direction, "load_Nm": load,
-                        "share": float(r[lay.dc[run]] ** 2 / total)})
+            out.append({"metric": "mean wind-up", **keys, "share": float(r[lay.dc[run]] ** 2 / total)})
             e = r[lay.cos[run]] ** 2 + r[lay.sin[run]] ** 2
             rest = 0.0
             for k, v in enumerate(e, start=1):
                 if v / total >= min_share:
-                    out.append({"order": k, "direction": direction, "load_Nm": load, "share": float(v / total)})
+                    out.append({"order": k, **keys, "share": float(v / total)})
                 else:
                     rest += v
-            out.append({"metric": "other orders", "direction": direction, "load_Nm": load,
-                        "share": float(rest / total)})
+            out.append({"metric": "other orders", **keys, "share": float(rest / total)})
         else:
             sl = r[lay.hyst[run]]
             m = len(HYST_FRACTIONS)
             frac = np.abs(np.tile(np.concatenate([-HYST_FRACTIONS[::-1], HYST_FRACTIONS]), 2))
             low = frac <= 0.05
-            out.append({"metric": "lost motion (hysteresis loop, torque within ±5 %)", "direction": direction,
-                        "load_Nm": load, "share": float(np.sum(sl[low] ** 2) / total)})
-            out.append({"metric": "torsional stiffness (hysteresis loop, torque beyond ±5 %)", "direction": direction,
-                        "load_Nm": load, "share": float(np.sum(sl[~low] ** 2) / total)})
+            out.append({"metric": "lost motion (hysteresis loop, torque within ±5 %)", **keys,
+                        "share": float(np.sum(sl[low] ** 2) / total)})
+            out.append({"metric": "torsional stiffness (hysteresis loop, torque beyond ±5 %)", **keys,
+                        "share": float(np.sum(sl[~low] ** 2) / total)})
             del m
     return sorted((w for w in out if w["share"] > 0), key=lambda w: -w["share"])
 
@@ -96,21 +107,20 @@ def gap_table(diag: Diagnosis, c: Candidate, n_orders: int = 8) -> dict:
     nu = _nuis(diag) @ c.nuisance
     metrics, orders = [], []
     for run, p in enumerate(diag.plan):
-        direction, load = _run_meta(diag, run)
+        keys = _run_keys(diag, run)
         if p.kind == "te":
             meas = _te_grid(diag, y - nu, run)
             mod = _te_grid(diag, c.model_features, run)
             for name, fm in (("TE peak-to-peak", np.ptp), ("mean wind-up", np.mean)):
                 a, b = float(fm(meas)), float(fm(mod))
-                metrics.append({"metric": name, "direction": direction, "load_Nm": load, "unit": "arcsec",
+                metrics.append({"metric": name, **keys, "unit": "arcsec",
                                 "measured": a, "model": b, "gap": b - a,
                                 "gap_pct": 100 * (b - a) / a if abs(a) > 1e-12 else None})
             ra = y[lay.cos[run]] - c.model_features[lay.cos[run]]
             rb = y[lay.sin[run]] - c.model_features[lay.sin[run]]
             amp = np.hypot(ra, rb)
             for k in np.argsort(amp)[::-1][:n_orders]:
-                orders.append({"order": int(k + 1), "direction": direction, "load_Nm": load,
-                               "residual_arcsec": float(amp[k])})
+                orders.append({"order": int(k + 1), **keys, "residual_arcsec": float(amp[k])})
         else:
             run_data = diag.dataset.runs[run]
             mm = _hyst_metrics(run_data.torque_Nm, run_data.theta_out_rad, p.torque_max_Nm)
@@ -122,7 +132,7 @@ def gap_table(diag: Diagnosis, c: Candidate, n_orders: int = 8) -> dict:
                                      ("torsional stiffness", "torsional_stiffness_Nm_per_arcmin", "N·m/arcmin")):
                 a = getattr(mm, attr) if mm else math.nan
                 b = getattr(md, attr) if md else math.nan
-                metrics.append({"metric": name, "direction": direction, "load_Nm": load, "unit": unit,
+                metrics.append({"metric": name, **keys, "unit": unit,
                                 "measured": a, "model": b, "gap": b - a,
                                 "gap_pct": 100 * (b - a) / a if abs(a) > 1e-12 else None})
     r = (y - c.model_features - nu) * diag.weights
@@ -139,10 +149,10 @@ def _after_with_shrink(before: dict, after: dict) -> dict:
         m["shrink_pct"] = 100 * (gb - ga) / gb if gb > 1e-12 and np.isfinite(ga) else None
         ms.append(m)
     out["metrics"] = ms
-    bo = {(o["order"], o["direction"], o["load_Nm"]): o["residual_arcsec"] for o in before["orders"]}
+    bo = {(o["order"], o["run"]): o["residual_arcsec"] for o in before["orders"]}
     os_ = []
     for o in after["orders"]:
-        key = (o["order"], o["direction"], o["load_Nm"])
+        key = (o["order"], o["run"])
         m = dict(o)
         if key in bo and bo[key] > 0:
             m["shrink_pct"] = 100 * (bo[key] - o["residual_arcsec"]) / bo[key]
@@ -157,12 +167,10 @@ def _orders_of(diag: Diagnosis, c: Candidate, keys) -> list[dict]:
     lay = diag.layout
     y = shift_measured(diag.measured, lay, c.delta)[:, 0]
     out = []
-    runs = {(_run_meta(diag, r)): r for r in lay.te_runs}
-    for order, direction, load in keys:
-        r = runs[(direction, load)]
+    for order, r in keys:
         a = y[lay.cos[r]][order - 1] - c.model_features[lay.cos[r]][order - 1]
         b = y[lay.sin[r]][order - 1] - c.model_features[lay.sin[r]][order - 1]
-        out.append({"order": order, "direction": direction, "load_Nm": load, "residual_arcsec": float(math.hypot(a, b))})
+        out.append({"order": order, **_run_keys(diag, r), "residual_arcsec": float(math.hypot(a, b))})
     return out
 
 
@@ -172,7 +180,7 @@ def json_document(diag: Diagnosis) -> dict:
     chosen = diag.chosen
     if chosen is not None:
         after = gap_table(diag, chosen)
-        after["orders"] = _orders_of(diag, chosen, [(o["order"], o["direction"], o["load_Nm"])
+        after["orders"] = _orders_of(diag, chosen, [(o["order"], o["run"])
                                                    for o in before["orders"]])
         after = _after_with_shrink(before, after)
     else:
@@ -196,12 +204,15 @@ def json_document(diag: Diagnosis) -> dict:
         })
     ref = chosen or (diag.candidates[0] if diag.candidates else None)
     wh = dict(ref.withheld) if ref is not None else {}
-    fitted, predicted = diag.withheld_runs
-    withheld = {"fitted_runs": wh.get("fitted_runs", [diag.plan[r].label for r in fitted]),
-                "predicted_runs": wh.get("predicted_runs", [diag.plan[r].label for r in predicted]),
+    label = [p.label for p in diag.plan]
+    folds = wh.get("folds") or [{"fitted_runs": [label[r] for r in f], "predicted_runs": [label[r] for r in pr],
+                                 "improvement_pct": None} for f, pr in diag.withheld_runs]
+    withheld = {"fitted_runs": sorted({x for f in folds for x in f["fitted_runs"]}, key=label.index),
+                "predicted_runs": [x for f in folds for x in f["predicted_runs"]],
                 "improvement_pct": wh.get("improvement_pct"),
+                "folds": [{k: f[k] for k in ("fitted_runs", "predicted_runs", "improvement_pct")} for f in folds],
                 "effect": ref.name if ref is not None else None}
-    if not predicted:
+    if not diag.withheld_runs:
         withheld["note"] = "no run usable for the withheld check"
     return {"where": where_list(diag), "effects": effects, "gap_before": before, "gap_after": after,
             "withheld_check": withheld, "verdict": diag.verdict, "wall_s": diag.wall_s,
@@ -320,7 +331,7 @@ def _plots(diag: Diagnosis, out: Path) -> list[Path]:
 
 def _mag_text(e, m, lo, hi) -> str:
     u = e.params[0].unit
-    f, unit = {"m": (1e6, "µm"), "rad": (ARCSEC_PER_RAD, "″")}.get(u, (1.0, u))
+    f, unit = {"m": (1e6, "µm"), "rad": (ARCSEC_PER_RAD, "″"), "1/K": (1e6, "ppm/K")}.get(u, (1.0, u))
     return f"{m * f:.3g} [{lo * f:.3g}, {hi * f:.3g}] {unit}"
 
 
@@ -365,10 +376,12 @@ def markdown(diag: Diagnosis, doc: dict, pngs: list[str]) -> str:
              f"quasi-static replay at {diag.settings.positions_per_rev} positions per output revolution, orders "
              f"1…{diag.settings.max_order}; {diag.model_runs} model evaluations (cached ones not counted) in {diag.wall_s:.0f} s."), "",
              f"**Verdict.** {diag.verdict}", "", "## Where the gap lies", "",
-             "| where | direction | load (N·m) | share of the weighted gap |", "|---|---|---:|---:|"]
+             "| where | direction | load (N·m) | temperature (°C) | share of the weighted gap |",
+             "|---|---|---:|---:|---:|"]
     for w in doc["where"][:15]:
         what = f"order {w['order']}" if "order" in w else w["metric"]
-        lines.append(f"| {what} | {w['direction']} | {w['load_Nm']:g} | {100 * w['share']:.1f} % |")
+        temp = "—" if w.get("temperature_C") is None else f"{w['temperature_C']:g}"
+        lines.append(f"| {what} | {w['direction']} | {w['load_Nm']:g} | {temp} | {100 * w['share']:.1f} % |")
     lines += ["", "## Effect ranking", "",
               ("Score = BIC(no effect) − BIC(candidate) (> 10: very strong evidence); 95 % intervals from the "
               "linearised covariance; *refined* candidates were re-fitted with the model in the loop."), "",
@@ -392,21 +405,26 @@ def markdown(diag: Diagnosis, doc: dict, pngs: list[str]) -> str:
                   + "; ".join(f"{k} — {v[:160]}" for k, v in diag.failed.items())]
     wc = doc["withheld_check"]
     imp = "n/a" if wc["improvement_pct"] is None else f"{wc['improvement_pct']:.0f} %"
-    lines += ["", "## Withheld check", "",
-              (f"Fitted on: {', '.join(wc['fitted_runs']) or '—'}; predicted: {', '.join(wc['predicted_runs']) or '—'}; "
-              f"improvement of the prediction: {imp}"
-              f"{' (' + wc['note'] + ')' if wc.get('note') else ''}."), "",
+    lines += ["", "## Withheld check", ""]
+    if wc.get("note"):
+        lines.append(f"{wc['note'].capitalize()}.")
+    for k, f in enumerate(wc["folds"], start=1):
+        fi = "n/a" if f["improvement_pct"] is None else f"{f['improvement_pct']:+.0f} %"
+        lines.append(f"- Fold {k}: fitted on {', '.join(f['fitted_runs'])}; predicted {', '.join(f['predicted_runs'])}: "
+                     f"improvement {fi}.")
+    lines += ["", (f"Improvement of the prediction of every withheld run ({wc['effect'] or '—'}, pooled over the "
+                   f"folds): {imp}."), "",
               "## Gap before and after", "",
               "| run | metric | measured | model | gap before | gap after | shrink |", "|---|---|---:|---:|---:|---:|---:|"]
     for b, a in zip(doc["gap_before"]["metrics"], doc["gap_after"]["metrics"]):
-        run = f"{b['direction']} {b['load_Nm']:g} N·m"
+        run = _run_text(b)
         sp = a.get("shrink_pct")
         lines.append(f"| {run} | {b['metric']} ({b['unit']}) | {b['measured']:.3f} | {b['model']:.3f} | "
                      f"{b['gap']:+.3f} | {a['gap']:+.3f} | {'—' if sp is None else f'{sp:.0f} %'} |")
     lines += ["", "| run | order | residual before (″) | after (″) | shrink |", "|---|---:|---:|---:|---:|"]
     for b, a in zip(doc["gap_before"]["orders"], doc["gap_after"]["orders"]):
         sp = a.get("shrink_pct")
-        lines.append(f"| {b['direction']} {b['load_Nm']:g} N·m | {b['order']} | {b['residual_arcsec']:.3f} | "
+        lines.append(f"| {_run_text(b)} | {b['order']} | {b['residual_arcsec']:.3f} | "
                      f"{a['residual_arcsec']:.3f} | {'—' if sp is None else f'{sp:.0f} %'} |")
     lines += ["", (f"Weighted rms gap: {doc['gap_before']['weighted_rms']:.3f} before, "
               f"{doc['gap_after']['weighted_rms']:.3f} after ({doc['gap_after']['weighted_rms_shrink_pct']:.0f} % "

@@ -3,11 +3,14 @@
 :func:`generate_case` writes a synthetic bench dataset from the model with hidden effects
 (one or two, magnitudes drawn around each effect's typical size, or none for a control
 case) and bench realism: encoder quantisation, noise, an unknown encoder origin and offset,
-speed ripple, non-uniform sampling, a torque sensor with noise. The data come from a
-*different* model than the one the diagnosis uses (finer position grid, finer torque cycle,
-contact stiffness off by a few per cent), so no residual is exactly zero. The truth goes to
-a separate file the diagnosis never reads. :func:`selfcheck` diagnoses every case blind and
-scores it.
+speed ripple, non-uniform sampling, a torque sensor with noise, and each run's temperature
+(a campaign with a cold torque cycle, a quarter-load TE run at the start and rated-load TE
+runs after the warm-up, :data:`BENCH_TEMPERATURES_C`). The data come from a *different*
+model than the one the diagnosis uses (finer position grid, finer torque cycle, contact
+stiffness off by a few per cent), so no residual is exactly zero. The truth goes to a
+separate file the diagnosis never reads. :func:`selfcheck` diagnoses every case blind and
+scores it. The dominant effects of the cases go through the observable effects in a random
+order (each is hidden once before any is hidden twice).
 
 Scoring (per effect case; the dominant hidden effect is the first one drawn):
 
@@ -106,15 +109,25 @@ class SelfCheckSettings:
     diagnosis: DiagnosisSettings = field(default_factory=DiagnosisSettings)
 
 
-def draw_truth(rng: np.random.Generator, effects: tuple[Effect, ...], n_effects: int) -> list[tuple[Effect, np.ndarray]]:
+def draw_truth(rng: np.random.Generator, effects: tuple[Effect, ...], n_effects: int,
+               first: Effect | None = None, sizes: dict | None = None) -> list[tuple[Effect, np.ndarray]]:
     """Draw ``n_effects`` distinct effects and realistic magnitudes: each parameter 0.6–1.4 × its
-    typical size with a random sign (polar effects: a random phase; the second effect of a pair
-    at 0.6×), clipped to the bounds."""
-    idx = rng.choice(len(effects), size=n_effects, replace=False)
+    typical size with a random sign (polar effects: a random phase), clipped to the bounds.
+    The first effect is the dominant one: the others are drawn at 0.6× — 0.6× of the typical size,
+    and smaller still where their model signature at typical size (``sizes``, floor units, see
+    :func:`~rvflex.diagnose.fit.signature_sizes`) exceeds the first one's, so that they stay
+    secondary in the data. ``first``: the dominant effect, when it is given rather than drawn."""
+    if first is None:
+        chosen = [effects[int(i)] for i in rng.choice(len(effects), size=n_effects, replace=False)]
+    else:
+        rest = [e for e in effects if e is not first]
+        chosen = [first] + [rest[int(i)] for i in rng.choice(len(rest), size=n_effects - 1, replace=False)]
     out = []
-    for rank, i in enumerate(idx):
-        e = effects[int(i)]
-        scale = 1.0 if rank == 0 else 0.6
+    for rank, e in enumerate(chosen):
+        scale = 1.0
+        if rank:
+            s0, s1 = (sizes or {}).get(chosen[0].name, math.nan), (sizes or {}).get(e.name, math.nan)
+            scale = 0.6 * (min(1.0, s0 / s1) if s0 > 0 and s1 > 0 else 1.0)  # NaN compares False
         if e.polar:
             m = rng.uniform(0.6, 1.4) * e.params[0].step * scale
             ph = rng.uniform(0, 2 * np.pi)
@@ -128,21 +141,35 @@ def draw_truth(rng: np.random.Generator, effects: tuple[Effect, ...], n_effects:
     return out
 
 
+BENCH_TEMPERATURES_C = {"cold": 23.0, "start": 25.0, "warm": 40.0}
+"""Recorded temperatures of the self-check's bench campaign (°C): the torque cycle on the cold unit
+at room temperature, the quarter-load TE run at the start of running, the rated-load TE runs after
+the warm-up (an RV reducer's case runs 15–25 K above ambient at rated load)."""
+
+
 def _bench_plan(spec: ReducerSpec, gen: GeneratorModel) -> tuple[tuple[PlanRun, ...], list[dict]]:
+    """The self-check's four runs (a realistic campaign: torque cycle cold, a quarter-load TE run at
+    the start, rated-load TE runs forward and reverse after the warm-up) and their metadata."""
     from rvflex.solve import hysteresis_cycle
 
     tr = spec.rated_torque_Nm
-    runs = [{"file": "te_fwd_rated.csv", "kind": "te", "direction": "forward", "load_Nm": tr},
-            {"file": "te_rev_rated.csv", "kind": "te", "direction": "reverse", "load_Nm": tr},
-            {"file": "te_fwd_quarter.csv", "kind": "te", "direction": "forward", "load_Nm": 0.25 * tr},
-            {"file": "hysteresis.csv", "kind": "hysteresis", "torque_max_Nm": tr}]
+    t = BENCH_TEMPERATURES_C
+    runs = [{"file": "te_fwd_rated.csv", "kind": "te", "direction": "forward", "load_Nm": tr,
+             "temperature_C": t["warm"]},
+            {"file": "te_rev_rated.csv", "kind": "te", "direction": "reverse", "load_Nm": tr,
+             "temperature_C": t["warm"]},
+            {"file": "te_fwd_quarter.csv", "kind": "te", "direction": "forward", "load_Nm": 0.25 * tr,
+             "temperature_C": t["start"]},
+            {"file": "hysteresis.csv", "kind": "hysteresis", "torque_max_Nm": tr, "temperature_C": t["cold"]}]
     plan = []
     for r in runs:
         if r["kind"] == "te":
-            plan.append(PlanRun("te", r["file"], 1 if r["direction"] == "forward" else -1, r["load_Nm"]))
+            plan.append(PlanRun("te", r["file"], 1 if r["direction"] == "forward" else -1, r["load_Nm"],
+                                temperature_C=r["temperature_C"]))
         else:
             path = hysteresis_cycle(tr, gen.hysteresis_steps)
-            plan.append(PlanRun("hysteresis", r["file"], torque_max_Nm=tr, torque_path_Nm=tuple(map(float, path))))
+            plan.append(PlanRun("hysteresis", r["file"], torque_max_Nm=tr, torque_path_Nm=tuple(map(float, path)),
+                                temperature_C=r["temperature_C"]))
     return tuple(plan), runs
 
 
@@ -169,10 +196,17 @@ def generate_case(folder: str | Path, truth_path: str | Path, spec: ReducerSpec,
     Returns the truth document. Raises :class:`~rvflex.diagnose.replay.EvaluationFailed` when
     the generator model does not converge for the drawn effects.
     """
+    import exudyn as exu
+
     plan, runs = _bench_plan(spec, gen)
     gs = DiagnosisSettings(positions_per_rev=gen.positions_per_rev, max_order=min(127, gen.positions_per_rev // 2 - 1),
                            hysteresis_steps=gen.hysteresis_steps, workers=1, eval_timeout_s=gen.timeout_s)
-    resp = evaluate(spec, ErrorSpec(), plan, gs, tuple(truth), law=gen.law(spec))
+    before = exu.config.printToConsole
+    exu.config.printToConsole = False  # the banners of retried static steps (expected) stay off the console
+    try:
+        resp = evaluate(spec, ErrorSpec(), plan, gs, tuple(truth), law=gen.law(spec))
+    finally:
+        exu.config.printToConsole = before
     ratio = spec.nominal_ratio
     delta0 = float(rng.uniform(0, 2 * np.pi))  # unknown origin (output revolutions, rad)
     offset0 = float(rng.uniform(-600, 600)) * ARCSEC  # unknown constant offset
@@ -198,7 +232,7 @@ def generate_case(folder: str | Path, truth_path: str | Path, spec: ReducerSpec,
             th_out = np.round(th_out / q_out) * q_out
             torque = p.load_Nm * (1 + rng.normal(0, realism.torque_noise_rel, len(t)))
             bench_runs.append(BenchRun(meta["file"], "te", t, th_in, th_out, torque, direction=meta["direction"],
-                                       load_Nm=p.load_Nm, speed_out_rpm=speed, temperature_C=25.0))
+                                       load_Nm=p.load_Nm, speed_out_rpm=speed, temperature_C=meta["temperature_C"]))
         else:
             path = np.asarray(p.torque_path_Nm)
             s_model = np.arange(len(path), dtype=float)
@@ -211,7 +245,7 @@ def generate_case(folder: str | Path, truth_path: str | Path, spec: ReducerSpec,
             torque = torque_true + rng.normal(0, realism.torque_noise_rel * p.torque_max_Nm, len(s))
             t = s * 0.05
             bench_runs.append(BenchRun(meta["file"], "hysteresis", t, np.empty(0), th_out, torque,
-                                       torque_max_Nm=p.torque_max_Nm, temperature_C=25.0))
+                                       torque_max_Nm=p.torque_max_Nm, temperature_C=meta["temperature_C"]))
     write_bench(folder, BenchDataset(spec, reducer_name, tuple(bench_runs)))
     doc = {"effects": [{"name": e.name, "params": {pp.name: float(v) for pp, v in zip(e.params, x)},
                         "magnitude": e.magnitude(x)} for e, x in truth],
@@ -284,7 +318,7 @@ def selfcheck(out_dir: str | Path, settings: SelfCheckSettings = SelfCheckSettin
     probe = BenchDataset(spec, settings.reducer, tuple(
         BenchRun(m["file"], m["kind"], np.empty(0), np.empty(0), np.empty(0), np.empty(0),
                  direction=m.get("direction", "forward"), load_Nm=m.get("load_Nm", 0.0),
-                 torque_max_Nm=m.get("torque_max_Nm", 0.0)) for m in meta))
+                 torque_max_Nm=m.get("torque_max_Nm", 0.0), temperature_C=m["temperature_C"]) for m in meta))
     sizes = signature_sizes(spec, plan_from_dataset(probe, settings.diagnosis), settings.diagnosis,
                             settings.effects, cache_dir=cache)
     hideable = tuple(e for e in effects if (settings.draw_fidelity_effects or e.kind != "fidelity")
@@ -294,15 +328,22 @@ def selfcheck(out_dir: str | Path, settings: SelfCheckSettings = SelfCheckSettin
     rows = []
     partial_path = out / "selfcheck.partial.json"
     out.mkdir(parents=True, exist_ok=True)
+    # the dominant effects go through the observable effects in a random order, so that every one
+    # of them is hidden (once the cases outnumber them) rather than left to chance
+    order = [hideable[int(i)] for i in rng.permutation(len(hideable))]
+    n_drawn = 0
     for k in range(settings.cases):
         control = settings.control_every > 0 and k % settings.control_every == settings.control_every - 1
-        n_eff = 0 if control else (2 if rng.uniform() < settings.two_effect_share else 1)
+        n_eff = 0 if control or not order else (2 if rng.uniform() < settings.two_effect_share else 1)
         case_seed = int(rng.integers(2**31))
+        first = order[n_drawn % len(order)] if n_eff else None
+        n_drawn += bool(n_eff)
         folder = out / "datasets" / f"case_{k:02d}"
         truth_path = out / "truth" / f"case_{k:02d}.json"
         truth_doc = None
         for attempt in range(3):  # a draw the generator model cannot solve is redrawn
-            truth = draw_truth(np.random.default_rng(case_seed + attempt), hideable, n_eff) if n_eff else []
+            truth = (draw_truth(np.random.default_rng(case_seed + attempt), hideable, n_eff, first, sizes)
+                     if n_eff else [])
             truth_doc, msg = _generate_job((folder, truth_path, spec, truth, case_seed, settings.realism,
                                             settings.generator, settings.reducer))
             if truth_doc is not None:
