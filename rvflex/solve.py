@@ -193,17 +193,13 @@ class _ChordNewton:
             if norm > NEWTON_CONTRACTION * last:
                 self._factorize()
             last = norm
-        self.lu = None
         raise _NotConverged(f"chord Newton stalled at residual {norm:.3e}")
 
 
-def _extrapolated_guess(model: ReducerModel, history: list[tuple[float, np.ndarray]], theta: float) -> np.ndarray:
-    """Guess at input angle ``theta``: the ideal kinematics plus the elastic part (the
+def _extrapolated_guess(kin: np.ndarray, history: list[tuple[float, np.ndarray]], theta: float) -> np.ndarray:
+    """Guess at input angle ``theta``: its ideal kinematics ``kin`` plus the elastic part (the
     coordinates' deviation from the kinematics) extrapolated quadratically from the last
-    three converged steps (linearly from two, held from one)."""
-    kin = model.kinematic_coordinates(theta)
-    if not history:
-        return kin
+    three converged steps in ``history`` (linearly from two, held from one)."""
     ths = [h[0] for h in history]
     elastic = np.zeros_like(kin)
     for j, (tj, ej) in enumerate(history):  # Lagrange weights at theta
@@ -220,8 +216,11 @@ def _advance(model: ReducerModel, ss, q: np.ndarray, th0: float, th1: float, lev
     """Static equilibrium at input angle ``th1`` from the converged state ``q`` at ``th0``
     (or from ``guess``), by ``newton`` if given and else, or when it fails, by Exudyn's static
     solver; on failure, bisect the step (contact sets that change within one step can stall Newton)."""
+    def kinematic_guess() -> np.ndarray:  # the converged state moved by the ideal kinematics
+        return q + model.kinematic_coordinates(th1) - model.kinematic_coordinates(th0)
+
     if guess is None:
-        guess = q + model.kinematic_coordinates(th1) - model.kinematic_coordinates(th0)
+        guess = kinematic_guess()
     if newton is not None:
         mbs = model.mbs
         mbs.SetObjectParameter(model.sun.drive, "offset", th1)
@@ -230,8 +229,8 @@ def _advance(model: ReducerModel, ss, q: np.ndarray, th0: float, th1: float, lev
             return newton.solve(guess)
         except Exception:  # stalled, or a contact guard tripped on a wild iterate: Exudyn's solver decides
             newton.fallbacks += 1
-            newton.lu = None
-            guess = q + model.kinematic_coordinates(th1) - model.kinematic_coordinates(th0)
+            newton.lu = None  # its Jacobian may belong to a wild iterate
+            guess = kinematic_guess()
     try:
         return _solve_at(model, ss, th1, guess)
     except Exception:
@@ -260,7 +259,7 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
     """
     mbs = model.mbs
     ss = static_settings()
-    car = model.planar_index()["carrier"][2]  # θ_out: coordinate 2 of a rigid, 5 of an FFRF carrier node
+    car = model.output_index
     theta_in = np.asarray(theta_in, float)
     n, nd, npins = len(theta_in), len(model.discs.nodes), model.spec.cycloid.pin_count
     out = np.full(n, np.nan)
@@ -294,10 +293,12 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
     for th, k_reg, frac, record in steps:
         mbs.SetLoadParameter(model.carrier.load, "load", -direction * frac * torque_out_Nm)
         mbs.SetObjectParameter(model.carrier.regulariser, "stiffness", k_reg)
+        chord_step = record and newton is not None
+        kin = model.kinematic_coordinates(th) if chord_step else None
         try:
-            if record and newton is not None:
+            if chord_step:
                 q = _advance(model, ss, q, prev_th, th, newton=newton,
-                             guess=_extrapolated_guess(model, history, th) if history else None)
+                             guess=_extrapolated_guess(kin, history, th) if history else None)
             else:
                 q = _advance(model, ss, q, prev_th, th)
         except Exception as err:  # Exudyn raises its own error types; report the step
@@ -308,7 +309,8 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
                              f"change {np.abs(res + model.reference - guess).max():.3e}", result()) from None
         prev_th = th
         if record:
-            history = (history + [(th, q - model.kinematic_coordinates(th))])[-3:]
+            if chord_step:
+                history = (history + [(th, q - kin)])[-3:]
             out[done] = q[car]
             for d, c in enumerate(model.discs.contacts):
                 st = c.pin_state(mbs)
@@ -362,7 +364,7 @@ def torque_stepping(model: ReducerModel, torques_Nm: np.ndarray, *, progress=Non
     """
     mbs = model.mbs
     ss = static_settings()
-    car = model.planar_index()["carrier"][2]
+    car = model.output_index
     torques = np.asarray(torques_Nm, float)
     out = np.full(len(torques), np.nan)
     t0 = time.perf_counter()

@@ -207,9 +207,6 @@ FIDELITY_TIME_FACTOR = 4.0  # a flexible run may take this many times the rigid 
 MAX_CYCLE_ANGLE_RAD = 0.02  # ≈ 69′: far beyond any lost motion plus wind-up of a torque cycle
 ZERO_TORQUE_SHIFT = 2e-3  # an exactly unloaded step is taken at ±0.2 % of the amplitude (the side it comes from)
 CYCLE_MIN_LOAD_STEP = 1e-3  # smallest load increment of the static solver within one torque step (share of the step)
-# output-regulariser stiffnesses (N·m/rad) of the continuation through the free play, down to the working value
-# (rvflex.parts.carrier.OUTPUT_REGULARISER_NM_RAD); the first holds 1 % of the rated torque within ~1″
-REGULARISER_CONTINUATION_NM_RAD = (1e6, 1e5, 1e4, 1e3, 1e2, 1e1)
 
 
 def _torque_cycle(model, torques: np.ndarray, torque_max: float, budget) -> np.ndarray:
@@ -221,7 +218,8 @@ def _torque_cycle(model, torques: np.ndarray, torque_max: float, budget) -> np.n
     regulariser, from the last state and then from the unloaded kinematic configuration. The
     wall-time budget is checked before every solve. Returns the output angle per torque (rad)."""
     from rvflex.parts.carrier import OUTPUT_REGULARISER_NM_RAD
-    from rvflex.solve import _solve_at, static_settings
+    # the output-regulariser stiffnesses of the quasi-static stepping's continuation (stiff → working)
+    from rvflex.solve import REGULARISER_CONTINUATION_NM_RAD, _solve_at, static_settings
 
     mbs = model.mbs
     ss = static_settings()

@@ -531,6 +531,15 @@ def _centred_weights(w: np.ndarray, x: np.ndarray, centre: np.ndarray) -> np.nda
     return w2 if np.all(w2 > 0) else w  # a very coarse face cannot be centred with positive weights: keep areas
 
 
+def _rbe3_moments(w: np.ndarray, x: np.ndarray):
+    """Weighted centroid c = Σ w_i x_i, arms r_i = x_i − c, second moment S = Σ w_i r_i r_iᵀ and the
+    polar tensor J = tr(S)·1 − S of an RBE3 coupling with nodes x (n, 3) and weights w."""
+    c = w @ x
+    r = x - c
+    S = np.einsum("i,ij,ik->jk", w, r, r)
+    return c, r, S, np.trace(S) * np.eye(3) - S
+
+
 def rbe3_loads(pos: np.ndarray, itf: Interface, nn: int) -> np.ndarray:
     """(3·nn × 6) nodal loads of a distributing (RBE3) coupling at ``itf`` for a unit force
     along x, y, z and a unit moment about x, y, z at the weighted centroid: f_i = w_i·F and
@@ -538,10 +547,7 @@ def rbe3_loads(pos: np.ndarray, itf: Interface, nn: int) -> np.ndarray:
     columns are what Exudyn's ``MarkerSuperElementRigid`` with the same nodes and weights
     applies (its position is the weighted mean of the nodes, so its force Jacobian is wᵀ)."""
     w = itf.weights
-    x = pos[itf.nodes]
-    r = x - w @ x
-    inertia = np.einsum("i,ij,ik->jk", w, r, r)
-    inertia = np.trace(inertia) * np.eye(3) - inertia
+    _, r, _, inertia = _rbe3_moments(w, pos[itf.nodes])
     F = np.zeros((3 * nn, 6))
     for k in range(3):
         F[3 * itf.nodes + k, k] = w
@@ -590,11 +596,7 @@ def rbe3_virtual_nodes(mode_basis: np.ndarray, pos: np.ndarray, interfaces) -> V
         if abs(w.sum() - 1.0) > 1e-9:
             raise ValueError(f"interface {itf.name}: weights sum to {w.sum()}, not 1")
         nodes = np.asarray(itf.nodes, int)
-        x = pos[nodes]
-        c = w @ x
-        r = x - c
-        S = np.einsum("i,ij,ik->jk", w, r, r)
-        J = np.trace(S) * np.eye(3) - S
+        c, r, S, J = _rbe3_moments(w, pos[nodes])
         phi = mode_basis[(3 * nodes[:, None] + np.arange(3)).ravel()].reshape(len(nodes), 3, -1)  # (n, 3, m)
         a = np.einsum("i,ijm->jm", w, phi)
         b = np.einsum("i,ijm->jm", w, np.cross(r[:, :, None], phi, axisa=1, axisb=1, axisc=1))
