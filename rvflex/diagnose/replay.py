@@ -40,6 +40,7 @@ __all__ = [
     "evaluate",
     "features",
     "measured_features",
+    "measured_runs",
     "plan_from_dataset",
     "shift_measured",
 ]
@@ -429,37 +430,44 @@ def features(resp: Response, plan: tuple[PlanRun, ...], settings: DiagnosisSetti
 
 
 def measured_features(dataset, plan: tuple[PlanRun, ...], settings: DiagnosisSettings) -> tuple[np.ndarray, Layout]:
-    """Feature vector (arcsec) of the bench runs, before the origin shift.
+    """Feature vector (arcsec) of the bench runs, before the origin shift (see :func:`measured_runs`)."""
+    f, lay, _ = measured_runs(dataset, plan, settings)
+    return f, lay
 
-    TE runs: least-squares Fourier fit (orders 0 … K) of TE = θ_out − θ_in/i against the
-    position p = θ_in/i over the whole output revolutions of the run.
+
+def measured_runs(dataset, plan: tuple[PlanRun, ...], settings: DiagnosisSettings) -> tuple[np.ndarray, Layout, dict]:
+    """Feature vector (arcsec) of the bench runs, before the origin shift, its layout, and per TE
+    run what was analysed (``{run: {window and fit figures}}``).
+
+    TE runs: a checked least-squares Fourier fit (orders 0 … K, :func:`rvflex.diagnose.measured.fit_te`)
+    of TE = θ_out − θ_in/i (or the TE column) against the position p over the run's analysed
+    whole revolutions (:func:`rvflex.diagnose.measured.te_window`).
+
+    Raises
+    ------
+    BenchError
+        A run whose samples cannot determine the orders (coverage, samples per order, conditioning,
+        a reconstruction that disagrees with the measured peak-to-peak).
     """
+    from rvflex.diagnose.measured import fit_te, te_window
+
     lay = _layout(plan, settings.max_order)
     f = np.empty(lay.n)
     K = settings.max_order
     ratio = dataset.reducer.nominal_ratio
-    k = np.arange(1, K + 1)
+    info = {}
     for r, (run, p) in enumerate(zip(dataset.runs, plan)):
         if p.kind == "te":
-            pos = run.theta_in_rad / ratio
-            te = (run.theta_out_rad - pos) * ARCSEC_PER_RAD
-            span = abs(pos[-1] - pos[0])
-            whole = math.floor(span / (2 * math.pi) + 1e-6) * 2 * math.pi
-            sel = np.abs(pos - pos[0]) <= whole + 1e-12
-            pos, te = pos[sel], te[sel]
-            # normal equations in blocks keep memory small for long runs
-            A = np.empty((len(pos), 2 * K + 1))
-            A[:, 0] = 1.0
-            kp = np.outer(pos, k)
-            A[:, 1:K + 1] = np.cos(kp)
-            A[:, K + 1:] = np.sin(kp)
-            coef, *_ = np.linalg.lstsq(A, te, rcond=None)
-            f[lay.dc[r]] = coef[0]
-            f[lay.cos[r]] = coef[1:K + 1]
-            f[lay.sin[r]] = coef[K + 1:]
+            pos, te = run.te_samples(ratio)
+            win = run.window or te_window(pos, run.file)
+            fit = fit_te(pos[win.index], te[win.index] * ARCSEC_PER_RAD, K, run.file)
+            f[lay.dc[r]] = fit.mean
+            f[lay.cos[r]] = fit.cos
+            f[lay.sin[r]] = fit.sin
+            info[r] = {"file": run.file, "form": run.form, **win.describe(), **fit.describe()}
         else:
             f[lay.hyst[r]] = branch_angles(run.torque_Nm, run.theta_out_rad * ARCSEC_PER_RAD, p.torque_max_Nm)
-    return f, lay
+    return f, lay, info
 
 
 def shift_measured(f: np.ndarray, lay: Layout, delta: np.ndarray) -> np.ndarray:
