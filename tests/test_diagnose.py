@@ -259,27 +259,27 @@ def test_thermal_expansion_follows_each_runs_temperature():
 def test_thermal_expansion_needs_every_runs_temperature():
     """Without a recorded temperature the thermal effect cannot act: it is listed as unavailable
     (naming the key and the run), and a model evaluation with it is refused before any run."""
-    from rvflex.diagnose.fit import _available
+    from rvflex.diagnose.fit import available_candidates
     from rvflex.diagnose.replay import EvaluationFailed, evaluate
     from rvflex.spec import ErrorSpec
 
     plan = (PlanRun("te", "te forward 412 N·m at 40 °C", 1, 412.0, temperature_C=40.0),
             PlanRun("hysteresis", "hysteresis ±412 N·m", torque_max_Nm=412.0))
-    cands, why = _available(("thermal_expansion", "pin_radius_error"), plan)
+    cands, why = available_candidates(("thermal_expansion", "pin_radius_error"), plan)
     assert [e.name for e in cands] == ["pin_radius_error"]
     assert "temperature_C" in why["thermal_expansion"] and "hysteresis ±412 N·m" in why["thermal_expansion"]
     with pytest.raises(EvaluationFailed, match="temperature_C"):
         evaluate(SPEC, ErrorSpec(), plan, DiagnosisSettings(), ((EFFECTS["thermal_expansion"], np.array([1e-5])),))
-    cands, why = _available(("thermal_expansion",), plan[:1])
+    cands, why = available_candidates(("thermal_expansion",), plan[:1])
     assert [e.name for e in cands] == ["thermal_expansion"] and not why
 
 
 def test_two_sided_sensitivities_fit_each_sign_with_its_own_secant():
-    from rvflex.diagnose.fit import _Sens
+    from rvflex.diagnose.linear import Sensitivities
 
     th, pr = EFFECTS["thermal_expansion"], EFFECTS["pin_radius_error"]
     plus, minus = np.array([[1.0], [2.0]]), np.array([[3.0], [4.0]])
-    sens = _Sens({th.name: plus, pr.name: np.array([[5.0], [6.0]])}, {th.name: minus})
+    sens = Sensitivities({th.name: plus, pr.name: np.array([[5.0], [6.0]])}, {th.name: minus})
     (j1, lo1, hi1), (j2, lo2, hi2) = sens.orthants((th,))
     np.testing.assert_array_equal(j1, plus)
     np.testing.assert_array_equal(j2, minus)
@@ -295,19 +295,20 @@ def test_a_pair_needs_its_second_effect_to_remove_a_quarter_of_the_rest():
     ≥ 25 % of the weighted gap the better single leaves, and ≥ 10 in BIC."""
     from types import SimpleNamespace
 
-    from rvflex.diagnose.fit import _bic, _second_effect_adds
+    from rvflex.diagnose.fit import second_effect_adds
+    from rvflex.diagnose.linear import bic
 
     n = 800
     a, b = EFFECTS["pin_radius_error"], EFFECTS["thermal_expansion"]
 
     def cand(effects, rss, k):
-        return SimpleNamespace(effects=effects, name=" + ".join(e.name for e in effects), rss=rss, bic=_bic(rss, n, k))
+        return SimpleNamespace(effects=effects, attributed=effects, name=" + ".join(e.name for e in effects), rss=rss, bic=bic(rss, n, k))
 
     singles = {a.name: cand((a,), 100.0, 4), b.name: cand((b,), 400.0, 4)}
     s = DiagnosisSettings()
-    assert _second_effect_adds(cand((a, b), 0.70**2 * 100.0, 5), singles, s)  # 30 % of the rest
-    assert not _second_effect_adds(cand((a, b), 0.85**2 * 100.0, 5), singles, s)  # 15 %: model-form absorption
-    assert not _second_effect_adds(cand((a, b), 0.70**2 * 400.0, 5), singles, s)  # measured against the better single
+    assert second_effect_adds(cand((a, b), 0.70**2 * 100.0, 5), singles, s)  # 30 % of the rest
+    assert not second_effect_adds(cand((a, b), 0.85**2 * 100.0, 5), singles, s)  # 15 %: model-form absorption
+    assert not second_effect_adds(cand((a, b), 0.70**2 * 400.0, 5), singles, s)  # measured against the better single
 
 
 def test_settings_refuse_too_few_positions_for_the_orders():
@@ -364,7 +365,7 @@ def test_thermal_expansion_is_told_from_a_modification_deviation(tmp_path):
     diag = diagnose(ds, settings=settings, effects=("thermal_expansion", "disc_modification_deviation"),
                     cache_dir=tmp_path / "cache")
     assert diag.chosen is not None and diag.chosen.name == "thermal_expansion", diag.verdict
-    assert diag.chosen.magnitude[0] == pytest.approx(10e-6, rel=0.25)
+    assert diag.chosen.magnitude_of("thermal_expansion") == pytest.approx(10e-6, rel=0.25)
     assert "disc_modification_deviation" not in diag.ties
 
 

@@ -99,6 +99,11 @@ class Effect:
     ``run_fields``: run attributes (of :class:`~rvflex.diagnose.replay.PlanRun`) that must be
     known (finite) for every run of a dataset for the effect to be evaluated, e.g.
     ``("temperature_C",)``.
+    ``prior_sigma`` (one per parameter, parameter units) marks an *uncertain nominal parameter* of
+    the model rather than an unmodelled effect (:mod:`rvflex.diagnose.nominal`): it is calibrated
+    before any effect is attributed, with a regulariser ‖(x − c)/σ‖² toward its nominal value c
+    (``prior_center``, default 0);
+    ``separating_runs`` names the bench runs that tell it from look-alike effects.
     """
 
     name: str
@@ -114,6 +119,9 @@ class Effect:
     two_sided: bool = False
     per_run: bool = False
     run_fields: tuple[str, ...] = ()
+    prior_sigma: tuple[float, ...] = ()
+    prior_center: tuple[float, ...] = ()
+    separating_runs: str = ""
 
     def __post_init__(self) -> None:
         need = {"model": self.apply, "conditions": self.conditions, "measurement": self.measure, "fidelity": True}
@@ -125,6 +133,20 @@ class Effect:
             raise ValueError(f"effect {self.name}: central and two_sided sensitivities exclude each other")
         if self.per_run and self.kind != "model":
             raise ValueError(f"effect {self.name}: per_run applies to kind 'model' only")
+        if self.prior_sigma and (len(self.prior_sigma) != len(self.params) or min(self.prior_sigma) <= 0):
+            raise ValueError(f"effect {self.name}: prior_sigma needs one positive value per parameter")
+        if self.prior_center and len(self.prior_center) != len(self.params):
+            raise ValueError(f"effect {self.name}: prior_center needs one value per parameter")
+
+    @property
+    def center(self) -> np.ndarray:
+        """Nominal value of each parameter (the prior's centre; 0 unless ``prior_center``)."""
+        return np.asarray(self.prior_center, float) if self.prior_center else np.zeros(self.n)
+
+    @property
+    def nominal(self) -> bool:
+        """Whether this is an uncertain nominal parameter (calibrated), not an unmodelled effect."""
+        return bool(self.prior_sigma)
 
     @property
     def n(self) -> int:

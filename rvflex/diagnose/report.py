@@ -43,9 +43,9 @@ def _residual(diag: Diagnosis, c: Candidate) -> np.ndarray:
 
 
 def _nuis(diag: Diagnosis) -> np.ndarray:
-    from rvflex.diagnose.fit import _nuisance_columns
+    from rvflex.diagnose.fit import nuisance_columns
 
-    cols = _nuisance_columns(diag.layout)
+    cols = nuisance_columns(diag.layout)
     return cols[:, np.abs(cols).sum(0) > 0]
 
 
@@ -53,7 +53,7 @@ def where_list(diag: Diagnosis, min_share: float = 0.01) -> list[dict]:
     """The gap's location: weighted residual energy of the baseline per run and order, mean
     wind-up and hysteresis region, as shares of the total, largest first."""
     lay = diag.layout
-    r = _residual(diag, diag.baseline) * diag.weights
+    r = _residual(diag, diag.nominal_model or diag.baseline) * diag.weights
     total = float(r @ r) or 1.0
     out = []
     for run in range(len(diag.plan)):
@@ -176,15 +176,18 @@ def _orders_of(diag: Diagnosis, c: Candidate, keys) -> list[dict]:
 
 def json_document(diag: Diagnosis) -> dict:
     """The JSON document of ``rvflex diagnose`` (keys of issue 6)."""
-    before = gap_table(diag, diag.baseline)
+    before = gap_table(diag, diag.nominal_model or diag.baseline)
     chosen = diag.chosen
+    keys = [(o["order"], o["run"]) for o in before["orders"]]
+    calibrated = gap_table(diag, diag.baseline)
+    calibrated["orders"] = _orders_of(diag, diag.baseline, keys)
+    calibrated = _after_with_shrink(before, calibrated)
     if chosen is not None:
         after = gap_table(diag, chosen)
-        after["orders"] = _orders_of(diag, chosen, [(o["order"], o["run"])
-                                                   for o in before["orders"]])
+        after["orders"] = _orders_of(diag, chosen, keys)
         after = _after_with_shrink(before, after)
     else:
-        after = _after_with_shrink(before, before)
+        after = calibrated
     effects = []
     for c in diag.candidates:
         effects.append({
@@ -214,7 +217,14 @@ def json_document(diag: Diagnosis) -> dict:
                 "effect": ref.name if ref is not None else None}
     if not diag.withheld_runs:
         withheld["note"] = "no run usable for the withheld check"
+    from rvflex.diagnose.fit import describe_calibration
+
     return {"where": where_list(diag), "effects": effects, "gap_before": before, "gap_after": after,
+            "gap_calibrated": calibrated, "calibration": describe_calibration(diag.baseline),
+            "calibration_shrink_pct": float(diag.baseline.gap_shrink_pct),
+            "calibration_withheld_improvement_pct": diag.baseline.withheld.get("improvement_pct"),
+            "calibration_ties": list(diag.calibration_ties), "separating_runs": list(diag.separating_runs),
+            "analysed_windows": [diag.windows[r] | {"run": r} for r in sorted(diag.windows)],
             "withheld_check": withheld, "verdict": diag.verdict, "wall_s": diag.wall_s,
             "origin_rad": float((chosen or diag.baseline).delta), "model_runs": diag.model_runs,
             "unavailable_effects": diag.unavailable, "failed_effects": diag.failed,
@@ -224,17 +234,15 @@ def json_document(diag: Diagnosis) -> dict:
 # ----------------------------------------------------------------------------- plots and Markdown
 
 def _plots(diag: Diagnosis, out: Path) -> list[Path]:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure  # no pyplot: the caller's backend and figures stay untouched
 
     lay = diag.layout
     base, ch = diag.baseline, diag.chosen
     paths = []
     te_runs = lay.te_runs
     if te_runs:
-        fig, axes = plt.subplots(len(te_runs), 1, figsize=(11, 3.0 * len(te_runs)), layout="constrained",
+        fig = Figure(figsize=(11, 3.0 * len(te_runs)), layout="constrained")
+        axes = fig.subplots(len(te_runs), 1,
                                  squeeze=False)
         deg = np.arange(512) * 360 / 512
         for ax, r in zip(axes[:, 0], te_runs):
@@ -251,10 +259,10 @@ def _plots(diag: Diagnosis, out: Path) -> list[Path]:
         axes[0, 0].legend(fontsize=8, loc="best")
         p = out / "te_measured_model_corrected.png"
         fig.savefig(p, dpi=110)
-        plt.close(fig)
         paths.append(p)
 
-        fig, axes = plt.subplots(len(te_runs), 1, figsize=(11, 2.6 * len(te_runs)), layout="constrained",
+        fig = Figure(figsize=(11, 2.6 * len(te_runs)), layout="constrained")
+        axes = fig.subplots(len(te_runs), 1,
                                  squeeze=False)
         k = np.arange(1, lay.max_order + 1)
         for ax, r in zip(axes[:, 0], te_runs):
@@ -273,11 +281,11 @@ def _plots(diag: Diagnosis, out: Path) -> list[Path]:
         axes[0, 0].legend(fontsize=8)
         p = out / "residual_orders.png"
         fig.savefig(p, dpi=110)
-        plt.close(fig)
         paths.append(p)
     hyst = sorted(lay.hyst)
     if hyst:
-        fig, axes = plt.subplots(1, len(hyst), figsize=(7 * len(hyst), 4.8), layout="constrained", squeeze=False)
+        fig = Figure(figsize=(7 * len(hyst), 4.8), layout="constrained")
+        axes = fig.subplots(1, len(hyst), squeeze=False)
         for ax, r in zip(axes[0], hyst):
             run = diag.dataset.runs[r]
             ref = ch or base
@@ -297,22 +305,25 @@ def _plots(diag: Diagnosis, out: Path) -> list[Path]:
             ax.legend(fontsize=8)
         p = out / "hysteresis_loops.png"
         fig.savefig(p, dpi=110)
-        plt.close(fig)
         paths.append(p)
     cands = list(diag.candidates[:10])
     if cands:
-        fig, (a0, a1) = plt.subplots(1, 2, figsize=(13, 0.45 * len(cands) + 1.6), layout="constrained",
+        fig = Figure(figsize=(13, 0.45 * len(cands) + 1.6), layout="constrained")
+        a0, a1 = fig.subplots(1, 2,
                                      width_ratios=(1, 1.2))
         yy = np.arange(len(cands))[::-1]
         a0.barh(yy, [max(c.score, 0.0) for c in cands],
                 color=["C3" if c.accepted else ("C0" if c.refined else "0.7") for c in cands])
         a0.set_yticks(yy, [c.name for c in cands], fontsize=8)
-        a0.set_xlabel("score = BIC(no effect) − BIC(candidate)")
+        a0.set_xlabel("score = BIC(calibrated model) − BIC(candidate)")
         a0.set_xscale("symlog")
         a0.grid(alpha=0.3)
         for y_, c in zip(yy, cands):
-            e = c.effects[0]
-            m, (lo, hi) = c.magnitude[0], c.magnitude_interval[0]
+            if not c.attributed:
+                continue
+            e = c.attributed[0]
+            i = list(c.effects).index(e)
+            m, (lo, hi) = c.magnitude[i], c.magnitude_interval[i]
             hi_b = float(np.linalg.norm(np.maximum(np.abs(e.lower), np.abs(e.upper))))
             a1.errorbar([m / hi_b], [y_], xerr=[[max(m - lo, 0) / hi_b], [max(hi - m, 0) / hi_b]], fmt="o",
                         color="C3" if c.accepted else "C0", capsize=3)
@@ -324,7 +335,6 @@ def _plots(diag: Diagnosis, out: Path) -> list[Path]:
         a1.grid(alpha=0.3)
         p = out / "effect_ranking.png"
         fig.savefig(p, dpi=110)
-        plt.close(fig)
         paths.append(p)
     return paths
 
@@ -375,7 +385,27 @@ def markdown(diag: Diagnosis, doc: dict, pngs: list[str]) -> str:
              (f"Dataset `{ds.path}`: {len(ds.runs)} runs ({', '.join(r.label for r in ds.runs)}). Model: rigid, "
              f"quasi-static replay at {diag.settings.positions_per_rev} positions per output revolution, orders "
              f"1…{diag.settings.max_order}; {diag.model_runs} model evaluations (cached ones not counted) in {diag.wall_s:.0f} s."), "",
-             f"**Verdict.** {diag.verdict}", "", "## Where the gap lies", "",
+             f"**Verdict.** {diag.verdict}", "", "## Analysed data", "",
+             "| run | form | samples (window / run) | revolutions | coverage | TE pp measured (″) | Fourier fit pp (″) | fit rms (″) |",
+             "|---|---|---:|---:|---:|---:|---:|---:|"]
+    for w in doc["analysed_windows"]:
+        lines.append(f"| {diag.plan[w['run']].label} | {w['form']} | {w['samples']} / {w['samples_in_run']} | "
+                     f"{w['revolutions']} | {w['coverage']:.3f} | {w['te_pp_measured_arcsec']:.2f} | "
+                     f"{w['te_pp_fit_arcsec']:.2f} | {w['fit_rms_residual_arcsec']:.3f} |")
+    lines += ["", "## Calibrated nominal parameters", "",
+              ("Uncertain nominal parameters of the model, fitted before any effect with a regulariser toward the "
+               "nominal value (prior σ); stiffnesses as compliance change u = 1/s − 1 and stiffness scale s. "
+               f"Calibration closes {doc['calibration_shrink_pct']:.0f} % of the nominal model's weighted gap."), "",
+              "| parameter | value [95 %] | nominal | prior σ | stiffness scale [95 %] | at prior bound |",
+              "|---|---|---:|---:|---|:---:|"]
+    for c in doc["calibration"]:
+        unit = c["unit"]
+        f = (lambda v: f"{v * 1e6:.2f} µm") if unit == "m" else (lambda v: f"{v:.3f}")
+        sc = (f"×{c['stiffness_scale']:.3f} [{c['stiffness_scale_interval'][0]:.2f} … "
+              f"{c['stiffness_scale_interval'][1]:.2f}]") if "stiffness_scale" in c else "—"
+        lines.append(f"| {c['name']}.{c['param']} | {f(c['value'])} [{f(c['interval'][0])} … {f(c['interval'][1])}] | "
+                     f"{f(c['nominal'])} | {f(c['prior_sigma'])} | {sc} | {'yes' if c['at_prior_bound'] else ''} |")
+    lines += ["", "## Where the gap lies (nominal model)", "",
              "| where | direction | load (N·m) | temperature (°C) | share of the weighted gap |",
              "|---|---|---:|---:|---:|"]
     for w in doc["where"][:15]:
@@ -383,13 +413,14 @@ def markdown(diag: Diagnosis, doc: dict, pngs: list[str]) -> str:
         temp = "—" if w.get("temperature_C") is None else f"{w['temperature_C']:g}"
         lines.append(f"| {what} | {w['direction']} | {w['load_Nm']:g} | {temp} | {100 * w['share']:.1f} % |")
     lines += ["", "## Effect ranking", "",
-              ("Score = BIC(no effect) − BIC(candidate) (> 10: very strong evidence); 95 % intervals from the "
+              ("Score = BIC(calibrated model) − BIC(candidate) (> 10: very strong evidence); each candidate is fitted "
+               "together with the nominal parameters; gap shrink of what calibration left; 95 % intervals from the "
               "linearised covariance; *refined* candidates were re-fitted with the model in the loop."), "",
               "| rank | effect | magnitude [95 %] | score | gap shrink | withheld | accepted | note |",
               "|---:|---|---|---:|---:|---:|:---:|---|"]
     for i, c in enumerate(diag.candidates[:12], start=1):
         mags = "; ".join(_mag_text(e, m, lo, hi) for e, m, (lo, hi) in zip(c.effects, c.magnitude,
-                                                                             c.magnitude_interval))
+                                                                             c.magnitude_interval) if not e.nominal)
         wh = c.withheld.get("improvement_pct")
         note = ("bound hit: " + ", ".join(c.at_bound) + "; " if c.at_bound else "") + c.note
         lines.append(f"| {i} | {c.name} | {mags} | {c.score:.1f} | {c.gap_shrink_pct:.0f} % | "
@@ -426,7 +457,8 @@ def markdown(diag: Diagnosis, doc: dict, pngs: list[str]) -> str:
         sp = a.get("shrink_pct")
         lines.append(f"| {_run_text(b)} | {b['order']} | {b['residual_arcsec']:.3f} | "
                      f"{a['residual_arcsec']:.3f} | {'—' if sp is None else f'{sp:.0f} %'} |")
-    lines += ["", (f"Weighted rms gap: {doc['gap_before']['weighted_rms']:.3f} before, "
+    lines += ["", (f"Weighted rms gap: {doc['gap_before']['weighted_rms']:.3f} before (nominal model), "
+              f"{doc['gap_calibrated']['weighted_rms']:.3f} calibrated, "
               f"{doc['gap_after']['weighted_rms']:.3f} after ({doc['gap_after']['weighted_rms_shrink_pct']:.0f} % "
               "shrink)."), "", "## Plots", ""]
     for p in pngs:

@@ -1,0 +1,296 @@
+"""Linearised fitting: candidates, the weighted bounded least squares with the encoder origin, priors
+of the nominal parameters, BIC and intervals, and the secant sensitivities they use."""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import lsq_linear
+
+from rvflex.diagnose.effects import Effect
+from rvflex.diagnose.replay import DiagnosisSettings, Layout, Response, shift_measured
+
+__all__ = ["Candidate", "Problem", "Sensitivities", "bic", "bounds", "lin_fit", "make_candidate",
+           "nuisance_columns", "prior_of", "prior_penalty", "split_params", "weights"]
+
+DELTA_GRID = 2048  # origin shifts tried over one output revolution (0.18° apart), then refined locally
+Z95 = 1.959964
+
+
+@dataclass(frozen=True, eq=False)
+class Candidate:
+    """A fitted candidate (one effect or a pair).
+
+    ``x`` are the effect parameters (SI, in the order of ``param_names``), ``interval`` their
+    95 % intervals, ``delta`` the fitted encoder origin (rad), ``rss`` the weighted residual sum
+    of squares (of the real model run when ``refined``, else of the linearised fit), ``bic``
+    its Bayesian information criterion, ``score`` = BIC(no effect) − BIC(this). ``jacobian``:
+    the sensitivity matrix (features per unit parameter) the fit used — the secants of the
+    parameters' signs for two-sided effects, the Broyden-updated one when ``refined``;
+    ``lower``/``upper`` the parameter bounds of that fit.
+    """
+
+    effects: tuple[Effect, ...]
+    x: np.ndarray
+    interval: np.ndarray
+    magnitude: tuple[float, ...]
+    magnitude_interval: tuple[tuple[float, float], ...]
+    delta: float
+    nuisance: np.ndarray
+    rss: float
+    k: int
+    bic: float
+    refined: bool
+    at_bound: tuple[str, ...]
+    model_features: np.ndarray
+    response: Response | None = None
+    score: float = 0.0
+    gap_shrink_pct: float = 0.0
+    withheld: dict = field(default_factory=dict)
+    accepted: bool = False
+    note: str = ""
+    jacobian: np.ndarray | None = None
+    lower: np.ndarray | None = None
+    upper: np.ndarray | None = None
+
+    @property
+    def name(self) -> str:
+        """The attributed (unmodelled) effects; "none" for the calibrated nominal model alone."""
+        return " + ".join(e.name for e in self.attributed) if self.attributed else "none"
+
+    def magnitude_of(self, name: str) -> float:
+        """Magnitude of the effect (or nominal parameter) ``name`` in this candidate."""
+        return self.magnitude[[e.name for e in self.effects].index(name)]
+
+    @property
+    def attributed(self) -> tuple[Effect, ...]:
+        """The unmodelled effects of this candidate (its nominal parameters left out)."""
+        return tuple(e for e in self.effects if not e.nominal)
+
+    @property
+    def calibrated(self) -> list[tuple[Effect, np.ndarray, np.ndarray]]:
+        """(nominal parameter, value, 95 % interval rows) of every calibrated nominal parameter."""
+        out, i = [], 0
+        for e in self.effects:
+            if e.nominal:
+                out.append((e, self.x[i:i + e.n], self.interval[i:i + e.n]))
+            i += e.n
+        return out
+
+    @property
+    def param_names(self) -> tuple[str, ...]:
+        if len(self.effects) == 1:
+            return tuple(p.name for p in self.effects[0].params)
+        return tuple(f"{e.name}.{p.name}" for e in self.effects for p in e.params)
+
+    @property
+    def units(self) -> tuple[str, ...]:
+        return tuple(u for e in self.effects for u in e.units)
+
+    def split(self) -> list[tuple[Effect, np.ndarray]]:
+        """(effect, its parameter values) pairs."""
+        out, i = [], 0
+        for e in self.effects:
+            out.append((e, self.x[i:i + e.n]))
+            i += e.n
+        return out
+
+
+def nuisance_columns(lay: Layout, rows: np.ndarray | None = None) -> np.ndarray:
+    """Offset columns: one for the means of all TE runs, one per hysteresis run."""
+    cols = []
+    if lay.te_runs:
+        c = np.zeros(lay.n)
+        c[[lay.dc[r] for r in lay.te_runs]] = 1.0
+        cols.append(c)
+    for r in sorted(lay.hyst):
+        c = np.zeros(lay.n)
+        c[lay.hyst[r]] = 1.0
+        cols.append(c)
+    return np.column_stack(cols) if cols else np.zeros((lay.n, 0))
+
+
+@dataclass(frozen=True, eq=False)
+class Problem:
+    y: np.ndarray  # measured features, unshifted
+    lay: Layout
+    w: np.ndarray  # weights (1/floor) per feature
+    nuis: np.ndarray
+    has_te: bool
+    shifted: np.ndarray | None = None  # y shifted by every origin of the coarse δ grid (n × DELTA_GRID), shared by all fits
+
+    @classmethod
+    def build(cls, y, lay, w, nuis) -> Problem:
+        has_te = bool(lay.te_runs)
+        grid = np.linspace(0.0, 2 * np.pi, DELTA_GRID, endpoint=False)
+        return cls(y, lay, w, nuis, has_te, shift_measured(y, lay, grid) if has_te else None)
+
+
+def lin_fit(prob: Problem, base: np.ndarray, J: np.ndarray, x_ref: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+            rows: np.ndarray | None = None, delta: float | None = None, prior: tuple | None = None):
+    """Bounded linear LS of y(δ) ≈ base + J·(x − x_ref) + nuisances, δ searched unless given, with
+    the regulariser Σ ((x − c)/σ)² of ``prior`` = (1/σ per parameter, 0 where none; centres c).
+    Returns x, nuisance, δ, weighted RSS (regulariser included), weighted design matrix (data rows)."""
+    rows = np.arange(prob.lay.n) if rows is None else rows
+    w = prob.w[rows]
+    nuis = prob.nuis[rows]
+    nuis = nuis[:, np.abs(nuis).sum(axis=0) > 0]
+    A = np.column_stack([J[rows] * w[:, None], nuis * w[:, None]])
+    p = J.shape[1]
+    if delta is None and prob.has_te:
+        grid = np.linspace(0.0, 2 * np.pi, DELTA_GRID, endpoint=False)
+        delta = _best_delta(prob, base, A, rows, w, grid, prob.shifted)
+        step = 2 * np.pi / DELTA_GRID
+        fine = delta + np.linspace(-step, step, 41)
+        delta = _best_delta(prob, base, A, rows, w, fine)
+    delta = 0.0 if delta is None else float(delta) % (2 * np.pi)
+    r = (shift_measured(prob.y, prob.lay, delta)[:, 0] - base)[rows] * w
+    lb = np.r_[lo - x_ref, np.full(A.shape[1] - p, -np.inf)]
+    ub = np.r_[hi - x_ref, np.full(A.shape[1] - p, np.inf)]
+    if A.shape[1] == 0:
+        return x_ref.copy(), np.zeros(0), delta, float(r @ r), A
+    A_fit, r_fit = A, r
+    if prior is not None and np.any(prior[0] > 0):
+        pw, pc = prior
+        keep = np.nonzero(pw > 0)[0]
+        P = np.zeros((len(keep), A.shape[1]))
+        P[np.arange(len(keep)), keep] = pw[keep]
+        A_fit = np.vstack([A, P])
+        r_fit = np.r_[r, -pw[keep] * (x_ref[keep] - pc[keep])]
+    sol = lsq_linear(A_fit, r_fit, bounds=(lb, ub), method="bvls" if A.shape[1] < 40 else "trf")
+    res = r_fit - A_fit @ sol.x
+    return x_ref + sol.x[:p], sol.x[p:], delta, float(res @ res), A
+
+
+def prior_of(effects) -> tuple[np.ndarray, np.ndarray]:
+    """(1/σ, centre) per parameter of ``effects``: the nominal parameters' regulariser (0 elsewhere)."""
+    pw = [1.0 / s for e in effects for s in (e.prior_sigma or (math.inf,) * e.n)]
+    pc = [c for e in effects for c in e.center]
+    return np.asarray(pw, float), np.asarray(pc, float)
+
+
+def prior_penalty(effects, x: np.ndarray) -> float:
+    """Σ ((x − c)/σ)² of the nominal parameters among ``effects`` at ``x``."""
+    pw, pc = prior_of(effects)
+    return float(np.sum((pw * (np.asarray(x, float) - pc)) ** 2)) if len(pw) else 0.0
+
+
+def _best_delta(prob, base, A, rows, w, grid, shifted=None) -> float:
+    Y = ((shift_measured(prob.y, prob.lay, grid) if shifted is None else shifted) - base[:, None])[rows] * w[:, None]
+    if A.shape[1]:
+        Q, _ = np.linalg.qr(A)
+        Y = Y - Q @ (Q.T @ Y)
+    rss = np.einsum("ij,ij->j", Y, Y)
+    return float(grid[int(np.argmin(rss))])
+
+
+def bic(rss: float, n: int, k: int) -> float:
+    return n * math.log(max(rss, 1e-300) / n) + k * math.log(n)
+
+
+def _intervals(A: np.ndarray, rss: float, p: int, x: np.ndarray, pw: np.ndarray | None = None):
+    n, k = A.shape
+    s2 = rss / max(n - k - 1, 1)
+    N = A.T @ A
+    if pw is not None and p:
+        N[np.arange(p), np.arange(p)] += np.where(np.isfinite(pw), pw, 0.0) ** 2
+    try:
+        cov = s2 * np.linalg.pinv(N)
+    except np.linalg.LinAlgError:
+        cov = np.full((k, k), np.inf)
+    return cov[:p, :p]
+
+
+def bounds(effects) -> tuple[np.ndarray, np.ndarray]:
+    if not effects:
+        return np.zeros(0), np.zeros(0)
+    return np.concatenate([e.lower for e in effects]), np.concatenate([e.upper for e in effects])
+
+
+def make_candidate(effects, x, nu, d, rss, A, n, n_nuis, model_features, *, refined, response=None, note="",
+                   jacobian=None, box=None):
+    """A :class:`Candidate` from a fit (intervals from the linearised covariance, the nominal
+    parameters' regulariser included)."""
+    p = len(x)
+    k = p + n_nuis + 1
+    cov = _intervals(A, rss, p, x, prior_of(effects)[0] if p else None)
+    sd = np.sqrt(np.clip(np.diag(cov), 0, None)) if p else np.zeros(0)
+    interval = np.column_stack([x - Z95 * sd, x + Z95 * sd]) if p else np.zeros((0, 2))
+    mags, mag_iv, names_at_bound = [], [], []
+    i = 0
+    for e in effects:
+        xe, ce = x[i:i + e.n], cov[i:i + e.n, i:i + e.n]
+        m = e.magnitude(xe)
+        g = xe / m if m > 0 else np.full(e.n, 1 / math.sqrt(e.n))
+        sm = math.sqrt(max(float(g @ ce @ g), 0.0))
+        mags.append(m)
+        mag_iv.append((max(m - Z95 * sm, 0.0), m + Z95 * sm))
+        for j, prm in enumerate(e.params):
+            span = prm.high - prm.low
+            if (prm.low != 0.0 and abs(xe[j] - prm.low) < 1e-3 * span) or abs(xe[j] - prm.high) < 1e-3 * span:
+                names_at_bound.append(f"{e.name}.{prm.name}")
+        i += e.n
+    lo, hi = box if box is not None else bounds(effects)
+    return Candidate(tuple(effects), x, interval, tuple(mags), tuple(mag_iv), d, nu, rss, k, bic(rss, n, k), refined,
+                     tuple(names_at_bound), model_features, response, note=note, jacobian=jacobian, lower=lo,
+                     upper=hi)
+
+
+@dataclass(frozen=True, eq=False)
+class Sensitivities:
+    """Secant sensitivities (features per unit parameter) by effect name: ``plus`` from +step
+    (central ones for ``central`` effects), ``minus`` from −step for ``two_sided`` effects."""
+
+    plus: dict
+    minus: dict
+    responses: dict = field(default_factory=dict)  # fidelity effects: the response at their step
+
+    def __contains__(self, name: str) -> bool:
+        return name in self.plus
+
+    def orthants(self, effects) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """(J, lower, upper) per sign pattern of the two-sided parameters of ``effects``: the +step
+        secant with the bounds [0, high] and the −step secant with [low, 0]; one entry with the
+        full bounds when no parameter is two-sided."""
+        cols, los, his, choices = [], [], [], []
+        for e in effects:
+            for j, prm in enumerate(e.params):
+                cols.append((self.plus[e.name][:, j], self.minus[e.name][:, j] if e.name in self.minus else None))
+                los.append(prm.low)
+                his.append(prm.high)
+                choices.append((1.0, -1.0) if e.name in self.minus else (0.0,))
+        out = []
+        for signs in itertools.product(*choices):
+            J = np.column_stack([c[1] if sg < 0 else c[0] for c, sg in zip(cols, signs)])
+            lo = np.array([0.0 if sg > 0 else lw for sg, lw in zip(signs, los)])
+            hi = np.array([0.0 if sg < 0 else h for sg, h in zip(signs, his)])
+            if np.all(lo < hi) or not len(lo):
+                out.append((J, lo, hi))
+        return out
+
+
+# ----------------------------------------------------------------------------- the diagnosis
+def weights(f0: np.ndarray, y: np.ndarray, lay: Layout, s: DiagnosisSettings) -> np.ndarray:
+    w = np.empty(lay.n)
+    for r in lay.te_runs:
+        # the measurement's noise floor: median coefficient size over the upper half of the orders
+        a, b = y[lay.cos[r]], y[lay.sin[r]]
+        half = slice(len(a) // 2, None)
+        noise = float(np.median(np.hypot(a[half], b[half]))) / 1.18  # Rayleigh median → σ
+        floor = math.hypot(s.order_floor_arcsec, noise)
+        w[lay.cos[r]] = w[lay.sin[r]] = 1.0 / floor
+        w[lay.dc[r]] = 1.0 / (s.windup_floor_arcsec + s.windup_floor_rel * abs(f0[lay.dc[r]]))
+    for r, sl in lay.hyst.items():
+        w[sl] = 1.0 / (s.windup_floor_arcsec + s.windup_floor_rel * np.abs(f0[sl] - np.mean(f0[sl])))
+    return w
+
+
+def split_params(effects, x) -> list[tuple[Effect, np.ndarray]]:
+    out, i = [], 0
+    for e in effects:
+        out.append((e, np.asarray(x[i:i + e.n], float)))
+        i += e.n
+    return out

@@ -1,0 +1,116 @@
+"""Uncertain nominal parameters: what the diagnosis calibrates before it attributes anything.
+
+A bench unit is never the nominal model: its contact stiffness, its needle-bearing and mesh
+stiffnesses and its crank-bearing clearance are known only to tens of per cent (a catalogue
+stiffness, a seed paper's table value carried over to another frame size, a nominal clearance
+class). Left alone, these differences dominate the gap and every candidate effect competes to
+absorb them. Each is calibrated from the same bench runs, within a stated prior, with a regulariser
+toward its nominal value, and only what calibration leaves is attributed to unmodelled effects.
+
+Each nominal parameter is an :class:`~rvflex.diagnose.effects.Effect` with ``prior_sigma``; the
+stiffnesses are parameterised by their *compliance change* u = 1/s − 1 (s the stiffness scale): a
+series compliance enters the wind-up linearly, so the linearised fit is close to the model over
+the whole prior range.
+
+What separates them (``separating_runs``): the torque-cycle slope beyond ±50 % T_r and the load
+dependence of the wind-up between TE runs (the stiffnesses; their TE signatures differ: the
+contact stiffness shapes the pin-mesh orders, the bearing stiffness the crank orders, the mesh
+stiffness the sun-mesh orders), and the free-play region of the torque cycle (the clearance).
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+
+from rvflex.diagnose.effects import Effect, Param
+from rvflex.spec import ErrorSpec, ReducerSpec
+
+__all__ = ["NOMINAL", "REPLACES", "nominal_parameters", "stiffness_scale"]
+
+UM = 1e-6
+COMPLIANCE_PRIOR = 0.35  # σ of the compliance change: a stiffness known to about ±30 %
+COMPLIANCE_LOW, COMPLIANCE_HIGH = -0.5, 1.5  # stiffness scale 2.0 … 0.4: beyond it the spec is wrong, not uncertain
+
+
+def stiffness_scale(u: float) -> float:
+    """Stiffness scale s = 1/(1 + u) of a compliance change u."""
+    return 1.0 / (1.0 + float(u))
+
+
+def _contact(spec: ReducerSpec, errors: ErrorSpec, x):
+    """Contact stiffness: Young's moduli of the discs and pins scaled (the line-contact law's
+    compliance follows them; in the rigid model nothing else reads them)."""
+    s = stiffness_scale(x[0])
+    m = spec.materials
+    mats = dc.replace(m, gears_cranks_discs=dc.replace(m.gears_cranks_discs,
+                                                       youngs_modulus_Pa=m.gears_cranks_discs.youngs_modulus_Pa * s),
+                      pins=dc.replace(m.pins, youngs_modulus_Pa=m.pins.youngs_modulus_Pa * s))
+    return dc.replace(spec, materials=mats), errors
+
+
+def _needle(spec: ReducerSpec, errors: ErrorSpec, x):
+    s = stiffness_scale(x[0])
+    b = spec.bearings
+    ecc = dc.replace(b.eccentric, radial_stiffness_N_m=b.eccentric.radial_stiffness_N_m * s)
+    return dc.replace(spec, bearings=dc.replace(b, eccentric=ecc)), errors
+
+
+def _mesh(spec: ReducerSpec, errors: ErrorSpec, x):
+    s = stiffness_scale(x[0])
+    st = spec.input_stage
+    return dc.replace(spec, input_stage=dc.replace(st, mesh_stiffness_mean_N_m=st.mesh_stiffness_mean_N_m * s,
+                                                    mesh_stiffness_amplitude_N_m=st.mesh_stiffness_amplitude_N_m * s)), errors
+
+
+def _clearance(spec: ReducerSpec, errors: ErrorSpec, x):
+    n = spec.cranks.count * spec.cycloid.disc_count
+    old = errors.eccentric_bearing_clearance_m or (0.0,) * n
+    return spec, dc.replace(errors, eccentric_bearing_clearance_m=tuple(o + float(x[0]) for o in old))
+
+
+STIFFNESS_RUNS = ("a torque cycle at half amplitude and a TE run at another load (a stiffness scales the "
+                  "wind-up in proportion to the load; an effect does not)")
+
+
+def _builtin() -> tuple[Effect, ...]:
+    def u(name):
+        return (Param(name, "1", COMPLIANCE_LOW, COMPLIANCE_HIGH, 0.25),)
+
+    return (
+        Effect("contact_stiffness", "pin–disc contact stiffness (compliance change u = 1/s − 1 of the line-contact law)",
+               u("compliance_change"), apply=_contact, prior_sigma=(COMPLIANCE_PRIOR,),
+               separating_runs=STIFFNESS_RUNS),
+        Effect("needle_bearing_stiffness", "crank (needle) bearing radial stiffness (compliance change u = 1/s − 1)",
+               u("compliance_change"), apply=_needle, prior_sigma=(COMPLIANCE_PRIOR,),
+               separating_runs=STIFFNESS_RUNS),
+        Effect("mesh_stiffness", "first-stage (involute) mesh stiffness (compliance change u = 1/s − 1)",
+               u("compliance_change"), apply=_mesh, prior_sigma=(COMPLIANCE_PRIOR,),
+               separating_runs=STIFFNESS_RUNS),
+        # the bench unit's discs (and carrier) are elastic: the rigid model's missing elastic wind-up and
+        # TE enter as a share of the flexible model's, nominally all of it (1), calibrated like a stiffness
+        Effect("disc_flexibility", "elastic discs and carrier (share of the FE-reduced flexible model's difference "
+               "from the rigid one; nominal 1)", (Param("flexible_share", "1", 0.0, 2.0, 1.0),), kind="fidelity",
+               fidelity="flexible", prior_sigma=(0.5,), prior_center=(1.0,),
+               separating_runs="TE runs at two loads (the elastic TE at order 2·z_b grows with the load)"),
+        # a nominal clearance class of a few µm: beyond its prior, clearance is an unmodelled effect
+        Effect("crank_bearing_clearance", "nominal radial clearance of the crank (needle) bearings",
+               (Param("clearance_m", "m", 0.0, 6 * UM, 2.5 * UM),), apply=_clearance, prior_sigma=(2.5 * UM,),
+               separating_runs="a torque cycle with fine steps through ±5 % of rated torque (the free-play region)"),
+    )
+
+
+NOMINAL: dict[str, Effect] = {e.name: e for e in _builtin()}
+"""The calibrated nominal parameters by name."""
+
+REPLACES = {"disc_flexibility": "disc_carrier_flexibility"}
+"""Candidate effects a nominal parameter stands for (not attributed separately when it is calibrated)."""
+
+
+def nominal_parameters(names: tuple[str, ...] | None = None) -> tuple[Effect, ...]:
+    """The nominal parameters to calibrate (all by default; ``()`` for none)."""
+    if names is None:
+        return tuple(NOMINAL.values())
+    bad = [n for n in names if n not in NOMINAL]
+    if bad:
+        raise ValueError(f"unknown nominal parameter {bad[0]!r}; known: {', '.join(NOMINAL)}")
+    return tuple(NOMINAL[n] for n in names)

@@ -1,0 +1,127 @@
+"""Model-in-the-loop refinement of the best candidates: Broyden (secant) updates of each
+candidate's Jacobian from real model runs at its fitted values, until a run no longer pays.
+
+Fidelity parameters (the flexible model's share) act linearly by construction (the response is
+the rigid one plus the share times the flexible model's difference), so the refinement runs the
+rigid model and adds their share in feature space instead of running the flexible model each time.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from rvflex.diagnose.linear import (
+    Candidate,
+    Problem,
+    Sensitivities,
+    bounds,
+    lin_fit,
+    make_candidate,
+    prior_of,
+    prior_penalty,
+    split_params,
+)
+from rvflex.diagnose.replay import DiagnosisSettings, Response
+
+__all__ = ["REFINE_RETRY_STEP", "RefineState", "evaluate_sets", "refine"]
+
+REFINE_RETRY_STEP = 0.9  # a failed refinement point is tried again this share of the way from the last one
+
+
+@dataclass
+class RefineState:
+    """The refinement of one candidate: its Jacobian, the last evaluated point and its features,
+    the next point to evaluate (None: done) and the best evaluation so far
+    (weighted RSS, x, features, response, Jacobian)."""
+
+    cand: Candidate
+    J: np.ndarray
+    x_prev: np.ndarray
+    f_prev: np.ndarray
+    x_next: np.ndarray | None
+    best: tuple | None = None
+
+
+def _blend(resp: Response, resp0: Response, flex: Response, share: float) -> Response:
+    def mix(a, a0, b):
+        return tuple(None if x is None else x + share * (y - x0) for x, x0, y in zip(a, a0, b))
+
+    return Response(mix(resp.te, resp0.te, flex.te), resp.torque, mix(resp.theta, resp0.theta, flex.theta))
+
+
+def evaluate_sets(runner, sens: Sensitivities, resp0: Response, actives: list[tuple]) -> list[tuple]:
+    """Model runs of each active set ((Effect, x) pairs), fidelity shares added linearly (see the
+    module docstring). Returns (features | None, response | None, message) per set."""
+    model_sets = [tuple((e, x) for e, x in a if e.kind != "fidelity") for a in actives]
+    out = []
+    for a, (f, r, msg) in zip(actives, runner.run(model_sets)):
+        if f is not None:
+            for e, x in a:
+                if e.kind == "fidelity":
+                    f = f + sens.plus[e.name] @ np.asarray(x, float)
+                    if r is not None and e.name in sens.responses:
+                        r = _blend(r, resp0, sens.responses[e.name], float(x[0]) / e.params[0].step)
+        out.append((f, r, msg))
+    return out
+
+
+def refine(cands: list[Candidate], prob: Problem, runner, sens: Sensitivities, f0: np.ndarray, resp0: Response,
+           settings: DiagnosisSettings, failed: dict, n_nuis: int) -> list[Candidate]:
+    """Refine ``cands`` with the model in the loop; returns the refined candidates (those with at
+    least one successful evaluation). A candidate whose first evaluation fails is entered in
+    ``failed`` (by name)."""
+    n = prob.lay.n
+    st = {id(c): RefineState(c, c.jacobian.copy(), np.zeros(len(c.x)), f0, c.x.copy()) for c in cands}
+    for it in range(settings.refine_iterations):
+        live = [k for k, s in st.items() if s.cand.name not in failed and s.x_next is not None]
+        if not live:
+            break
+        xs = {k: st[k].x_next for k in live}
+        outs = dict(zip(live, evaluate_sets(runner, sens, resp0,
+                                            [tuple(split_params(st[k].cand.effects, xs[k])) for k in live])))
+        # the solver fails at isolated parameter values (measured: a crank-bearing clearance of 7.0 µm
+        # failed where 6.2 and 8.0 µm converged): a failed point is tried once more a little short of it
+        retry = [k for k in live if outs[k][0] is None]
+        for k in retry:
+            xs[k] = st[k].x_prev + REFINE_RETRY_STEP * (xs[k] - st[k].x_prev)
+        for k, o in zip(retry, evaluate_sets(runner, sens, resp0,
+                                             [tuple(split_params(st[k].cand.effects, xs[k])) for k in retry])):
+            outs[k] = o
+        for k in live:
+            fx, rx, msg = outs[k]
+            s = st[k]
+            if fx is None:
+                if s.best is None:
+                    failed[s.cand.name] = f"model evaluation failed at the fitted values: {msg}"
+                s.x_next = None  # keep the best evaluation so far
+                continue
+            x_eval = xs[k]
+            dx = x_eval - s.x_prev
+            if dx @ dx > 0:
+                s.J = s.J + np.outer((fx - s.f_prev) - s.J @ dx, dx) / (dx @ dx)
+            _, _, _, rss_data, _ = lin_fit(prob, fx, np.zeros((n, 0)), np.zeros(0), np.zeros(0), np.zeros(0))
+            rss_real = rss_data + prior_penalty(s.cand.effects, x_eval)
+            prev_best = s.best[0] if s.best is not None else math.inf
+            if rss_real < prev_best:
+                s.best = (rss_real, x_eval.copy(), fx, rx, s.J.copy())
+            x_new, *_ = lin_fit(prob, fx, s.J, x_eval, *bounds(s.cand.effects), prior=prior_of(s.cand.effects))
+            s.x_prev, s.f_prev = x_eval, fx
+            converged = np.allclose(x_new, x_eval, rtol=1e-3, atol=1e-12)
+            # after two evaluations, go on only while each one still pays (a curved valley, as the
+            # moved/equidistant deviations along their near-cancelling direction, needs several)
+            stalled = it >= 1 and rss_real > (1.0 - settings.refine_min_gain) * prev_best
+            s.x_next = None if converged or stalled else x_new
+    refined = []
+    for s in st.values():
+        if s.best is None:
+            continue
+        rss, x_r, fx, rx, J = s.best
+        _, nu, d, _, _ = lin_fit(prob, fx, np.zeros((n, 0)), np.zeros(0), np.zeros(0), np.zeros(0))
+        cols = prob.nuis[:, np.abs(prob.nuis).sum(0) > 0]
+        A_full = np.column_stack([J * prob.w[:, None], cols * prob.w[:, None]])
+        refined.append(make_candidate(s.cand.effects, x_r, nu, d, rss, A_full, n, n_nuis, fx, refined=True,
+                                      response=rx, note="model in the loop", jacobian=J))
+    return refined

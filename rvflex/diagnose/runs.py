@@ -1,0 +1,113 @@
+"""Model runs of a diagnosis: evaluated serially or in a process pool, cached on disk by a content
+hash of everything that determines them (spec, errors, plan, resolution, law, active effects)."""
+
+from __future__ import annotations
+
+import hashlib
+import pickle
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+from rvflex.diagnose.replay import EvaluationFailed, evaluate, features
+
+__all__ = ["CACHE_VERSION", "ModelRunner"]
+
+CACHE_VERSION = "diag-6"
+
+
+# ----------------------------------------------------------------------------- workers (module level: picklable)
+
+def _eval_job(spec, errors, plan, settings, law, active):
+    """Features and response of one model evaluation, or the failure message. Exudyn's console
+    banners of retried static steps are silenced meanwhile (the retries are expected)."""
+    import exudyn as exu
+
+    before = exu.config.printToConsole
+    exu.config.printToConsole = False
+    try:
+        resp = evaluate(spec, errors, plan, settings, active, law=law)
+    except EvaluationFailed as err:
+        return None, None, str(err)
+    finally:
+        exu.config.printToConsole = before
+    f, _ = features(resp, plan, settings)
+    return f, resp, ""
+
+
+
+class ModelRunner:
+    """Evaluates model runs (serially or in a process pool), with an on-disk cache by content hash."""
+
+    def __init__(self, spec, errors, plan, settings, law, cache_dir: Path | None, progress=None):
+        self.spec, self.errors, self.plan, self.settings, self.law = spec, errors, plan, settings, law
+        self.cache_dir = Path(cache_dir) if cache_dir else None
+        self.progress = progress
+        self.done = 0
+        self.total = 0
+        self.model_runs = 0
+        from rvflex.spec import dumps_errors, dumps_spec
+
+        self._base = hashlib.sha256(pickle.dumps((CACHE_VERSION, dumps_spec(spec), dumps_errors(errors), plan,
+                                                  settings.positions_per_rev, settings.max_order,
+                                                  settings.hysteresis_steps, repr(law)))).hexdigest()
+
+    def key(self, active) -> str:
+        desc = [(e.name, e.kind, tuple(p.name for p in e.params), tuple(np.round(np.asarray(x, float), 15)))
+                for e, x in active]
+        return hashlib.sha256((self._base + repr(desc)).encode()).hexdigest()[:24]
+
+    def _load(self, key):
+        if self.cache_dir is None:
+            return None
+        p = self.cache_dir / f"{key}.pkl"
+        if p.is_file():
+            try:
+                return pickle.loads(p.read_bytes())
+            except (OSError, pickle.UnpicklingError, EOFError, AttributeError):  # a damaged entry is recomputed
+                return None
+        return None
+
+    def _store(self, key, value) -> None:
+        if self.cache_dir is None:
+            return
+        self.cache_dir.mkdir(parents=True, exist_ok=True)
+        tmp = self.cache_dir / f".{key}.{id(value)}.tmp"
+        tmp.write_bytes(pickle.dumps(value))
+        tmp.replace(self.cache_dir / f"{key}.pkl")
+
+    def run(self, actives: list[tuple]) -> list[tuple]:
+        """Evaluate each active set; returns (features | None, response | None, message) per set."""
+        keys = [self.key(a) for a in actives]
+        out: list = [self._load(k) for k in keys]
+        todo = [i for i, o in enumerate(out) if o is None]
+        self.total += len(actives)
+        self.done += len(actives) - len(todo)
+        if self.progress:
+            self.progress(self.done, self.total)
+        args = (self.spec, self.errors, self.plan, self.settings, self.law)
+        if len(todo) > 1 and self.settings.workers > 1:
+            with ProcessPoolExecutor(max_workers=min(self.settings.workers, len(todo))) as pool:
+                futs = {i: pool.submit(_eval_job, *args, actives[i]) for i in todo}
+                for i, fut in futs.items():
+                    try:
+                        out[i] = fut.result()
+                    except Exception as err:  # noqa: BLE001 - a dying worker is a failed evaluation, not a crash
+                        out[i] = (None, None, f"{type(err).__name__}: {err}")
+                    self._finish(keys[i], out[i])
+        else:
+            for i in todo:
+                out[i] = _eval_job(*args, actives[i])
+                self._finish(keys[i], out[i])
+        return out
+
+    def _finish(self, key, value) -> None:
+        self.model_runs += 1
+        self._store(key, value)
+        self.done += 1
+        if self.progress:
+            self.progress(self.done, self.total)
+
+
+# ----------------------------------------------------------------------------- fitted candidates

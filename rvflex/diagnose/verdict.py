@@ -1,0 +1,176 @@
+"""The verdict of a diagnosis: the withheld-run check, ties between candidates, and the sentence."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.optimize import lsq_linear
+
+from rvflex.diagnose.effects import Effect
+from rvflex.diagnose.linear import Candidate, Problem, bounds, lin_fit, prior_of
+from rvflex.diagnose.replay import shift_measured
+
+__all__ = ["SIGNATURE_TIE", "TIE_RSS_RATIO", "equivalent", "fmt_mag", "fmt_pct", "verdict", "withheld_check"]
+
+def _linearisation(c: Candidate, f0: np.ndarray):
+    """(base features, Jacobian, reference point, lower, upper, prior) a candidate is predicted with:
+    about its model-in-the-loop point when refined, else about the nominal model."""
+    J = c.jacobian if c.jacobian is not None else np.zeros((len(f0), 0))
+    if c.refined and len(c.x):
+        base, x_ref = c.model_features, c.x
+    elif c.refined:
+        base, x_ref = c.model_features, np.zeros(0)
+    else:
+        base, x_ref = f0, np.zeros(len(c.x))
+    lo, hi = (c.lower, c.upper) if c.lower is not None else bounds(c.effects)
+    return base, J, x_ref, lo, hi, prior_of(c.effects)
+
+
+def withheld_check(prob: Problem, plan, c: Candidate, ref: Candidate, f0, folds) -> dict:
+    """Refit ``c`` on each fold's fitted runs only and predict its other runs (linearised about
+    the candidate's point with its Jacobian; origin δ as fitted on all runs), and the same for the
+    reference ``ref`` (the calibrated model for an effect, the nominal model for the calibration).
+    Improvement = 1 − rms(prediction residual)/rms(reference's prediction residual), per fold and
+    pooled over every predicted run (weighted residual energy)."""
+    label = [p.label for p in plan]
+    doc = {"fitted_runs": sorted({label[r] for f, _ in folds for r in f}, key=label.index),
+           "predicted_runs": [label[r] for _, pr in folds for r in pr], "improvement_pct": None, "folds": []}
+    if not folds:
+        doc["note"] = "no run usable for the withheld check"
+        return doc
+    lay = prob.lay
+    d = c.delta
+
+    def predict(lin, fitted_runs, predicted_runs):
+        base_, J_, x_ref_, lo_, hi_, prior_ = lin
+        rows_f = np.concatenate([lay.run_rows(r) for r in fitted_runs])
+        rows_p = np.concatenate([lay.run_rows(r) for r in predicted_runs])
+        x, nu, _, _, _ = lin_fit(prob, base_, J_, x_ref_, lo_, hi_, rows=rows_f, delta=d, prior=prior_)
+        model = base_ + J_ @ (x - x_ref_)
+        # nuisances: the common TE offset comes from the fitted runs; a predicted run's own
+        # hysteresis offset is no prediction, so it is refitted
+        cols = prob.nuis[:, np.abs(prob.nuis[rows_f]).sum(0) > 0]
+        model = model + cols @ nu
+        r = (shift_measured(prob.y, lay, d)[:, 0] - model)
+        for run in predicted_runs:
+            if run in lay.hyst:
+                sl = lay.hyst[run]
+                r[sl] -= np.average(r[sl], weights=prob.w[sl] ** 2)
+        rw = r[rows_p] * prob.w[rows_p]
+        return float(rw @ rw), x
+
+    lin_c, lin_ref = _linearisation(c, f0), _linearisation(ref, f0)
+    total_before = total_after = 0.0
+    for fitted_runs, predicted_runs in folds:
+        rss_before, _ = predict(lin_ref, fitted_runs, predicted_runs)
+        rss_after, x_f = predict(lin_c, fitted_runs, predicted_runs)
+        total_before += rss_before
+        total_after += rss_after
+        doc["folds"].append({"fitted_runs": [label[r] for r in fitted_runs],
+                             "predicted_runs": [label[r] for r in predicted_runs],
+                             "improvement_pct": (100.0 * (1.0 - math.sqrt(rss_after / rss_before))
+                                                 if rss_before > 0 else 0.0),
+                             "fitted_params": [float(v) for v in x_f]})
+    doc["improvement_pct"] = 100.0 * (1.0 - math.sqrt(total_after / total_before)) if total_before > 0 else 0.0
+    return doc
+
+
+TIE_RSS_RATIO = 1.15  # candidates whose residuals differ by less than this factor are not separated by the data
+
+
+SIGNATURE_TIE = 0.25  # another candidate reproduces the lead's fitted signature to within this (relative, weighted)
+
+
+def equivalent(cands, lead, sens, f0, w) -> list:
+    """Candidates the data cannot tell from ``lead``: their residual is within TIE_RSS_RATIO of
+    the lead's, or their own sensitivities, within their parameter bounds, reproduce the lead's
+    fitted model change (weighted, origin shift ignored) to within SIGNATURE_TIE — both computed
+    from model runs. When the two share an effect (two pairs), only the part of the lead's change
+    that the shared effect does not make has to be reproduced."""
+    names = {e.name for e in lead.effects}
+    total = lead.model_features - f0
+    parts, i = {}, 0
+    for e, xe in lead.split():  # the lead's change per effect, from its Jacobian
+        parts[e.name] = lead.jacobian[:, i:i + e.n] @ xe if lead.jacobian is not None else np.zeros_like(total)
+        i += e.n
+    out = []
+    for o in cands:
+        own = {e.name for e in o.effects}
+        mine, theirs = {e.name for e in lead.attributed}, {e.name for e in o.attributed}
+        if o is lead or theirs <= mine or mine <= theirs or not all(e.name in sens for e in o.effects):
+            continue
+        if o.refined and o.rss <= TIE_RSS_RATIO * lead.rss:
+            out.append(o)
+            continue
+        shared = names & own
+        sig = (total - sum((parts[nm] for nm in shared), np.zeros_like(total))) * w
+        norm = float(np.linalg.norm(sig))
+        if norm <= 0:
+            continue
+        for J, lo, hi in sens.orthants(tuple(e for e in o.effects if e.name not in shared)):
+            A = J * w[:, None]
+            coef = lsq_linear(A, sig, bounds=(lo, hi), method="bvls").x
+            if np.linalg.norm(sig - A @ coef) <= SIGNATURE_TIE * norm:
+                out.append(o)
+                break
+    return out
+
+
+def verdict(cands, chosen, none, has_folds, settings, unavailable, failed, tied=(), blocked=None) -> str:
+    if not cands:
+        return "No candidate effect could be evaluated; the gap is unexplained."
+    if chosen is not None:
+        c = chosen
+        tie = [o for o in cands if o.name in tied]
+        mag = "; ".join(f"{e.name} {fmt_mag(e, m)} (95 % {fmt_mag(e, iv[0])} … {fmt_mag(e, iv[1])})"
+                        for e, m, iv in zip(c.effects, c.magnitude, c.magnitude_interval))
+        s = (f"{c.name} explains the gap: {mag}; the weighted gap shrinks by {c.gap_shrink_pct:.0f} %, "
+             f"{100 - c.gap_shrink_pct:.0f} % of it stays unexplained by any candidate; the withheld runs' "
+             f"prediction improves by {c.withheld['improvement_pct']:.0f} %.")
+        if c.at_bound:
+            s += f" The fit hits a parameter bound ({', '.join(c.at_bound)}): the magnitude is a limit, not an estimate."
+        if tie:
+            s += (f" Tied with {', '.join(o.name for o in tie[:3])}: their model signatures reproduce this one "
+                  "(or fit as well), so these runs cannot separate them.")
+        return s
+    if blocked is not None:
+        return (f"No effect is confirmed: {blocked.name} fits best in the linearised model (score "
+                f"{blocked.score:.1f}, gap shrink {blocked.gap_shrink_pct:.0f} %) but its model evaluation at the "
+                f"fitted values failed ({failed.get(blocked.name, '')[:160]}), so no weaker candidate is accepted "
+                f"in its place; the gap stays unexplained.")
+    best = cands[0]
+    significant = best.score >= settings.bic_threshold and best.gap_shrink_pct >= settings.min_shrink_pct
+    if significant and not has_folds:
+        return (f"{best.name} fits best (gap shrinks by {best.gap_shrink_pct:.0f} %) but cannot be confirmed: "
+                f"no run is usable for the withheld check (add a reverse or another-load run).")
+    if significant:
+        why = []
+        if not best.refined:
+            why.append("its model-in-the-loop evaluation failed, so only its linearised fit is known")
+        wh = best.withheld.get("improvement_pct")
+        if wh is None or wh < settings.min_withheld_pct:
+            why.append(f"refitted without them it predicts the withheld runs only {fmt_pct(wh)} better "
+                       f"(≥ {settings.min_withheld_pct:g} % needed)")
+        return (f"No effect is confirmed: the best candidate, {best.name}, removes {best.gap_shrink_pct:.0f} % "
+                f"of the gap (score {best.score:.1f}), but {' and '.join(why or ['it was not accepted'])}; "
+                "the gap stays unexplained.")
+    return (f"No significant unmodelled effect: the best candidate, {best.name}, removes only "
+            f"{max(best.gap_shrink_pct, 0):.0f} % of the gap (score {best.score:.1f}, withheld "
+            f"{fmt_pct(best.withheld.get('improvement_pct'))}); the remaining gap is model-form "
+            f"mismatch and noise.")
+
+
+def fmt_pct(v) -> str:
+    return "n/a" if v is None else f"{v:+.0f} %"
+
+
+def fmt_mag(e: Effect, m: float) -> str:
+    u = e.params[0].unit
+    if u == "m":
+        return f"{m * 1e6:.2f} µm"
+    if u == "rad":
+        return f"{m * 206264.806:.2f}″"
+    if u == "1/K":
+        return f"{m * 1e6:.2f} ppm/K"
+    return f"{m:.3g} {u}"
