@@ -205,92 +205,6 @@ def _layout(plan: tuple[PlanRun, ...], max_order: int) -> Layout:
 
 
 FIDELITY_TIME_FACTOR = 4.0  # a flexible run may take this many times the rigid budget (FE reduction on first use)
-MAX_CYCLE_ANGLE_RAD = 0.02  # ≈ 69′: far beyond any lost motion plus wind-up of a torque cycle
-ZERO_TORQUE_SHIFT = 2e-3  # an exactly unloaded step is taken at ±0.2 % of the amplitude (the side it comes from)
-CYCLE_MIN_LOAD_STEP = 1e-3  # smallest load increment of the static solver within one torque step (share of the step)
-
-
-def _torque_cycle(model, torques: np.ndarray, torque_max: float, budget) -> np.ndarray:
-    """Input locked, output torque stepped along ``torques`` (as :func:`rvflex.solve.torque_stepping`),
-    robust in the free play: a failing step is bisected (up to 3 levels) from the last converged
-    state, through zero torque when it changes sign, and a zero torque that does not converge
-    (the clearance lets the bodies float) is taken at a small torque on the side the path comes
-    from; a step that still fails is solved by a stiff-to-working continuation of the output
-    regulariser, from the last state and then from the unloaded kinematic configuration. The
-    wall-time budget is checked before every solve. Returns the output angle per torque (rad)."""
-    from rvflex.parts.carrier import OUTPUT_REGULARISER_NM_RAD
-    # the output-regulariser stiffnesses of the quasi-static stepping's continuation (stiff → working)
-    from rvflex.solve import REGULARISER_CONTINUATION_NM_RAD, _solve_at, static_settings
-
-    mbs = model.mbs
-    ss = static_settings()
-    # fail fast: a step the static solver cannot take in load increments down to 1e-3 is bisected
-    # here instead (the solver's default 1e-8 let one failing step run for minutes)
-    ss.staticSolver.minimumStepSize = CYCLE_MIN_LOAD_STEP
-    car = model.output_index
-    mbs.SetObjectParameter(model.carrier.regulariser, "stiffness", OUTPUT_REGULARISER_NM_RAD)
-    q = model.kinematic_coordinates(0.0)
-    out = np.empty(len(torques))
-    prev = 0.0
-
-    def solve(q0, t):
-        budget(j_now[0], len(torques))
-        mbs.SetLoadParameter(model.carrier.load, "load", float(t))
-        q1 = _solve_at(model, ss, 0.0, q0)
-        if abs(q1[car]) > MAX_CYCLE_ANGLE_RAD:  # Newton jumped across the free play to another tooth
-            raise RuntimeError(f"output angle {q1[car]:.4g} rad is not a deflection")
-        return q1
-
-    def advance(q0, t0, t1, level=0):
-        try:
-            return solve(q0, t1)
-        except EvaluationFailed:  # over the time budget
-            raise
-        except Exception:
-            if t1 == 0.0:  # floating at zero torque: take a small torque on the side the path comes from
-                return solve(q0, (np.sign(t0) or 1.0) * ZERO_TORQUE_SHIFT * torque_max)
-            if level >= 3:
-                raise
-            mid = 0.0 if t0 * t1 < 0 else 0.5 * (t0 + t1)  # cross the free play through zero torque
-            return advance(advance(q0, t0, mid, level + 1), mid, t1, level + 1)
-
-    def stiffened(q0, t):
-        """Solve at torque t by continuation of the output regulariser from stiff to its working
-        value: out of the free play the weak regulariser alone holds the output, and Newton's first
-        step from a floating state can throw it across a tooth (measured: 0.3–1.8 N·m from the
-        unloaded RV-40E landed 18° away, 2 N·m converged). The answer is the one at the working
-        regulariser."""
-        try:
-            for k in REGULARISER_CONTINUATION_NM_RAD:
-                mbs.SetObjectParameter(model.carrier.regulariser, "stiffness", k)
-                q0 = solve(q0, t)
-        finally:
-            mbs.SetObjectParameter(model.carrier.regulariser, "stiffness", OUTPUT_REGULARISER_NM_RAD)
-        return solve(q0, t)
-
-    q_kin = q.copy()
-    j_now = [0]
-    for j, t in enumerate(np.asarray(torques, float)):
-        j_now[0] = j
-        try:
-            q = advance(q, prev, float(t))
-        except EvaluationFailed:
-            raise
-        except Exception:
-            # Newton in the free play is sensitive to its start: from the last state, then from the
-            # unloaded kinematic configuration, each with a stiff-to-working regulariser. The model
-            # has no friction (a friction effect changes the torque path instead), so the
-            # equilibrium at a non-zero torque does not depend on the path that led to it
-            try:
-                q = stiffened(q, float(t))
-            except EvaluationFailed:
-                raise
-            except Exception:
-                q = stiffened(q_kin, float(t))
-        out[j] = q[car]
-        prev = float(t)
-        budget(j + 1, len(torques))
-    return out
 
 
 def _run_model(variants: list[tuple[ReducerSpec, ErrorSpec]], plan: tuple[PlanRun, ...],
@@ -299,7 +213,7 @@ def _run_model(variants: list[tuple[ReducerSpec, ErrorSpec]], plan: tuple[PlanRu
     import time
 
     from rvflex.model import build_reducer
-    from rvflex.solve import SolveError, quasi_static
+    from rvflex.solve import SolveError, quasi_static, torque_stepping
 
     n = settings.positions_per_rev
     te, tq, th = [], [], []
@@ -326,7 +240,13 @@ def _run_model(variants: list[tuple[ReducerSpec, ErrorSpec]], plan: tuple[PlanRu
                 path = np.asarray(p.torque_eff_Nm or p.torque_path_Nm)
                 te.append(None)
                 tq.append(np.asarray(p.torque_path_Nm))
-                th.append(_torque_cycle(model, path, p.torque_max_Nm, budget))
+                steps = [0]
+
+                def count(done: int, total: int) -> None:
+                    steps[0] = done
+
+                th.append(torque_stepping(model, path, progress=count,
+                                          before_solve=lambda: budget(steps[0], len(path))).theta_out)
         except EvaluationFailed as err:
             raise EvaluationFailed(f"{p.label}: {err}") from None
         except (SolveError, RuntimeError, ValueError, ArithmeticError) as err:

@@ -14,7 +14,7 @@ from rvflex.diagnose.replay import EvaluationFailed, evaluate, features
 
 __all__ = ["CACHE_VERSION", "ModelRunner"]
 
-CACHE_VERSION = "diag-6"
+CACHE_VERSION = "diag-7"
 
 
 # ----------------------------------------------------------------------------- workers (module level: picklable)

@@ -48,6 +48,8 @@ __all__ = [
 ]
 
 ARCSEC = math.pi / 648000.0
+MISMATCH = ("none", "realistic")
+CALIBRATION_TOL = 0.25  # a calibrated stiffness scale within ±25 % of the drawn one counts as calibrated
 MIN_SIGNATURE = 10.0  # an effect whose model signature is smaller (in residual-floor units) is not hidden:
 # no diagnosis could find it with this bench plan; such effects are listed in the JSON instead
 
@@ -93,6 +95,55 @@ class GeneratorModel:
 
 
 @dataclass(frozen=True)
+class RealisticMismatch:
+    """A generator of another model family than the diagnosing one (``--mismatch realistic``), drawn
+    per case: a power-law contact F = k·x^1.5 with k within ±``stiffness_spread`` of the line
+    contact's equivalent, needle-bearing and mesh stiffness scaled within ±``stiffness_spread``, a
+    nominal crank-bearing clearance up to ``clearance_max_m``, FE-reduced flexible discs, and TE
+    encoders sampled ``samples_per_rev`` points per revolution over [0, 2π)."""
+
+    stiffness_spread: float = 0.4
+    clearance_max_m: float = 5e-6
+    fidelity: str = "flexible"
+    samples_per_rev: int = 1024
+    flank_radius_m: float = 0.02  # loaded-flank radius at which the power law matches the line contact
+    match_forces_N: tuple[float, float] = (100.0, 1500.0)  # force range of the match (RV-40E pins at 0–150 % T_r)
+
+    def draw(self, rng: np.random.Generator) -> dict:
+        """The case's drawn nominal parameters (scales of the diagnosing model's values)."""
+        a, b = 1.0 - self.stiffness_spread, 1.0 + self.stiffness_spread
+        return {"contact_scale": float(rng.uniform(a, b)), "needle_bearing_scale": float(rng.uniform(a, b)),
+                "mesh_scale": float(rng.uniform(a, b)), "clearance_m": float(rng.uniform(0.0, self.clearance_max_m))}
+
+    def power_law_stiffness(self, spec: ReducerSpec) -> float:
+        """k (N/m^1.5) of F = k·x^1.5 that matches seed 002's line contact of ``spec`` over the force
+        range (least squares in log force at the flank radius ``flank_radius_m``)."""
+        from rvflex.geometry.formulas import hertz_line_deflection
+
+        m = spec.materials
+        f = np.geomspace(*self.match_forces_N, 16)
+        d = np.array([hertz_line_deflection(x, spec.cycloid.disc_thickness_m, self.flank_radius_m,
+                                            spec.cycloid.pin_radius_m, m.gears_cranks_discs.youngs_modulus_Pa,
+                                            m.gears_cranks_discs.poisson_ratio, m.pins.youngs_modulus_Pa,
+                                            m.pins.poisson_ratio) for x in f])
+        return float(np.exp(np.mean(np.log(f) - 1.5 * np.log(d))))
+
+    def model(self, spec: ReducerSpec, drawn: dict):
+        """(spec, errors, law) of the generator for the drawn parameters."""
+        from rvflex.contact.cycloid_pin import ContactLaw
+
+        b, st = spec.bearings, spec.input_stage
+        spec_g = dc.replace(spec, bearings=dc.replace(b, eccentric=dc.replace(
+            b.eccentric, radial_stiffness_N_m=b.eccentric.radial_stiffness_N_m * drawn["needle_bearing_scale"])),
+            input_stage=dc.replace(st, mesh_stiffness_mean_N_m=st.mesh_stiffness_mean_N_m * drawn["mesh_scale"],
+                                   mesh_stiffness_amplitude_N_m=st.mesh_stiffness_amplitude_N_m * drawn["mesh_scale"]))
+        n = spec.cranks.count * spec.cycloid.disc_count
+        errors = ErrorSpec(eccentric_bearing_clearance_m=(drawn["clearance_m"],) * n)
+        law = ContactLaw.hertz(self.power_law_stiffness(spec) * drawn["contact_scale"], 1.5, damping_Ns_m=500.0)
+        return spec_g, errors, law
+
+
+@dataclass(frozen=True)
 class SelfCheckSettings:
     """Cases, seed, the share of control cases and of two-effect cases, realism, generator and
     the diagnosis settings."""
@@ -107,6 +158,12 @@ class SelfCheckSettings:
     realism: BenchRealism = field(default_factory=BenchRealism)
     generator: GeneratorModel = field(default_factory=GeneratorModel)
     diagnosis: DiagnosisSettings = field(default_factory=DiagnosisSettings)
+    mismatch: str = "none"  # "none": today's generator; "realistic": RealisticMismatch per case
+    realistic: RealisticMismatch = field(default_factory=RealisticMismatch)
+
+    def __post_init__(self) -> None:
+        if self.mismatch not in MISMATCH:
+            raise ValueError(f"mismatch = {self.mismatch!r}: must be one of {', '.join(MISMATCH)}")
 
 
 def draw_truth(rng: np.random.Generator, effects: tuple[Effect, ...], n_effects: int,
@@ -190,11 +247,14 @@ def _periodic(grid: np.ndarray, p: np.ndarray) -> np.ndarray:
 
 def generate_case(folder: str | Path, truth_path: str | Path, spec: ReducerSpec, truth: list, rng: np.random.Generator,
                   realism: BenchRealism = BenchRealism(), gen: GeneratorModel = GeneratorModel(),
-                  reducer_name: str = "rv40e") -> dict:
+                  reducer_name: str = "rv40e", realistic: RealisticMismatch | None = None) -> dict:
     """Write one synthetic bench dataset to ``folder`` and its truth to ``truth_path``.
 
-    Returns the truth document. Raises :class:`~rvflex.diagnose.replay.EvaluationFailed` when
-    the generator model does not converge for the drawn effects.
+    With ``realistic`` the generator is of another model family (see :class:`RealisticMismatch`;
+    its drawn parameters go into the truth under ``nominal``) and the TE runs are sampled N points
+    per revolution over [0, 2π). Returns the truth document. Raises
+    :class:`~rvflex.diagnose.replay.EvaluationFailed` when the generator model does not converge
+    for the drawn effects.
     """
     import exudyn as exu
 
@@ -204,7 +264,14 @@ def generate_case(folder: str | Path, truth_path: str | Path, spec: ReducerSpec,
     before = exu.config.printToConsole
     exu.config.printToConsole = False  # the banners of retried static steps (expected) stay off the console
     try:
-        resp = evaluate(spec, ErrorSpec(), plan, gs, tuple(truth), law=gen.law(spec))
+        if realistic is None:
+            drawn = {"contact_scale": gen.stiffness_scale, "needle_bearing_scale": 1.0, "mesh_scale": 1.0,
+                     "clearance_m": 0.0}
+            resp = evaluate(spec, ErrorSpec(), plan, gs, tuple(truth), law=gen.law(spec))
+        else:
+            drawn = realistic.draw(rng)
+            spec_g, errors_g, law_g = realistic.model(spec, drawn)
+            resp = evaluate(spec_g, errors_g, plan, gs, tuple(truth), law=law_g, fidelity=realistic.fidelity)
     finally:
         exu.config.printToConsole = before
     ratio = spec.nominal_ratio
@@ -217,13 +284,17 @@ def generate_case(folder: str | Path, truth_path: str | Path, spec: ReducerSpec,
         if p.kind == "te":
             speed = spec.rated_output_speed_rpm
             omega = 2 * np.pi * speed / 60.0
-            revs = 1.0 + 0.02  # a little more than one output revolution
-            t_end = revs * 2 * np.pi / omega
-            n = int(t_end * realism.sample_rate_hz)
-            t = np.sort(np.linspace(0, t_end, n) + rng.uniform(-0.2, 0.2, n) / realism.sample_rate_hz)
-            t = np.unique(np.clip(t, 0, None))
             f = realism.ripple_hz
-            travel = omega * t - realism.speed_ripple * omega / (2 * np.pi * f) * (np.cos(2 * np.pi * f * t) - 1)
+            if realistic is None:
+                revs = 1.0 + 0.02  # a little more than one output revolution
+                t_end = revs * 2 * np.pi / omega
+                n = int(t_end * realism.sample_rate_hz)
+                t = np.sort(np.linspace(0, t_end, n) + rng.uniform(-0.2, 0.2, n) / realism.sample_rate_hz)
+                t = np.unique(np.clip(t, 0, None))
+                travel = omega * t - realism.speed_ripple * omega / (2 * np.pi * f) * (np.cos(2 * np.pi * f * t) - 1)
+            else:  # an encoder-triggered log: N samples per output revolution over [0, 2π)
+                travel = 2 * np.pi * np.arange(realistic.samples_per_rev) / realistic.samples_per_rev
+                t = travel / omega
             q = float(rng.uniform(0, 2 * np.pi)) + p.direction * travel  # true geometric position
             te = _periodic(resp.te[r], np.mod(q, 2 * np.pi))
             th_in = ratio * (q - delta0)
@@ -250,7 +321,8 @@ def generate_case(folder: str | Path, truth_path: str | Path, spec: ReducerSpec,
     doc = {"effects": [{"name": e.name, "params": {pp.name: float(v) for pp, v in zip(e.params, x)},
                         "magnitude": e.magnitude(x)} for e, x in truth],
            "origin_rad": delta0, "offset_arcsec": offset0 / ARCSEC,
-           "generator": dc.asdict(gen), "realism": dc.asdict(realism)}
+           "generator": dc.asdict(gen), "realism": dc.asdict(realism), "nominal": drawn,
+           "mismatch": "none" if realistic is None else "realistic"}
     Path(truth_path).parent.mkdir(parents=True, exist_ok=True)
     Path(truth_path).write_text(json.dumps(doc, indent=2), encoding="utf-8")
     return doc
@@ -266,6 +338,7 @@ def score_case(truth: dict, diag) -> dict:
            "ranked": [c.name for c in ranked[:3]],
            "gap_shrink_pct": float(chosen.gap_shrink_pct) if chosen else 0.0,
            "verdict": diag.verdict, "wall_s": diag.wall_s, "model_runs": diag.model_runs}
+    row.update(_score_calibration(truth, chosen or diag.baseline))
     if not hidden:
         row["correct"] = chosen is None
         return row
@@ -276,20 +349,50 @@ def score_case(truth: dict, diag) -> dict:
     row["ties"] = [c.name for c in tied]
     row["top1_or_tie"] = row["top1"] or any(dom in [e.name for e in c.effects] for c in tied)
     if row["top1"]:
-        i = [e.name for e in chosen.effects].index(dom)
-        fitted = chosen.magnitude[i]
+        fitted = chosen.magnitude_of(dom)
         true = truth["effects"][0]["magnitude"]
+        if dom in SHARED_WITH_NOMINAL:  # only the sum of the nominal and the excess value is observable
+            nominal, key = SHARED_WITH_NOMINAL[dom]
+            fitted += chosen.magnitude_of(nominal) if nominal in [e.name for e in chosen.effects] else 0.0
+            true += truth.get("nominal", {}).get(key, 0.0)
         row["magnitude_fitted"], row["magnitude_true"] = fitted, true
         row["magnitude_ok"] = abs(fitted - true) <= 0.25 * abs(true)
     return row
 
 
+SHARED_WITH_NOMINAL = {"eccentric_bearing_clearance": ("crank_bearing_clearance", "clearance_m")}
+"""Effects acting on the same quantity as a nominal parameter: their magnitude is scored as the total
+(nominal + excess), the only part the data determine."""
+CALIBRATED_SCALES = {"contact_stiffness": "contact_scale", "needle_bearing_stiffness": "needle_bearing_scale",
+                     "mesh_stiffness": "mesh_scale"}
+
+
+def _score_calibration(truth: dict, cand) -> dict:
+    """Calibrated stiffness scales against the generator's drawn ones (within ±CALIBRATION_TOL)."""
+    from rvflex.diagnose.fit import describe_calibration
+
+    drawn = truth.get("nominal")
+    if not drawn:
+        return {}
+    rows = {r["name"]: r for r in describe_calibration(cand)}
+    out = {}
+    for name, key in CALIBRATED_SCALES.items():
+        if name in rows:
+            out[name] = {"calibrated": rows[name]["stiffness_scale"], "drawn": drawn[key]}
+    if "crank_bearing_clearance" in rows:
+        out["crank_bearing_clearance"] = {"calibrated_m": rows["crank_bearing_clearance"]["value"],
+                                          "drawn_m": drawn["clearance_m"]}
+    ok = [abs(v["calibrated"] / v["drawn"] - 1.0) <= CALIBRATION_TOL for k, v in out.items() if k in CALIBRATED_SCALES]
+    return {"calibration": out, "calibration_ok": bool(ok) and all(ok)}
+
+
 def _generate_job(args):
-    folder, truth_path, spec, truth, seed, realism, gen, name = args
+    folder, truth_path, spec, truth, seed, realism, gen, name, realistic = args
     from rvflex.diagnose.replay import EvaluationFailed
 
     try:
-        return generate_case(folder, truth_path, spec, truth, np.random.default_rng(seed), realism, gen, name), ""
+        return generate_case(folder, truth_path, spec, truth, np.random.default_rng(seed), realism, gen, name,
+                             realistic), ""
     except EvaluationFailed as err:
         return None, str(err)
 
@@ -345,7 +448,8 @@ def selfcheck(out_dir: str | Path, settings: SelfCheckSettings = SelfCheckSettin
             truth = (draw_truth(np.random.default_rng(case_seed + attempt), hideable, n_eff, first, sizes)
                      if n_eff else [])
             truth_doc, msg = _generate_job((folder, truth_path, spec, truth, case_seed, settings.realism,
-                                            settings.generator, settings.reducer))
+                                            settings.generator, settings.reducer,
+                                            settings.realistic if settings.mismatch == "realistic" else None))
             if truth_doc is not None:
                 break
             log(f"case {k}: generator failed ({msg[:120]}); redrawing")
@@ -376,6 +480,8 @@ def selfcheck(out_dir: str | Path, settings: SelfCheckSettings = SelfCheckSettin
         "magnitude_within_25pct_rate": _rate([r["magnitude_ok"] for r in hits]),
         "median_gap_shrink_pct": float(np.median([r["gap_shrink_pct"] for r in eff])) if eff else None,
         "control_correct_rate": _rate([r["correct"] for r in ctl]),
+        "calibration_rate": _rate([r["calibration_ok"] for r in rows if "calibration_ok" in r]),
+        "mismatch": settings.mismatch,
         "wall_s": time.perf_counter() - t0,
         "effect_cases": len(eff), "control_cases": len(ctl),
         "signature_size": sizes,
