@@ -15,8 +15,9 @@ An :class:`Effect` acts in one of four ways (``kind``):
     ``measure(position_rad, te_rad, x) -> te_rad``: a measurement artefact applied to the
     model's TE as the bench would record it (output-encoder eccentricity).
 ``"fidelity"``
-    the model at another fidelity (``"flexible"``), blended with the rigid run by the
-    parameter (1 = the flexible model).
+    the model at another fidelity (``"flexible"``), or with another contact law
+    (``alt_law(spec) -> ContactLaw``), blended with the model's run by the parameter (1 = the
+    other model).
 
 No effect carries a hand-written signature: the diagnosis finds each one's orders, load and
 direction dependence by running the model with it (:mod:`rvflex.diagnose.fit`).
@@ -119,6 +120,7 @@ class Effect:
     two_sided: bool = False
     per_run: bool = False
     run_fields: tuple[str, ...] = ()
+    alt_law: Callable | None = None
     prior_sigma: tuple[float, ...] = ()
     prior_center: tuple[float, ...] = ()
     separating_runs: str = ""

@@ -263,16 +263,29 @@ def diagnose(dataset, *, settings: DiagnosisSettings | None = None, effects: tup
         if chosen is None and blocked is None and c.name in failed and c.score >= settings.bic_threshold:
             blocked = c
         final.append(c)
+    # calibrate first: an effect that the nominal parameters reproduce within their prior ranges is not
+    # needed — the nominal explanation is expected, the effect is extra; it is reported as a tie
+    cal_ties, runs_needed = (_calibration_ties(chosen, cal, sens, w) if chosen is not None else ((), ()))
+    demoted = None
+    if cal_ties:
+        demoted = chosen
+        final = [dc.replace(c, accepted=False, note=(c.note + "; " if c.note else "")
+                            + "tied with the calibration of " + ", ".join(cal_ties)) if c is chosen else c
+                 for c in final]
+        chosen = None
     lead_c = chosen or (final[0] if final else None)
     # ties of a lead that explains nothing would be every candidate: only a significant lead has ties
     tied = (tuple(o.name for o in equivalent(final, lead_c, sens, f0, w))
             if lead_c is not None and lead_c.score >= settings.bic_threshold else ())
-    cal_ties, runs_needed = (_calibration_ties(chosen, cal, sens, w) if chosen is not None else ((), ()))
     text = verdict(final, chosen, none, bool(folds), settings, unavailable, failed, tied, blocked)
-    text = _calibration_sentence(none, nominal_model, chosen, settings) + " " + text
-    if cal_ties:
-        text += (f" Tied with the calibration of {', '.join(cal_ties)}: within their prior ranges these nominal "
-                 f"parameters reproduce much of the effect's signature; {'; '.join(runs_needed)} would separate them.")
+    if demoted is not None:
+        text = (f"Nominal parameters off; no unmodelled effect is needed: {demoted.name} would remove "
+                f"{demoted.gap_shrink_pct:.0f} % of what calibration leaves, but within their prior ranges the nominal "
+                f"parameters {', '.join(cal_ties)} reproduce its signature, so these runs cannot tell it from them "
+                f"(a tie); {'; '.join(runs_needed)} would separate them.")
+    text = _calibration_sentence(none, nominal_model, chosen if demoted is None else demoted, settings) + " " + text
+    if cal_ties and demoted is None:
+        text += (f" Tied with the calibration of {', '.join(cal_ties)}: {'; '.join(runs_needed)} would separate them.")
     return Diagnosis(dataset, settings, plan, lay, w, y, none, none.response or resp0, tuple(final), chosen,
                      folds, unavailable, failed, size, text, runner.model_runs,
                      time.perf_counter() - t0, tied, nominal_model, windows, cal_ties, runs_needed)
@@ -342,8 +355,9 @@ def _calibration_ties(chosen: Candidate, cal, sens: Sensitivities, w) -> tuple[t
     if norm <= 0:
         return (), ()
     J = np.column_stack([sens.plus[c.name] for c in cal]) * w[:, None]
-    lo = np.concatenate([c.lower - c.center for c in cal])
-    hi = np.concatenate([c.upper - c.center for c in cal])
+    now = {e.name: xe for e, xe in chosen.split() if e.nominal}  # room left from the calibrated values
+    lo = np.concatenate([c.lower - now.get(c.name, c.center) for c in cal])
+    hi = np.concatenate([c.upper - now.get(c.name, c.center) for c in cal])
     coef = lsq_linear(J, sig, bounds=(lo, hi), method="bvls").x
     if np.linalg.norm(sig - J @ coef) > SIGNATURE_TIE * norm:
         return (), ()

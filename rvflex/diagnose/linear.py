@@ -280,7 +280,10 @@ def weights(f0: np.ndarray, y: np.ndarray, lay: Layout, s: DiagnosisSettings) ->
         a, b = y[lay.cos[r]], y[lay.sin[r]]
         half = slice(len(a) // 2, None)
         noise = float(np.median(np.hypot(a[half], b[half]))) / 1.18  # Rayleigh median → σ
-        floor = math.hypot(s.order_floor_arcsec, noise)
+        # model form: another program (contact law, stiffnesses) puts an order's amplitude tens of per cent
+        # elsewhere; that share of the larger of the measured and the nominal amplitude is no signal
+        amp = np.maximum(np.hypot(a, b), np.hypot(f0[lay.cos[r]], f0[lay.sin[r]]))
+        floor = np.sqrt(s.order_floor_arcsec**2 + noise**2 + (s.order_floor_rel * amp) ** 2)
         w[lay.cos[r]] = w[lay.sin[r]] = 1.0 / floor
         w[lay.dc[r]] = 1.0 / (s.windup_floor_arcsec + s.windup_floor_rel * abs(f0[lay.dc[r]]))
     for r, sl in lay.hyst.items():

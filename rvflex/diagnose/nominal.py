@@ -25,7 +25,8 @@ import dataclasses as dc
 from rvflex.diagnose.effects import Effect, Param
 from rvflex.spec import ErrorSpec, ReducerSpec
 
-__all__ = ["NOMINAL", "REPLACES", "nominal_parameters", "stiffness_scale"]
+__all__ = ["NOMINAL", "REPLACES", "max_pin_force", "nominal_parameters", "point_contact_law",
+           "power_law_equivalent", "stiffness_scale"]
 
 UM = 1e-6
 COMPLIANCE_PRIOR = 0.35  # σ of the compliance change: a stiffness known to about ±30 %
@@ -72,6 +73,43 @@ STIFFNESS_RUNS = ("a torque cycle at half amplitude and a TE run at another load
                   "wind-up in proportion to the load; an effect does not)")
 
 
+POWER_LAW_LOAD_RANGE = (0.1, 1.5)  # share of the most loaded pin's force at rated torque the equivalence covers
+POWER_LAW_FLANK_RADIUS_M = 0.02  # loaded-flank radius at which the power law is matched to the line contact
+
+
+def max_pin_force(spec: ReducerSpec, torque_Nm: float) -> float:
+    """Force of the most loaded pin (N) at the output torque ``torque_Nm``: F_max = 4T/(n·z_c·K1·r_p)
+    with n discs sharing the torque (seed 000's load sharing)."""
+    c = spec.cycloid
+    k1 = c.eccentricity_m * c.pin_count / c.pin_circle_radius_m
+    return 4.0 * torque_Nm / (c.disc_count * c.disc_teeth * k1 * c.pin_circle_radius_m)
+
+
+def power_law_equivalent(spec: ReducerSpec) -> float:
+    """k (N/m^1.5) of a point-contact law F = k·x^1.5 matching ``spec``'s line contact (seed 002,
+    materials and disc width of the spec) over the pin forces of the tests: least squares in log
+    force over POWER_LAW_LOAD_RANGE of the most loaded pin's force at rated torque, at a loaded-flank
+    radius of POWER_LAW_FLANK_RADIUS_M."""
+    import numpy as np
+
+    from rvflex.geometry.formulas import hertz_line_deflection
+
+    m = spec.materials
+    f = np.geomspace(*(np.asarray(POWER_LAW_LOAD_RANGE) * max_pin_force(spec, spec.rated_torque_Nm)), 16)
+    d = np.array([hertz_line_deflection(x, spec.cycloid.disc_thickness_m, POWER_LAW_FLANK_RADIUS_M,
+                                        spec.cycloid.pin_radius_m, m.gears_cranks_discs.youngs_modulus_Pa,
+                                        m.gears_cranks_discs.poisson_ratio, m.pins.youngs_modulus_Pa,
+                                        m.pins.poisson_ratio) for x in f])
+    return float(np.exp(np.mean(np.log(f) - 1.5 * np.log(d))))
+
+
+def point_contact_law(spec: ReducerSpec):
+    """The power-law (F = k·x^1.5) contact equivalent to ``spec``'s line contact, same damping."""
+    from rvflex.contact.cycloid_pin import ContactLaw
+
+    return ContactLaw.hertz(power_law_equivalent(spec), 1.5, damping_Ns_m=500.0)
+
+
 def _builtin() -> tuple[Effect, ...]:
     def u(name):
         return (Param(name, "1", COMPLIANCE_LOW, COMPLIANCE_HIGH, 0.25),)
@@ -86,6 +124,14 @@ def _builtin() -> tuple[Effect, ...]:
         Effect("mesh_stiffness", "first-stage (involute) mesh stiffness (compliance change u = 1/s − 1)",
                u("compliance_change"), apply=_mesh, prior_sigma=(COMPLIANCE_PRIOR,),
                separating_runs=STIFFNESS_RUNS),
+        # the contact law's form: a line contact (F nearly ∝ x) or, with crowning, misalignment or edge
+        # relief, closer to a point contact (F ∝ x^1.5, zero stiffness at first touch); blended linearly
+        Effect("contact_law_form", "form of the pin–disc contact law: share of the equivalent point-contact law "
+               "F = k·x^1.5 blended with the line contact (0 = line contact)",
+               (Param("point_contact_share", "1", 0.0, 1.5, 1.0),), kind="fidelity", fidelity="rigid",
+               alt_law=point_contact_law, prior_sigma=(0.7,),
+               separating_runs="a torque cycle with fine steps through ±10 % of rated torque and TE runs at "
+                               "two loads (the law's curvature shows as load-dependent stiffness)"),
         # the bench unit's discs (and carrier) are elastic: the rigid model's missing elastic wind-up and
         # TE enter as a share of the flexible model's, nominally all of it (1), calibrated like a stiffness
         Effect("disc_flexibility", "elastic discs and carrier (share of the FE-reduced flexible model's difference "

@@ -80,6 +80,9 @@ class DiagnosisSettings:
         Minimum improvement of the withheld runs' prediction for acceptance (%).
     order_floor_arcsec : float
         Model-form floor of an order coefficient (arcsec): residuals below it are not signal.
+    order_floor_rel : float
+        Model-form floor of an order relative to its amplitude (the larger of measured and nominal):
+        another program's contact law and stiffnesses move an order's amplitude by tens of per cent.
     eval_timeout_s : float
         Wall-time budget of one run of a model evaluation before the evaluation counts as failed (s).
     windup_floor_arcsec, windup_floor_rel : float
@@ -100,6 +103,7 @@ class DiagnosisSettings:
     min_withheld_pct: float = 10.0
     eval_timeout_s: float = 30.0
     order_floor_arcsec: float = 0.03
+    order_floor_rel: float = 0.2
     windup_floor_arcsec: float = 0.5
     windup_floor_rel: float = 0.02
 
@@ -227,7 +231,7 @@ def _run_model(variants: list[tuple[ReducerSpec, ErrorSpec]], plan: tuple[PlanRu
     for p, (spec, errors) in zip(plan, variants):
         t_end[0] = time.perf_counter() + limit
         try:
-            model = build_reducer(spec, errors, fidelity, law=law)
+            model = build_reducer(spec, errors, fidelity, law=law(spec) if callable(law) else law)
             if p.kind == "te":
                 theta = p.direction * np.linspace(0.0, 2 * math.pi * model.ratio, n, endpoint=False)
                 res = quasi_static(model, theta, p.load_Nm, progress=budget)
@@ -260,7 +264,9 @@ def evaluate(spec: ReducerSpec, errors: ErrorSpec, plan: tuple[PlanRun, ...], se
 
     Model effects change the spec/ErrorSpec the model is built with (``per_run`` ones per run,
     e.g. thermal expansion at each run's ``temperature_C``); condition effects change the plan;
-    measurement effects transform the recorded TE; a fidelity effect blends in another fidelity.
+    measurement effects transform the recorded TE; a fidelity effect blends in another fidelity
+    (or, with ``alt_law``, the same fidelity with another contact-law form) by its share.
+    ``law``: a ContactLaw, or a callable spec → ContactLaw (per run variant); None: the model's.
 
     Raises
     ------
@@ -270,7 +276,7 @@ def evaluate(spec: ReducerSpec, errors: ErrorSpec, plan: tuple[PlanRun, ...], se
     from rvflex.spec import SpecError
 
     variants = [(spec, errors)] * len(plan)
-    blend = None
+    blends = []
     try:
         for eff, x in active:
             x = np.asarray(x, float)
@@ -283,16 +289,18 @@ def evaluate(spec: ReducerSpec, errors: ErrorSpec, plan: tuple[PlanRun, ...], se
             elif eff.kind == "conditions":
                 plan = tuple(eff.conditions(p, x, variants[0][0]) for p in plan)
             elif eff.kind == "fidelity":
-                blend = (eff, float(x[0]))
+                blends.append((eff, float(x[0])))
     except SpecError as err:
         raise EvaluationFailed(f"effect value breaks a spec rule: {err}") from None
-    resp = _run_model(variants, plan, settings, fidelity, law)
-    if blend is not None and blend[1] != 0.0:
-        flex = _run_model(variants, plan, settings, blend[0].fidelity, law)
-        w = blend[1]
-        resp = Response(tuple(None if a is None else (1 - w) * a + w * b for a, b in zip(resp.te, flex.te)),
+    resp = base = _run_model(variants, plan, settings, fidelity, law)
+    for eff, w in blends:  # another fidelity or contact-law form, blended in by its share w
+        if w == 0.0:
+            continue
+        alt = _run_model(variants, plan, settings, eff.fidelity, eff.alt_law or law)
+        resp = Response(tuple(None if a is None else a + w * (b - a0) for a, a0, b in zip(resp.te, base.te, alt.te)),
                         resp.torque,
-                        tuple(None if a is None else (1 - w) * a + w * b for a, b in zip(resp.theta, flex.theta)))
+                        tuple(None if a is None else a + w * (b - a0)
+                              for a, a0, b in zip(resp.theta, base.theta, alt.theta)))
     meas = [(eff, np.asarray(x, float)) for eff, x in active if eff.kind == "measurement"]
     if meas:
         pos = 2 * np.pi * np.arange(settings.positions_per_rev) / settings.positions_per_rev

@@ -106,27 +106,23 @@ class RealisticMismatch:
     clearance_max_m: float = 5e-6
     fidelity: str = "flexible"
     samples_per_rev: int = 1024
-    flank_radius_m: float = 0.02  # loaded-flank radius at which the power law matches the line contact
-    match_forces_N: tuple[float, float] = (100.0, 1500.0)  # force range of the match (RV-40E pins at 0–150 % T_r)
+    fixed: tuple[tuple[str, float], ...] = ()  # (key, value) pairs taken instead of drawn (tests)
 
     def draw(self, rng: np.random.Generator) -> dict:
-        """The case's drawn nominal parameters (scales of the diagnosing model's values)."""
+        """The case's drawn nominal parameters (scales of the diagnosing model's values; keys
+        ``contact_scale``, ``needle_bearing_scale``, ``mesh_scale``, ``clearance_m``)."""
+        if self.fixed:
+            return dict(self.fixed)
         a, b = 1.0 - self.stiffness_spread, 1.0 + self.stiffness_spread
         return {"contact_scale": float(rng.uniform(a, b)), "needle_bearing_scale": float(rng.uniform(a, b)),
                 "mesh_scale": float(rng.uniform(a, b)), "clearance_m": float(rng.uniform(0.0, self.clearance_max_m))}
 
     def power_law_stiffness(self, spec: ReducerSpec) -> float:
-        """k (N/m^1.5) of F = k·x^1.5 that matches seed 002's line contact of ``spec`` over the force
-        range (least squares in log force at the flank radius ``flank_radius_m``)."""
-        from rvflex.geometry.formulas import hertz_line_deflection
+        """k (N/m^1.5) of F = k·x^1.5 equivalent to ``spec``'s line contact
+        (:func:`rvflex.diagnose.nominal.power_law_equivalent`): ``contact_scale`` multiplies it."""
+        from rvflex.diagnose.nominal import power_law_equivalent
 
-        m = spec.materials
-        f = np.geomspace(*self.match_forces_N, 16)
-        d = np.array([hertz_line_deflection(x, spec.cycloid.disc_thickness_m, self.flank_radius_m,
-                                            spec.cycloid.pin_radius_m, m.gears_cranks_discs.youngs_modulus_Pa,
-                                            m.gears_cranks_discs.poisson_ratio, m.pins.youngs_modulus_Pa,
-                                            m.pins.poisson_ratio) for x in f])
-        return float(np.exp(np.mean(np.log(f) - 1.5 * np.log(d))))
+        return power_law_equivalent(spec)
 
     def model(self, spec: ReducerSpec, drawn: dict):
         """(spec, errors, law) of the generator for the drawn parameters."""
@@ -154,6 +150,7 @@ class SelfCheckSettings:
     two_effect_share: float = 0.25
     reducer: str = "rv40e"
     effects: tuple[str, ...] | None = None  # candidate (and hidden) effects; None: every available effect
+    nominal: tuple[str, ...] | None = None  # nominal parameters the diagnosis calibrates; None: all
     draw_fidelity_effects: bool = False  # hide other-fidelity effects too (slow: an FE model per case)
     realism: BenchRealism = field(default_factory=BenchRealism)
     generator: GeneratorModel = field(default_factory=GeneratorModel)
@@ -456,7 +453,8 @@ def selfcheck(out_dir: str | Path, settings: SelfCheckSettings = SelfCheckSettin
         if truth_doc is None:
             rows.append({"case": k, "error": "generator did not converge"})
             continue
-        diag = diagnose(read_bench(folder), settings=settings.diagnosis, effects=settings.effects, cache_dir=cache)
+        diag = diagnose(read_bench(folder), settings=settings.diagnosis, effects=settings.effects,
+                        nominal=settings.nominal, cache_dir=cache)
         truth_doc = json.loads(truth_path.read_text(encoding="utf-8"))  # scored only after the diagnosis
         row = {"case": k, **score_case(truth_doc, diag)}
         rows.append(row)

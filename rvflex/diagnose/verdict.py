@@ -124,7 +124,7 @@ def verdict(cands, chosen, none, has_folds, settings, unavailable, failed, tied=
         c = chosen
         tie = [o for o in cands if o.name in tied]
         mag = "; ".join(f"{e.name} {fmt_mag(e, m)} (95 % {fmt_mag(e, iv[0])} … {fmt_mag(e, iv[1])})"
-                        for e, m, iv in zip(c.effects, c.magnitude, c.magnitude_interval))
+                        for e, m, iv in zip(c.effects, c.magnitude, c.magnitude_interval) if not e.nominal)
         s = (f"{c.name} explains the gap: {mag}; the weighted gap shrinks by {c.gap_shrink_pct:.0f} %, "
              f"{100 - c.gap_shrink_pct:.0f} % of it stays unexplained by any candidate; the withheld runs' "
              f"prediction improves by {c.withheld['improvement_pct']:.0f} %.")
