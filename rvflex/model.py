@@ -63,6 +63,8 @@ class ReducerModel:
     crank_axes: np.ndarray
     disc_centres: np.ndarray
     input_seat_supports: tuple = ()  # flexible carrier: each crank's second support bearing (input-plate seat)
+    reduced_disc: object = None  # the disc's rvflex.fe.reduce.ReducedPart (FE discs), else None
+    reduced_carrier: object = None  # the carrier's ReducedPart (FE carrier), else None
 
     @property
     def fidelity(self) -> str:
@@ -209,4 +211,5 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None,
     mbs.Assemble()
     ref = np.asarray(mbs.systemData.GetODE2Coordinates(configuration=exu.ConfigurationType.Reference))
     centres = np.array([np.asarray(mbs.GetNode(n)["referenceCoordinates"])[:2] for n in discs.nodes])
-    return ReducerModel(spec, errors, options, sc, mbs, sun, carrier, cranks, discs, pins, ref, axes, centres, seat_in)
+    return ReducerModel(spec, errors, options, sc, mbs, sun, carrier, cranks, discs, pins, ref, axes, centres, seat_in,
+                        reduced_disc, reduced_carrier)

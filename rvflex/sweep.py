@@ -619,16 +619,13 @@ def write_indices_csv(ranking: list[dict], classes: dict[str, str], path: Path) 
 def plot_indices(design: Design, ranking: list[dict], metric: str, path: Path) -> Path:
     """Bar plot of the sensitivity indices with their confidence intervals; for Morris also the
     μ*–σ plane (σ ≫ μ* flags interaction or non-linearity)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
 
     names = [r["factor"] for r in ranking][::-1]
     y = np.arange(len(names))
     morris = ranking[0]["index_name"] == "mu_star"
-    fig, axes = plt.subplots(1, 2 if morris else 1, figsize=(11 if morris else 7, 0.5 * len(names) + 2),
-                             layout="constrained", squeeze=False)
+    fig = Figure(figsize=(11 if morris else 7, 0.5 * len(names) + 2), layout="constrained")
+    axes = fig.subplots(1, 2 if morris else 1, squeeze=False)
     ax = axes[0, 0]
     rev = ranking[::-1]
     if morris:
@@ -651,22 +648,18 @@ def plot_indices(design: Design, ranking: list[dict], metric: str, path: Path) -
     fig.suptitle(f"{design.name}: {design.kind} ({design.samples} {'trajectories' if morris else 'base samples'}, "
                  f"{ranking[0]['groups_used']} complete)")
     fig.savefig(path, dpi=110)
-    plt.close(fig)
     return path
 
 
 def plot_main_effects(design: Design, ranking: list[dict], metric: str, path: Path) -> Path:
     """Main-effect plot: level means of ``metric`` against each factor's deviation (µm)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
 
     n = len(ranking)
     cols = min(n, 5)
     rows_ = math.ceil(n / cols)
-    fig, axes = plt.subplots(rows_, cols, figsize=(3.0 * cols, 2.6 * rows_), layout="constrained", squeeze=False,
-                             sharey=True)
+    fig = Figure(figsize=(3.0 * cols, 2.6 * rows_), layout="constrained")
+    axes = fig.subplots(rows_, cols, squeeze=False, sharey=True)
     levels = {f.name: f.levels for f in design.factors}
     cls = classify(ranking)
     for ax, r in zip(axes.flat, ranking):
@@ -679,7 +672,6 @@ def plot_main_effects(design: Design, ranking: list[dict], metric: str, path: Pa
     axes[0, 0].set_ylabel(metric)
     fig.suptitle(f"{design.name}: main effects ({design.kind}, {design.reducer})")
     fig.savefig(path, dpi=110)
-    plt.close(fig)
     return path
 
 

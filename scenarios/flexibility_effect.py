@@ -42,8 +42,9 @@ class FlexibilityEffect:
     """Reducer, errors (None: none), load fractions of rated torque, TE positions per output
     revolution, hysteresis torque steps, the disc reduction (default
     :data:`rvflex.options.DISC_FE`: global deformation, 6 bore + 12 fixed-interface modes on 6 mm
-    quadratic tets) and the carrier reduction of the ``flexible+carrier`` row (None leaves that
-    row out; the script runs it with :data:`rvflex.options.CARRIER_FE`)."""
+    quadratic tets), the carrier reduction of the ``flexible+carrier`` row (None leaves that
+    row out; the script runs it with :data:`rvflex.options.CARRIER_FE`) and the TE window in
+    output revolutions (default one; 1/z_b is one crank turn)."""
 
     spec: ReducerSpec
     errors: ErrorSpec | None = None
@@ -52,8 +53,11 @@ class FlexibilityEffect:
     steps: int = 80
     discs: PartSettings = DISC_FE
     carrier: PartSettings | None = None
+    revolutions: float = 1.0
 
     def __post_init__(self) -> None:
+        if not self.revolutions > 0:
+            raise SpecError("revolutions", self.revolutions, "must be positive (output revolutions of the TE window)")
         if not isinstance(self.spec, ReducerSpec):
             raise TypeError(f"FlexibilityEffect.spec: expected a ReducerSpec (rvflex.load_reducer(...)), "
                             f"got {type(self.spec).__name__}")
@@ -108,7 +112,8 @@ def run_flexibility_effect(sc: FlexibilityEffect, progress=None) -> list[dict]:
             progress(done, total)
         for f in sc.load_fractions:
             load = f * sc.spec.rated_torque_Nm
-            met = run_loaded_te(LoadedTE(sc.spec, sc.errors, load, 1.0, sc.positions_per_rev, options=options),
+            met = run_loaded_te(LoadedTE(sc.spec, sc.errors, load, sc.revolutions, sc.positions_per_rev,
+                                         options=options),
                                 model=model)[1]
             rows.append({"fidelity": name, "load_fraction": f, "load_Nm": load, "te_pp_arcsec": met.te_pp_arcsec,
                          "mean_windup_arcsec": met.mean_windup_arcsec,
@@ -241,7 +246,9 @@ class FlexibilityResult(Result):
         """TE peak-to-peak (arcsec) against load for each variant; returns the axes."""
         ax = new_axes(ax)
         self._curves(ax, "te_pp_arcsec", 1.0)
-        ax.set(xlabel="output torque (N·m)", ylabel="TE peak-to-peak (″)", title="Loaded TE over one output revolution")
+        window = ("one output revolution" if self.scenario.revolutions == 1.0
+                  else f"{360 * self.scenario.revolutions:g}° of output")
+        ax.set(xlabel="output torque (N·m)", ylabel="TE peak-to-peak (″)", title=f"Loaded TE over {window}")
         return ax
 
     def plot_windup(self, ax=None):

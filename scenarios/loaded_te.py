@@ -119,11 +119,13 @@ class LoadedTEResult(Result):
         """One row per position: ``position_rad``, ``theta_in_rad``, ``theta_out_rad``, ``te_arcsec``."""
         return super().to_dataframe()
 
-    def plot(self, ax=None):
-        """TE (arcsec) against the output angle (°) with the mean wind-up; returns the axes."""
+    def plot(self, ax=None, *, label: str | None = None):
+        """TE (arcsec) against the output angle (°) with the mean wind-up, on ``ax`` or a new
+        Figure's axes; the curve's ``label`` defaults to the model's fidelity. Returns the axes."""
         ax = new_axes(ax)
         r, m, sc = self.raw, self.metrics, self.scenario
-        ax.plot(np.degrees(r.theta_in / r.ratio), r.te_rad * ARCSEC_PER_RAD, lw=1.0)
+        ax.plot(np.degrees(r.theta_in / r.ratio), r.te_rad * ARCSEC_PER_RAD, lw=1.0,
+                label=sc.options.fidelity if label is None else label)
         ax.axhline(m.mean_windup_arcsec, color="0.5", ls="--", lw=0.8, label=f"mean wind-up {m.mean_windup_arcsec:.1f}″")
         ax.set_xlabel("output angle (°)")
         ax.set_ylabel("TE = θ_out − θ_in/i (arcsec)")
@@ -219,7 +221,7 @@ def write_te_outputs(out: Path, res: QuasiStaticResult, metrics: TEMetrics, scen
                header="theta_in_rad,theta_out_rad,output_angle_deg,te_arcsec", comments="", fmt="%.12g")
     fig = new_figure(figsize=(13, 4.6), layout="constrained")
     a0, a1 = fig.subplots(1, 2, width_ratios=(2.2, 1))
-    result.plot(a0)
+    result.plot(a0, label="_te")  # one curve: only the wind-up line in the legend
     result.plot_orders(a1)
     te_png = out / "te.png"
     fig.savefig(te_png, dpi=120)

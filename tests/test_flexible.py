@@ -4,6 +4,8 @@ CI stays quick; the full-size reduction is exercised by the slow tests and bench
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -121,11 +123,12 @@ def test_flexibility_effect_scenario_writes_its_table(setup, tmp_path):
     stay the larger compliance), and the files are written."""
     from rvflex.scenarios.flexibility_effect import (FlexibilityEffect, run_flexibility_effect,
                                                      write_flexibility_outputs)
+    from rvflex.options import DISC_FE
     from rvflex.spec import ErrorSpec
 
     spec, _, _, _ = setup
     sc = FlexibilityEffect(spec, ErrorSpec(), load_fractions=(0.0, 1.0), positions_per_rev=16, steps=40,
-                           fe=tuple(COARSE.items()))
+                           discs=dataclasses.replace(DISC_FE, **COARSE))
     rows = run_flexibility_effect(sc, progress=lambda msg: None)
     rated = next(r for r in rows if r["fidelity"] == "flexible" and r["load_fraction"] == 1.0)
     assert 0.0 < rated["elastic_share_windup"] < 0.5
