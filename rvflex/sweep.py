@@ -335,6 +335,31 @@ class SweepResult:
     cpu_s: float = 0.0  # worker CPU time summed over the points evaluated in this run
     cpu_busiest_worker_s: float = 0.0  # the largest per-worker sum of it (the pool's CPU makespan)
 
+    def to_dataframe(self):
+        """The table as a pandas DataFrame: one row per point (index ``point``), the factor
+        deviations (SI, as in the design) and the metrics (unit in the name), ``error`` where a
+        point failed."""
+        import pandas as pd
+
+        return pd.DataFrame(self.rows).set_index("point") if self.rows else pd.DataFrame(index=pd.Index([], name="point"))
+
+    def to_xarray(self):
+        """The table as an xarray Dataset over ``point``, each variable with ``units`` and
+        ``long_name`` (factor deviations from :data:`FACTORS`, metrics from their names)."""
+        import xarray as xr
+
+        ds = xr.Dataset.from_dataframe(self.to_dataframe())
+        metric_units = (("_Nm_per_arcmin", "N m/arcmin"), ("_arcsec", "arcsec"), ("_arcmin", "arcmin"))
+        for name in ds.data_vars:
+            if name in FACTORS:
+                ds[name].attrs = {"units": FACTORS[name][1], "long_name": f"deviation of the {FACTORS[name][0]}"}
+            else:
+                unit = next((u for suffix, u in metric_units if name.endswith(suffix)), "1")
+                ds[name].attrs = {"units": unit, "long_name": name.replace("_", " ")}
+        ds["point"].attrs = {"units": "1", "long_name": "design point"}
+        ds.attrs = {"executor": self.executor, "workers": self.workers, "finished": self.finished, "failed": self.failed}
+        return ds
+
 
 class _Store:
     """One SQLite file per sweep: the design digest and one row per finished point."""

@@ -170,3 +170,19 @@ def test_readme_python_example_runs(fe_cache, tmp_path, monkeypatch, capsys):
                                                                              "te.nc"}
     te = namespace["te"]
     assert te["flexible"].mean() < te["rigid"].mean() < 0.0
+
+
+def test_sweep_table_as_dataframe_and_dataset(tmp_path):
+    """A sweep's table comes back as a DataFrame (one row per point) and a Dataset over
+    ``point`` with units: the factor deviations in m, TE in arcsec, the same numbers as the rows."""
+    from rvflex.sweep import load_design, sweep
+
+    design = load_design(Path(__file__).resolve().parents[1] / "scenarios" / "designs" / "smoke.toml")
+    res = sweep(design, tmp_path / "s.sqlite", executor="serial")
+    df, ds = res.to_dataframe(), res.to_xarray()
+    assert len(df) == len(res.rows) == ds.sizes["point"] and df.index.name == "point"
+    metric = "te_pp_arcsec" if design.scenario == "te" else "lost_motion_arcmin"
+    assert np.array_equal(df[metric].to_numpy(), [r[metric] for r in res.rows])
+    assert np.array_equal(ds[metric].to_numpy(), df[metric].to_numpy())
+    assert ds[metric].attrs["units"] == metric.rsplit("_", 1)[1]
+    assert all(ds[f.name].attrs["units"] == "m" for f in design.factors)
