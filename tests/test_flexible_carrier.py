@@ -235,7 +235,7 @@ def test_flexibility_effect_scenario_has_the_carrier_row(setup, tmp_path):
     sc = FlexibilityEffect(spec, ErrorSpec(), load_fractions=(0.0, 1.0), positions_per_rev=16, steps=40,
                            discs=dataclasses.replace(DISC_FE, **COARSE_DISC),
                            carrier=dataclasses.replace(CARRIER_FE, **COARSE_CARRIER))
-    rows = run_flexibility_effect(sc, progress=lambda msg: None)
+    rows = run_flexibility_effect(sc, progress=lambda done, total: None)
     rated = next(r for r in rows if r["fidelity"] == "flexible+carrier" and r["load_fraction"] == 1.0)
     assert 0.0 < rated["carrier_share_windup"] < rated["elastic_share_windup"] < 1.0
     assert 0.0 < rated["carrier_share_compliance"] < 1.0
