@@ -14,30 +14,23 @@ import tempfile
 from pathlib import Path
 
 from rvflex import catalog
-from rvflex.spec import ErrorSpec, ReducerSpec, SpecError, load_errors, load_spec
+from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
 
 __all__ = ["main", "resolve_reducer"]
 
 
 def resolve_reducer(name: str) -> ReducerSpec:
     """A built-in catalogue name (``rv40e``) or the path of a reducer spec TOML file."""
-    if name.endswith(".toml") or os.sep in name:
-        path = Path(name)
-        if not path.is_file():
-            raise SpecError("--reducer", name, "file not found")
-        return load_spec(path)
-    return catalog.load(name)
+    from rvflex.api import load_reducer
+
+    return load_reducer(name, field="--reducer")
 
 
 def _errors(path: str | None, spec: ReducerSpec) -> ErrorSpec | None:
     """An ErrorSpec TOML file, or a built-in error set name (``rv40e_seed001``)."""
-    if path is None:
-        return None
-    if Path(path).is_file():
-        return load_errors(path, spec)
-    if not path.endswith(".toml") and os.sep not in path:
-        return catalog.load_error_set(path, spec)
-    raise SpecError("--errors", path, "file not found")
+    from rvflex.api import load_errors
+
+    return None if path is None else load_errors(path, spec, field="--errors")
 
 
 def _with_progress(total: int, desc: str, run):
@@ -109,62 +102,56 @@ def _cmd_geometry(args: argparse.Namespace) -> int:
 
 
 def _cmd_te(args: argparse.Namespace) -> int:
-    from rvflex.scenarios.loaded_te import LoadedTE, run_loaded_te, write_te_outputs
+    import rvflex
 
     spec, errors = _model_inputs(args)
-    scenario = LoadedTE(spec, errors, spec.rated_torque_Nm if args.load is None else args.load,
-                        args.revs, args.positions, 1 if args.direction == "forward" else -1, args.mode,
-                        spec.rated_output_speed_rpm if args.speed_out is None else args.speed_out,
-                        fidelity=args.fidelity, fe=_fe(args))
-    (res, met), wall = _with_progress(int(round(args.positions * args.revs)), "loaded TE",
-                                      lambda progress: run_loaded_te(scenario, progress=progress))
+    scenario = rvflex.LoadedTE(spec, errors, spec.rated_torque_Nm if args.load is None else args.load,
+                               args.revs, args.positions, 1 if args.direction == "forward" else -1, args.mode,
+                               spec.rated_output_speed_rpm if args.speed_out is None else args.speed_out,
+                               options=_options(args))
+    result, wall = _with_progress(scenario.n_positions, "loaded TE",
+                                  lambda progress: rvflex.run(scenario, progress=progress))
+    met, n = result.metrics, len(result.raw.te_rad)
     doc = {
         "te_pp_arcsec": met.te_pp_arcsec, "te_min_arcsec": met.te_min_arcsec, "te_max_arcsec": met.te_max_arcsec,
         "mean_windup_arcsec": met.mean_windup_arcsec,
         "orders": [{"order": o, "amplitude_arcsec": a} for o, a in met.orders],
-        "n_positions": len(res.te_rad), "wall_s": wall, "solve_s": res.wall_s,
+        "n_positions": n, "wall_s": wall, "solve_s": result.raw.wall_s,
     }
     print(f"TE peak-to-peak {met.te_pp_arcsec:.3f}″ (min {met.te_min_arcsec:.2f}″, max {met.te_max_arcsec:.2f}″), "
-          f"mean wind-up {met.mean_windup_arcsec:.2f}″, {len(res.te_rad)} positions in {wall:.1f} s "
-          f"(solver {res.wall_s:.1f} s, the rest builds the model)")
+          f"mean wind-up {met.mean_windup_arcsec:.2f}″, {n} positions in {wall:.1f} s "
+          f"(solver {result.raw.wall_s:.1f} s, the rest builds the model)")
     print("strongest orders: " + ", ".join(f"{o}: {a:.3f}″" for o, a in met.orders[:5]))
-    return _emit(args, doc, lambda out: write_te_outputs(out, res, met, scenario))
+    return _emit(args, doc, result.write)
 
 
 def _cmd_lost_motion(args: argparse.Namespace) -> int:
-    from rvflex.scenarios.lost_motion import LostMotion, run_lost_motion, write_lost_motion_outputs
-    from rvflex.solve import hysteresis_cycle
+    import rvflex
 
     spec, errors = _model_inputs(args)
-    sc = LostMotion(spec, errors, spec.rated_torque_Nm if args.torque is None else args.torque,
-                    args.steps, args.fidelity, _fe(args))
-    (res, met), wall = _with_progress(len(hysteresis_cycle(sc.torque_Nm, sc.steps)), "hysteresis",
-                                      lambda progress: run_lost_motion(sc, progress=progress))
-    doc = {"lost_motion_arcmin": met.lost_motion_arcmin, "hysteresis_loss_arcmin": met.hysteresis_loss_arcmin,
-           "torsional_stiffness_Nm_per_arcmin": met.torsional_stiffness_Nm_per_arcmin,
-           "backlash_arcmin": met.backlash_arcmin,
-           "secant_stiffness_Nm_per_arcmin": met.secant_stiffness_Nm_per_arcmin, "wall_s": wall}
+    sc = rvflex.LostMotion(spec, errors, spec.rated_torque_Nm if args.torque is None else args.torque,
+                           args.steps, _options(args))
+    result, wall = _with_progress(len(sc.torques_Nm), "hysteresis",
+                                  lambda progress: rvflex.run(sc, progress=progress))
+    met = result.metrics
+    doc = {**result.metrics_dict(), "wall_s": wall}
     print(f"lost motion {met.lost_motion_arcmin:.4f}′, hysteresis loss {met.hysteresis_loss_arcmin:.4f}′, "
           f"torsional stiffness {met.torsional_stiffness_Nm_per_arcmin:.2f} N·m/arcmin "
           f"(secant ±T {met.secant_stiffness_Nm_per_arcmin:.2f}), "
-          f"backlash {met.backlash_arcmin:.4f}′ ({len(res.torque_Nm)} steps in {wall:.1f} s)")
-    return _emit(args, doc, lambda out: write_lost_motion_outputs(out, res, met, sc))
+          f"backlash {met.backlash_arcmin:.4f}′ ({len(result.raw.torque_Nm)} steps in {wall:.1f} s)")
+    return _emit(args, doc, result.write)
 
 
 def _cmd_backlash(args: argparse.Namespace) -> int:
-    import time
-
-    from rvflex.scenarios.reversal_backlash import (DEFAULT_LOAD_FRACTION, ReversalBacklash, run_reversal_backlash,
-                                                    write_backlash_outputs)
+    import rvflex
 
     spec, errors = _model_inputs(args)
-    sc = ReversalBacklash(spec, errors, DEFAULT_LOAD_FRACTION * spec.rated_torque_Nm if args.load is None else args.load,
-                          fidelity=args.fidelity, fe=_fe(args))
-    t0 = time.perf_counter()
-    lost, fwd, rev = run_reversal_backlash(sc)
-    doc = {"reversal_backlash_arcmin": lost, "wall_s": time.perf_counter() - t0}
-    print(f"reversal backlash {lost:.4f}′ at ±{sc.load_Nm:g} N·m ({doc['wall_s']:.1f} s)")
-    return _emit(args, doc, lambda out: write_backlash_outputs(out, lost, fwd, rev, sc))
+    sc = rvflex.ReversalBacklash(spec, errors, args.load, options=_options(args))
+    result = rvflex.run(sc)
+    doc = {**result.metrics_dict(), "wall_s": result.wall_s}
+    print(f"reversal backlash {result.metrics.reversal_backlash_arcmin:.4f}′ at ±{sc.load_Nm:g} N·m "
+          f"({doc['wall_s']:.1f} s)")
+    return _emit(args, doc, result.write)
 
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
@@ -282,33 +269,44 @@ def _cmd_bench_contact(args: argparse.Namespace) -> int:
 
 
 def _model_arguments(p: argparse.ArgumentParser) -> None:
-    """--reducer and --fidelity of the model commands (see :func:`_model_inputs`)."""
+    """--reducer, --fidelity and --fe-* of the model commands (see :func:`_model_inputs`, :func:`_options`)."""
+    from rvflex.options import CARRIER_FE, DISC_FE
+
     p.add_argument("--reducer", required=True, help=f"built-in reducer ({', '.join(catalog.names())}) or a spec TOML path")
-    p.add_argument("--fidelity", default="rigid", choices=("rigid", "flexible"),
-                   help="rigid bodies, or FE-reduced (Craig–Bampton, FFRF) cycloid discs; the reduction is "
-                        "cached under $RVFLEX_CACHE_DIR or ~/.cache/rvflex (default rigid)")
-    p.add_argument("--flexible-carrier", action="store_true",
-                   help="with --fidelity flexible: the carrier is an FE-reduced body too (rvflex reduce --part "
-                        "carrier; output face = output frame, two support bearings per crank)")
-    fe = p.add_argument_group("flexible discs (FE reduction settings; defaults: rvflex reduce's)")
-    fe.add_argument("--fe-maxh", type=float, dest="fe_maxh_m", help="mesh size, m")
-    fe.add_argument("--fe-modes", type=int, dest="fe_n_modes", help="fixed-interface eigenmodes")
-    fe.add_argument("--fe-attach", type=int, dest="fe_attach_per_tooth", help="flank attachment modes per tooth")
-    fe.add_argument("--fe-order", type=int, dest="fe_mesh_order", choices=(1, 2), help="tet order")
+    p.add_argument("--fidelity", default="rigid", choices=("rigid", "flexible", "flexible-carrier"),
+                   help="rigid bodies (ModelOptions.rigid()); flexible: FE-reduced (Craig–Bampton, FFRF) cycloid "
+                        "discs (ModelOptions.flexible_discs()); flexible-carrier: FE discs and carrier "
+                        "(ModelOptions.flexible_discs_and_carrier(): output face = output frame, RBE3 seats, two "
+                        "support bearings per crank). Reductions are cached under $RVFLEX_CACHE_DIR or "
+                        "~/.cache/rvflex (default rigid)")
+    fe = p.add_argument_group(
+        "FE disc reduction (with --fidelity flexible or flexible-carrier; each flag overrides one field of the "
+        f"preset's disc settings: {DISC_FE.maxh_m:g} m, order {DISC_FE.mesh_order}, {DISC_FE.n_modes} modes, "
+        f"{DISC_FE.attach_per_tooth} attachment patches/tooth; carrier: {CARRIER_FE.maxh_m:g} m, order "
+        f"{CARRIER_FE.mesh_order}, {CARRIER_FE.n_modes} modes, {CARRIER_FE.seat_coupling} seats)")
+    fe.add_argument("--fe-maxh", type=float, dest="fe_maxh_m", help=f"mesh size, m (default {DISC_FE.maxh_m:g})")
+    fe.add_argument("--fe-modes", type=int, dest="fe_n_modes",
+                    help=f"fixed-interface eigenmodes (default {DISC_FE.n_modes})")
+    fe.add_argument("--fe-attach", type=int, dest="fe_attach_per_tooth",
+                    help=f"flank attachment modes per tooth (default {DISC_FE.attach_per_tooth})")
+    fe.add_argument("--fe-order", type=int, dest="fe_mesh_order", choices=(1, 2),
+                    help=f"tet order (default {DISC_FE.mesh_order})")
 
 
-def _fe(args: argparse.Namespace) -> tuple[tuple[str, float], ...]:
-    """The FE reduction settings given on the command line (``--fe-*``)."""
-    options = {"fe_maxh_m": "--fe-maxh", "fe_n_modes": "--fe-modes", "fe_attach_per_tooth": "--fe-attach",
-               "fe_mesh_order": "--fe-order"}
-    given = [k for k in options if getattr(args, k) is not None]
-    if given and args.fidelity != "flexible":
-        raise SpecError(options[given[0]], getattr(args, given[0]), "applies to --fidelity flexible only")
-    carrier = getattr(args, "flexible_carrier", False)
-    if carrier and args.fidelity != "flexible":
-        raise SpecError("--flexible-carrier", True, "applies to --fidelity flexible only")
-    # the scenarios pass these settings to build_reducer(fe=...), which takes the carrier switch out of them
-    return tuple((k[3:], getattr(args, k)) for k in given) + ((("flexible_carrier", True),) if carrier else ())
+def _options(args: argparse.Namespace):
+    """The :class:`~rvflex.options.ModelOptions` of ``--fidelity`` with the ``--fe-*`` disc overrides."""
+    from rvflex.options import ModelOptions
+
+    flags = {"fe_maxh_m": "--fe-maxh", "fe_n_modes": "--fe-modes", "fe_attach_per_tooth": "--fe-attach",
+             "fe_mesh_order": "--fe-order"}
+    given = {k: getattr(args, k) for k in flags if getattr(args, k) is not None}
+    options = ModelOptions.preset(args.fidelity)
+    if not given:
+        return options
+    if not options.flexible_discs_on:
+        k = next(iter(given))
+        raise SpecError(flags[k], given[k], "applies to --fidelity flexible or flexible-carrier only")
+    return options.with_fe("discs", **{k[3:]: v for k, v in given.items()})
 
 
 def _output_arguments(p: argparse.ArgumentParser, files: str) -> None:
@@ -339,18 +337,18 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--revs", type=float, default=1.0, help="output revolutions (default 1)")
     t.add_argument("--positions", type=int, default=2048, help="positions per output revolution (default 2048)")
     t.add_argument("--direction", choices=("forward", "reverse"), default="forward")
-    _output_arguments(t, "te.csv, te.png and load_sharing.png")
+    _output_arguments(t, "te.csv, te.png, load_sharing.png and te.nc (the labelled result, netCDF)")
     t.set_defaults(func=_cmd_te)
     lm = sub.add_parser("lost-motion", help="torsional hysteresis: lost motion, stiffness, backlash")
     _model_arguments(lm)
     lm.add_argument("--torque", type=float, help="torque amplitude, N·m (default: rated)")
     lm.add_argument("--steps", type=int, default=200, help="torque steps over the cycle (default 200)")
-    _output_arguments(lm, "hysteresis.csv and hysteresis.png")
+    _output_arguments(lm, "hysteresis.csv, hysteresis.png and hysteresis.nc")
     lm.set_defaults(func=_cmd_lost_motion)
     bl = sub.add_parser("backlash", help="reversal backlash: output angle lost when the input reverses")
     _model_arguments(bl)
     bl.add_argument("--load", type=float, help="load resisting the motion, N·m (default: 3 %% of rated)")
-    _output_arguments(bl, "backlash.csv and backlash.png")
+    _output_arguments(bl, "backlash.csv, backlash.png and backlash.nc")
     bl.set_defaults(func=_cmd_backlash)
     sw = sub.add_parser("sweep", help="parameter sweep / tolerance design from a design TOML")
     sw.add_argument("design", help="design TOML (see scenarios/designs/smoke.toml)")

@@ -19,30 +19,21 @@ from dataclasses import dataclass
 import numpy as np
 
 from rvflex.contact.cycloid_pin import ContactLaw
+from rvflex.options import ModelOptions, as_options
 from rvflex.parts import carrier as carrier_part
 from rvflex.parts import crankshaft, cycloid_disc, input_stage, pin_ring
-from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
+from rvflex.spec import ErrorSpec, ReducerSpec
 
 __all__ = ["ReducerModel", "build_reducer", "check_fidelity", "default_contact_law", "FIDELITIES"]
 
 FIDELITIES = ("rigid", "flexible")
-
-FLEXIBLE_DISC_FE = {"maxh_m": 6e-3, "mesh_order": 2, "n_modes": 12, "attach_per_tooth": 0}
-"""Disc reduction of the flexible fidelity: global deformation only — 6 bore (RBE2) modes and 12
-fixed-interface modes on 6 mm quadratic tets, no flank attachment modes, whose patch-local
-compliance the line-contact law already carries (docs/fe.md: convergence study)."""
-
-
-FLEXIBLE_CARRIER_FE = {"maxh_m": 6e-3, "mesh_order": 2, "n_modes": 10, "seat_coupling": "rbe3"}
-"""Carrier reduction of the flexible carrier: the ``rvflex reduce --part carrier`` default — output face the
-reference, 4 distributing (RBE3) seats with 6 attachment modes each, 10 fixed-interface modes, 6 mm quadratic
-tets (static check 3.3 % at the seats, 0.1 % at the pillars: docs/fe.md)."""
+"""Fidelity names :func:`build_reducer` maps to presets besides :class:`ModelOptions` (see
+:func:`rvflex.options.as_options`; ``"flexible-carrier"`` too)."""
 
 
 def check_fidelity(fidelity: str, field: str = "--fidelity") -> None:
-    """Refuse a fidelity the model does not build (SpecError naming ``field``)."""
-    if fidelity not in FIDELITIES:
-        raise SpecError(field, fidelity, f"must be one of {', '.join(map(repr, FIDELITIES))}")
+    """Refuse a fidelity name that is not a preset (SpecError naming ``field``)."""
+    as_options(fidelity, field)
 
 
 def default_contact_law(spec: ReducerSpec) -> ContactLaw:
@@ -60,7 +51,7 @@ class ReducerModel:
 
     spec: ReducerSpec
     errors: ErrorSpec
-    fidelity: str
+    options: ModelOptions
     system_container: object
     mbs: object
     sun: input_stage.InputHandles
@@ -72,6 +63,21 @@ class ReducerModel:
     crank_axes: np.ndarray
     disc_centres: np.ndarray
     input_seat_supports: tuple = ()  # flexible carrier: each crank's second support bearing (input-plate seat)
+    reduced_disc: object = None  # the disc's rvflex.fe.reduce.ReducedPart (FE discs), else None
+    reduced_carrier: object = None  # the carrier's ReducedPart (FE carrier), else None
+
+    @property
+    def fidelity(self) -> str:
+        """Preset name of :attr:`options` (``"rigid"``, ``"flexible"``, ``"flexible-carrier"``)."""
+        return self.options.fidelity
+
+    @property
+    def item_count(self) -> int:
+        """Number of Exudyn items (nodes, objects, markers, loads, sensors) in the system: a run
+        leaves it unchanged."""
+        m = self.mbs
+        return m.systemData.NumberOfNodes() + m.systemData.NumberOfObjects() + m.systemData.NumberOfMarkers() \
+            + m.systemData.NumberOfLoads() + m.systemData.NumberOfSensors()
 
     @property
     def flexible_carrier(self) -> bool:
@@ -141,69 +147,69 @@ class ReducerModel:
         return q
 
 
-def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None, fidelity: str = "rigid", *,
-                  law: ContactLaw | None = None, reduced_disc=None, fe: dict | None = None,
-                  flexible_carrier: bool = False, reduced_carrier=None,
-                  carrier_seat_marker: str = "virtual") -> ReducerModel:
-    """Assemble the reducer of ``spec`` with ``errors`` at ``fidelity``.
+def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None,
+                  options: ModelOptions | str | None = None, *, law: ContactLaw | None = None,
+                  reduced_disc=None, reduced_carrier=None) -> ReducerModel:
+    """Assemble the reducer of ``spec`` with ``errors`` (None: none) and ``options`` (a
+    :class:`~rvflex.options.ModelOptions`; a preset name ``"rigid"``, ``"flexible"`` or
+    ``"flexible-carrier"`` maps to its preset; None is rigid).
 
-    ``fidelity="rigid"``: planar rigid bodies. ``"flexible"``: the cycloid discs are
-    Craig–Bampton-reduced FFRF bodies (``reduced_disc``, a :class:`rvflex.fe.reduce.ReducedPart`,
-    or reduced here from ``spec`` with :data:`FLEXIBLE_DISC_FE` updated by ``fe``, e.g.
-    ``{"n_modes": 24}``; cached on disk); the other parts stay rigid.
-
-    ``flexible_carrier=True`` (any fidelity; also ``fe={"flexible_carrier": True}``, as the CLI's
-    ``--flexible-carrier`` arrives through the scenarios' ``fe`` settings; ``fe`` keys ``carrier_<setting>``
-    override :data:`FLEXIBLE_CARRIER_FE`, e.g. ``{"carrier_maxh_m": 8e-3}``) makes the carrier a Craig–Bampton FFRF body too
-    (``reduced_carrier``, or ``reduce_part(spec, "carrier", **FLEXIBLE_CARRIER_FE)``: output
-    face the reference frame, distributing seat couplings): each crank then has two support
-    bearings (one per plate seat, half the lumped pair each); output angle, load, regulariser
-    and main bearing act on the output face's frame (docs/flexible.md). ``carrier_seat_marker``:
-    ``"virtual"`` (default: seat markers on four massless nodes carrying each seat's RBE3 motion)
-    or ``"all_nodes"`` (on all seat nodes; the same coupling, slow — for comparison).
+    Rigid parts are planar rigid bodies. FE discs (``options.discs`` a ``PartSettings``) are
+    Craig–Bampton-reduced FFRF bodies reduced from ``spec`` with those settings (cached on
+    disk); an FE carrier likewise (output face the reference frame, distributing seat
+    couplings): each crank then has two support bearings (one per plate seat, half the lumped
+    pair each); output angle, load, regulariser and main bearing act on the output face's frame
+    (docs/flexible.md). ``reduced_disc`` / ``reduced_carrier`` (:class:`rvflex.fe.reduce.ReducedPart`)
+    inject an existing reduction: that part is then flexible with the reduction's own settings,
+    which the model's ``options`` record. ``law`` overrides ``options.contact_law``.
 
     Raises
     ------
-    ValueError
-        Unknown fidelity; error counts that do not match the spec (SpecError).
+    SpecError
+        Options that are not ModelOptions or a preset name; error counts that do not match the spec.
     """
+    import dataclasses
+
     import exudyn as exu
     from exudyn.itemInterface import MarkerNodeCoordinate, NodePointGround, ObjectGround
 
-    check_fidelity(fidelity, "fidelity")
+    options = as_options(options, "options")
+    if reduced_disc is not None:
+        options = dataclasses.replace(options, discs=reduced_disc.settings)
+    if reduced_carrier is not None:
+        options = dataclasses.replace(options, carrier=reduced_carrier.settings)
     errors = errors or ErrorSpec()
     errors.check_against(spec)
-    law = law or default_contact_law(spec)
+    law = law or options.contact_law or default_contact_law(spec)
+    flexible_carrier = options.flexible_carrier_on
     sc = exu.SystemContainer()
     mbs = sc.AddSystem()
     ground_body = mbs.AddObject(ObjectGround())
     ground_coord = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=mbs.AddNode(NodePointGround()), coordinate=0))
-    # "flexible" makes the cycloid discs FE-reduced bodies; the other parts stay rigid so far
     pins = pin_ring.build(mbs, spec, errors, fidelity="rigid")
     sun = input_stage.build(mbs, spec, ground_coord, fidelity="rigid")
-    fe = dict(fe or {})
-    flexible_carrier = bool(fe.pop("flexible_carrier", flexible_carrier))  # the CLI's --flexible-carrier comes in fe
-    carrier_fe = {k[len("carrier_"):]: fe.pop(k) for k in list(fe) if k.startswith("carrier_")}
     if flexible_carrier and reduced_carrier is None:
         from rvflex.fe.reduce import reduce_part
 
-        reduced_carrier = reduce_part(spec, "carrier", **{**FLEXIBLE_CARRIER_FE, **carrier_fe})
+        reduced_carrier = reduce_part(spec, "carrier", **dataclasses.asdict(options.carrier))
     carrier = carrier_part.build(mbs, spec, errors, ground_body, ground_coord,
                                  fidelity="flexible" if flexible_carrier else "rigid", reduced=reduced_carrier,
-                                 seat_marker=carrier_seat_marker)
+                                 seat_marker=options.carrier_seat_marker)
     axes = carrier_part.crank_axis_positions(spec, errors)
     # flexible carrier: the lumped support pair splits into one bearing per plate seat
     cranks = crankshaft.build(mbs, carrier_part.split_support_bearing(spec) if flexible_carrier else spec, errors,
                               carrier, sun.node, axes, fidelity="rigid")
     seat_in = carrier_part.add_input_seat_bearings(mbs, spec, errors, carrier, cranks) if flexible_carrier else ()
     ecc = crankshaft.eccentric_offsets(spec, errors)
-    if fidelity == "flexible" and reduced_disc is None:
+    if options.flexible_discs_on and reduced_disc is None:
         from rvflex.fe.reduce import reduce_part
 
-        reduced_disc = reduce_part(spec, "disc", **{**FLEXIBLE_DISC_FE, **fe})
-    discs = cycloid_disc.build(mbs, spec, errors, cranks, law, ecc, axes, fidelity=fidelity, reduced=reduced_disc,
+        reduced_disc = reduce_part(spec, "disc", **dataclasses.asdict(options.discs))
+    discs = cycloid_disc.build(mbs, spec, errors, cranks, law, ecc, axes,
+                               fidelity="flexible" if options.flexible_discs_on else "rigid", reduced=reduced_disc,
                                ground_coordinate=ground_coord)
     mbs.Assemble()
     ref = np.asarray(mbs.systemData.GetODE2Coordinates(configuration=exu.ConfigurationType.Reference))
     centres = np.array([np.asarray(mbs.GetNode(n)["referenceCoordinates"])[:2] for n in discs.nodes])
-    return ReducerModel(spec, errors, fidelity, sc, mbs, sun, carrier, cranks, discs, pins, ref, axes, centres, seat_in)
+    return ReducerModel(spec, errors, options, sc, mbs, sun, carrier, cranks, discs, pins, ref, axes, centres, seat_in,
+                        reduced_disc, reduced_carrier)

@@ -15,7 +15,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rvflex.contact.cycloid_pin import install_penetration_guard
 from rvflex.model import ReducerModel
 from rvflex.parts.carrier import OUTPUT_REGULARISER_NM_RAD
 
@@ -531,15 +530,22 @@ def dynamic(model: ReducerModel, speed_out_rpm: float, output_revolutions: float
     omega_in = speed_out_rpm * 2 * np.pi / 60.0 * model.ratio
     mbs.SetObjectParameter(model.sun.drive, "offsetUserFunction",
                            lambda mbs_, t, item, lOffset: input_angle(t, omega_in, ramp_s))
-    install_penetration_guard(mbs, list(model.discs.contacts))
-    from exudyn.itemInterface import SensorNode
+    # the angles are recorded by the post-Newton function (one Python call per step, which also
+    # guards the contacts' penetration): no sensors are added, so the caller's model keeps its items
+    contacts = list(model.discs.contacts)
+    i_in, i_out = model.planar_index()["sun"][2], model.output_index
+    ref_in, ref_out = model.reference[i_in], model.reference[i_out]
+    rows = [(0.0, q0[i_in] + ref_in, q0[i_out] + ref_out)]
+    sd = mbs.systemData
 
-    s_in = mbs.AddSensor(SensorNode(nodeNumber=model.sun.node, outputVariableType=exu.OutputVariableType.Coordinates,
-                                    storeInternal=True, writeToFile=False))
-    s_out = mbs.AddSensor(SensorNode(nodeNumber=model.carrier.node,
-                                     outputVariableType=exu.OutputVariableType.Coordinates,
-                                     storeInternal=True, writeToFile=False))
-    mbs.Assemble()
+    def post_newton(mbs_, t):
+        for c in contacts:
+            c.check_penetration(t)
+        q = sd.GetODE2Coordinates()
+        rows.append((t, q[i_in] + ref_in, q[i_out] + ref_out))
+        return [0.0, 0.0]
+
+    mbs.SetPostNewtonUserFunction(post_newton)
     mbs.systemData.SetODE2Coordinates(q0, configuration=exu.ConfigurationType.Initial)
     end = ramp_s + output_revolutions * 60.0 / speed_out_rpm
     # the residual's round-off floor is ~5e-9; angles reach 1e3 rad, so the Jacobian's
@@ -547,9 +553,13 @@ def dynamic(model: ReducerModel, speed_out_rpm: float, output_revolutions: float
     ss = generalized_alpha_settings(end, step_s, spectral_radius, relative_tolerance=1e-7,
                                     differentiation_epsilon=1e-10)
     t0 = time.perf_counter()
-    mbs.SolveDynamic(ss)
+    try:
+        mbs.SolveDynamic(ss)
+    finally:
+        mbs.SetPostNewtonUserFunction(0)
+        mbs.SetObjectParameter(model.sun.drive, "offsetUserFunction", 0)
+        mbs.SetObjectParameter(model.carrier.regulariser, "stiffness", OUTPUT_REGULARISER_NM_RAD)
     wall = time.perf_counter() - t0
-    a_in = np.asarray(mbs.GetSensorStoredData(s_in))
-    a_out = np.asarray(mbs.GetSensorStoredData(s_out))
-    th_in, th_out = a_in[:, 3], a_out[:, 1 + model.carrier.angle_coordinate]
-    return DynamicResult(a_in[:, 0], th_in, th_out, th_out - th_in / model.ratio, model.ratio, wall)
+    a = np.asarray(rows, float)
+    th_in, th_out = a[:, 1], a[:, 2]
+    return DynamicResult(a[:, 0], th_in, th_out, th_out - th_in / model.ratio, model.ratio, wall)

@@ -335,6 +335,31 @@ class SweepResult:
     cpu_s: float = 0.0  # worker CPU time summed over the points evaluated in this run
     cpu_busiest_worker_s: float = 0.0  # the largest per-worker sum of it (the pool's CPU makespan)
 
+    def to_dataframe(self):
+        """The table as a pandas DataFrame: one row per point (index ``point``), the factor
+        deviations (SI, as in the design) and the metrics (unit in the name), ``error`` where a
+        point failed."""
+        import pandas as pd
+
+        return pd.DataFrame(self.rows).set_index("point") if self.rows else pd.DataFrame(index=pd.Index([], name="point"))
+
+    def to_xarray(self):
+        """The table as an xarray Dataset over ``point``, each variable with ``units`` and
+        ``long_name`` (factor deviations from :data:`FACTORS`, metrics from their names)."""
+        import xarray as xr
+
+        ds = xr.Dataset.from_dataframe(self.to_dataframe())
+        metric_units = (("_Nm_per_arcmin", "N m/arcmin"), ("_arcsec", "arcsec"), ("_arcmin", "arcmin"))
+        for name in ds.data_vars:
+            if name in FACTORS:
+                ds[name].attrs = {"units": FACTORS[name][1], "long_name": f"deviation of the {FACTORS[name][0]}"}
+            else:
+                unit = next((u for suffix, u in metric_units if name.endswith(suffix)), "1")
+                ds[name].attrs = {"units": unit, "long_name": name.replace("_", " ")}
+        ds["point"].attrs = {"units": "1", "long_name": "design point"}
+        ds.attrs = {"executor": self.executor, "workers": self.workers, "finished": self.finished, "failed": self.failed}
+        return ds
+
 
 class _Store:
     """One SQLite file per sweep: the design digest and one row per finished point."""
@@ -619,16 +644,13 @@ def write_indices_csv(ranking: list[dict], classes: dict[str, str], path: Path) 
 def plot_indices(design: Design, ranking: list[dict], metric: str, path: Path) -> Path:
     """Bar plot of the sensitivity indices with their confidence intervals; for Morris also the
     μ*–σ plane (σ ≫ μ* flags interaction or non-linearity)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
 
     names = [r["factor"] for r in ranking][::-1]
     y = np.arange(len(names))
     morris = ranking[0]["index_name"] == "mu_star"
-    fig, axes = plt.subplots(1, 2 if morris else 1, figsize=(11 if morris else 7, 0.5 * len(names) + 2),
-                             layout="constrained", squeeze=False)
+    fig = Figure(figsize=(11 if morris else 7, 0.5 * len(names) + 2), layout="constrained")
+    axes = fig.subplots(1, 2 if morris else 1, squeeze=False)
     ax = axes[0, 0]
     rev = ranking[::-1]
     if morris:
@@ -651,22 +673,18 @@ def plot_indices(design: Design, ranking: list[dict], metric: str, path: Path) -
     fig.suptitle(f"{design.name}: {design.kind} ({design.samples} {'trajectories' if morris else 'base samples'}, "
                  f"{ranking[0]['groups_used']} complete)")
     fig.savefig(path, dpi=110)
-    plt.close(fig)
     return path
 
 
 def plot_main_effects(design: Design, ranking: list[dict], metric: str, path: Path) -> Path:
     """Main-effect plot: level means of ``metric`` against each factor's deviation (µm)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
 
     n = len(ranking)
     cols = min(n, 5)
     rows_ = math.ceil(n / cols)
-    fig, axes = plt.subplots(rows_, cols, figsize=(3.0 * cols, 2.6 * rows_), layout="constrained", squeeze=False,
-                             sharey=True)
+    fig = Figure(figsize=(3.0 * cols, 2.6 * rows_), layout="constrained")
+    axes = fig.subplots(rows_, cols, squeeze=False, sharey=True)
     levels = {f.name: f.levels for f in design.factors}
     cls = classify(ranking)
     for ax, r in zip(axes.flat, ranking):
@@ -679,7 +697,6 @@ def plot_main_effects(design: Design, ranking: list[dict], metric: str, path: Pa
     axes[0, 0].set_ylabel(metric)
     fig.suptitle(f"{design.name}: main effects ({design.kind}, {design.reducer})")
     fig.savefig(path, dpi=110)
-    plt.close(fig)
     return path
 
 

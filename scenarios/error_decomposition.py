@@ -63,10 +63,7 @@ def decompose(spec: ReducerSpec, errors: ErrorSpec, load_Nm: float, *, positions
 if __name__ == "__main__":
     import sys
 
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
 
     from rvflex import catalog
     from rvflex.scenarios.loaded_te import seed001_errors
@@ -78,7 +75,8 @@ if __name__ == "__main__":
         print(f"{g.group:20s} {g.te_pp_arcsec:8.2f}″  {100 * g.share:5.1f} %")
     out = Path(sys.argv[1] if len(sys.argv) > 1 else "out")
     out.mkdir(parents=True, exist_ok=True)
-    fig, ax = plt.subplots(figsize=(8, 4.5), layout="constrained")
+    fig = Figure(figsize=(8, 4.5), layout="constrained")
+    ax = fig.subplots()
     ax.barh([g.group for g in groups][::-1], [g.te_pp_arcsec for g in groups][::-1])
     ax.set_xlabel("loaded TE peak-to-peak with the group alone (arcsec)")
     ax.set_title(f"{spec.name}: error decomposition at {spec.rated_torque_Nm:g} N·m (all errors: {all_pp:.2f}″)")

@@ -9,40 +9,51 @@ from __future__ import annotations
 
 import dataclasses as dc
 import math
+import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 
 from rvflex.geometry.formulas import ARCSEC_PER_RAD
 from rvflex.metrics import TEMetrics, order_spectrum, te_metrics
-from rvflex.model import build_reducer, check_fidelity
+from rvflex.model import ReducerModel
+from rvflex.options import ModelOptions
+from rvflex.result import Result, new_axes, new_figure, scenario_attrs, variable
+from rvflex.scenarios.common import check_model, check_scenario_inputs
 from rvflex.solve import QuasiStaticResult, dynamic, quasi_static
 from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
 
-__all__ = ["LoadedTE", "perfect_spec", "run_loaded_te", "seed001_errors", "write_te_outputs"]
+__all__ = ["LoadedTE", "LoadedTEResult", "perfect_spec", "run_loaded_te", "seed001_errors",
+           "write_te_outputs"]
 
 
 @dataclass(frozen=True)
 class LoadedTE:
-    """Scenario settings: reducer, errors, output load (N·m), output revolutions, positions per
-    output revolution, direction (+1 forward, −1 reverse), mode, output speed (rpm), time
-    step (s) and fidelity ("rigid" or "flexible": FE-reduced cycloid discs)."""
+    """Loaded transmission error over whole output revolutions.
+
+    Reducer, errors (None: none), output load resisting the motion (N·m; None: rated),
+    output revolutions, positions per output revolution, direction (+1 forward, −1 reverse),
+    mode (quasi-static stepping or a generalized-α run), output speed (rpm) and time step (s)
+    of the dynamic mode, and the model options (:class:`~rvflex.options.ModelOptions` or a
+    preset name: ``"rigid"``, ``"flexible"``, ``"flexible-carrier"``)."""
 
     spec: ReducerSpec
-    errors: ErrorSpec
-    load_Nm: float
+    errors: ErrorSpec | None = None
+    load_Nm: float | None = None
     revolutions: float = 1.0
     positions_per_rev: int = 2048
     direction: int = 1
-    mode: str = "quasi-static"
+    mode: Literal["quasi-static", "dynamic"] = "quasi-static"
     speed_out_rpm: float = 15.0
     step_s: float = 1e-4
-    fidelity: str = "rigid"
-    fe: tuple[tuple[str, float], ...] = ()  # reduction settings of the flexible discs (rvflex.fe.reduce.PartSettings)
+    options: ModelOptions | str = ModelOptions()
 
     def __post_init__(self) -> None:
-        check_fidelity(self.fidelity)
+        check_scenario_inputs(self)
+        if self.load_Nm is None:
+            object.__setattr__(self, "load_Nm", self.spec.rated_torque_Nm)
         self.spec.check_torque("--load", self.load_Nm, allow_zero=True)
         if not self.revolutions > 0:
             raise SpecError("--revs", self.revolutions, "must be positive (output revolutions)")
@@ -57,6 +68,109 @@ class LoadedTE:
         if self.mode == "dynamic" and self.direction < 0:
             raise SpecError("--direction", "reverse", "dynamic runs go forward (reverse: quasi-static)")
 
+    @property
+    def n_positions(self) -> int:
+        """Positions over the whole run."""
+        return int(round(self.positions_per_rev * self.revolutions))
+
+    def run(self, *, model: ReducerModel | None = None, progress=None) -> LoadedTEResult:
+        """Run on ``model`` (built here when None; it must come from this scenario's spec, errors
+        and options) and return the labelled result; ``progress(done, total)`` per position."""
+        t0 = time.perf_counter()
+        res, met = run_loaded_te(self, progress, model=model)
+        return LoadedTEResult(self, met, time.perf_counter() - t0, res)
+
+
+@dataclass(frozen=True, eq=False)
+class LoadedTEResult(Result):
+    """Loaded TE: per position the input, output and TE angles, and the pin forces and gaps
+    (quasi-static runs; a dynamic run records the angles only). ``raw`` is the solver's record."""
+
+    raw: QuasiStaticResult
+
+    name = "te"
+    main_dim = "position"
+
+    def to_xarray(self):
+        """Dataset over ``position`` (nominal output angle θ_in/i, rad) and, for quasi-static runs,
+        ``disc`` × ``pin``: ``theta_out`` (rad), ``te`` (arcsec), ``pin_force`` (N), ``pin_gap`` (m);
+        the metrics in ``attrs``."""
+        import xarray as xr
+
+        r = self.raw
+        dims = ("position",)
+        data = {"theta_out": variable(dims, r.theta_out, "rad", "output angle θ_out"),
+                "te": variable(dims, r.te_rad * ARCSEC_PER_RAD, "arcsec", "transmission error θ_out − θ_in/i")}
+        coords = {"position": variable(dims, r.theta_in / r.ratio, "rad", "nominal output angle θ_in/i"),
+                  "theta_in": variable(dims, r.theta_in, "rad", "input angle θ_in")}
+        if r.pin_force_N.size:
+            nd, zb = r.pin_force_N.shape[1:]
+            coords["disc"] = variable(("disc",), np.arange(1, nd + 1), "1", "cycloid disc number")
+            coords["pin"] = variable(("pin",), np.arange(1, zb + 1), "1", "pin number")
+            data["pin_force"] = variable(("position", "disc", "pin"), r.pin_force_N, "N", "pin normal force")
+            data["pin_gap"] = variable(("position", "disc", "pin"), r.pin_gap_m, "m", "pin normal gap")
+        m = self.metrics
+        attrs = scenario_attrs(self.scenario, te_pp_arcsec=m.te_pp_arcsec, te_min_arcsec=m.te_min_arcsec,
+                               te_max_arcsec=m.te_max_arcsec, mean_windup_arcsec=m.mean_windup_arcsec,
+                               output_torque_Nm=float(r.torque_out_Nm), ratio=float(r.ratio))
+        return xr.Dataset(data, coords=coords, attrs=attrs)
+
+    def to_dataframe(self):
+        """One row per position: ``position_rad``, ``theta_in_rad``, ``theta_out_rad``, ``te_arcsec``."""
+        return super().to_dataframe()
+
+    def plot(self, ax=None, *, label: str | None = None):
+        """TE (arcsec) against the output angle (°) with the mean wind-up, on ``ax`` or a new
+        Figure's axes; the curve's ``label`` defaults to the model's fidelity. Returns the axes."""
+        ax = new_axes(ax)
+        r, m, sc = self.raw, self.metrics, self.scenario
+        ax.plot(np.degrees(r.theta_in / r.ratio), r.te_rad * ARCSEC_PER_RAD, lw=1.0,
+                label=sc.options.fidelity if label is None else label)
+        ax.axhline(m.mean_windup_arcsec, color="0.5", ls="--", lw=0.8, label=f"mean wind-up {m.mean_windup_arcsec:.1f}″")
+        ax.set_xlabel("output angle (°)")
+        ax.set_ylabel("TE = θ_out − θ_in/i (arcsec)")
+        direction = "forward" if sc.direction > 0 else "reverse"
+        ax.set_title(f"{sc.spec.name}: loaded TE at {sc.load_Nm:g} N·m, {direction}, {sc.mode}, "
+                     f"peak-to-peak {m.te_pp_arcsec:.2f}″")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+        return ax
+
+    def plot_orders(self, ax=None):
+        """The order spectrum (amplitude in arcsec per order of the output revolution)."""
+        ax = new_axes(ax)
+        sc = self.scenario
+        orders, amp = order_spectrum(self.raw.te_rad, sc.revolutions)
+        keep = (orders > 0) & (orders <= max(3 * sc.spec.cycloid.pin_count, 10))
+        ax.bar(orders[keep], amp[keep], width=0.8 / sc.revolutions)
+        ax.set_xlabel("order (per output revolution)")
+        ax.set_ylabel("amplitude (arcsec)")
+        ax.set_title("order spectrum")
+        ax.grid(alpha=0.3)
+        return ax
+
+    def plot_load_sharing(self, ax=None, position: int = 0):
+        """Pin normal forces (N) of each disc at ``position`` (quasi-static runs)."""
+        f = self.raw.pin_force_N
+        if f.size == 0:
+            raise SpecError("plot_load_sharing", self.scenario.mode, "a dynamic run records the angles only")
+        ax = new_axes(ax, figsize=(7, 4.2))
+        zb = f.shape[2]
+        for d in range(f.shape[1]):
+            ax.bar(np.arange(zb) + 0.4 * d - 0.2, f[position, d], width=0.4, label=f"disc {d + 1}")
+        ax.set_xlabel("pin number")
+        ax.set_ylabel("normal force (N)")
+        where = "the first position" if position == 0 else f"position {position}"
+        ax.set_title(f"pin load sharing at {where} ({self.scenario.load_Nm:g} N·m)")
+        ax.legend()
+        ax.grid(alpha=0.3)
+        return ax
+
+    def files(self, out: Path) -> list[Path]:
+        """te.csv (per step), te.png (TE vs output angle with the order spectrum) and
+        load_sharing.png (pin forces at the first position; quasi-static runs)."""
+        return write_te_outputs(out, self.raw, self.metrics, self.scenario)
+
 
 def perfect_spec(spec: ReducerSpec) -> ReducerSpec:
     """The theoretical reducer: no tooth modification, no gear backlash, no bearing clearance."""
@@ -70,15 +184,16 @@ def perfect_spec(spec: ReducerSpec) -> ReducerSpec:
                             eccentric=dc.replace(b.eccentric, clearance_m=0.0), main=dc.replace(b.main, clearance_m=0.0)))
 
 
-def run_loaded_te(scenario: LoadedTE, progress=None) -> tuple[QuasiStaticResult, TEMetrics]:
+def run_loaded_te(scenario: LoadedTE, progress=None, *, model: ReducerModel | None = None
+                  ) -> tuple[QuasiStaticResult, TEMetrics]:
     """Loaded TE over whole output revolutions, quasi-static or dynamic (the constant-speed part
-    after the ramp, resampled at ``positions_per_rev``)."""
-    model = build_reducer(scenario.spec, scenario.errors, scenario.fidelity, fe=dict(scenario.fe))
+    after the ramp, resampled at ``positions_per_rev``), on ``model`` (None: built here)."""
+    model = check_model(scenario, model)
+    n = scenario.n_positions
     if scenario.mode == "dynamic":
         ramp = 0.2
         dyn = dynamic(model, scenario.speed_out_rpm, scenario.revolutions, scenario.load_Nm, step_s=scenario.step_s,
                       ramp_s=ramp)
-        n = int(round(scenario.positions_per_rev * scenario.revolutions))
         th_start = float(np.interp(ramp, dyn.time_s, dyn.theta_in))  # constant speed from here on
         theta = th_start + np.linspace(0.0, 2 * math.pi * scenario.revolutions * model.ratio, n, endpoint=False)
         te = np.interp(theta, dyn.theta_in, dyn.te_rad)
@@ -87,7 +202,6 @@ def run_loaded_te(scenario: LoadedTE, progress=None) -> tuple[QuasiStaticResult,
         if progress is not None:
             progress(n, n)
         return res, te_metrics(res.te_rad, scenario.revolutions)
-    n = int(round(scenario.positions_per_rev * scenario.revolutions))
     theta = np.linspace(0.0, 2 * math.pi * scenario.revolutions * model.ratio, n, endpoint=False)
     if scenario.direction < 0:
         theta = -theta
@@ -98,51 +212,24 @@ def run_loaded_te(scenario: LoadedTE, progress=None) -> tuple[QuasiStaticResult,
 def write_te_outputs(out: Path, res: QuasiStaticResult, metrics: TEMetrics, scenario: LoadedTE) -> list[Path]:
     """Write te.csv (per step), te.png (TE vs output angle with the order spectrum) and
     load_sharing.png (pin forces at the first position) to ``out``."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     out.mkdir(parents=True, exist_ok=True)
+    result = LoadedTEResult(scenario, metrics, res.wall_s, res)
     te_as = res.te_rad * ARCSEC_PER_RAD
     out_deg = np.degrees(res.theta_in / res.ratio)
     csv = out / "te.csv"
     np.savetxt(csv, np.column_stack([res.theta_in, res.theta_out, out_deg, te_as]), delimiter=",",
                header="theta_in_rad,theta_out_rad,output_angle_deg,te_arcsec", comments="", fmt="%.12g")
-    fig, (a0, a1) = plt.subplots(1, 2, figsize=(13, 4.6), layout="constrained", width_ratios=(2.2, 1))
-    a0.plot(out_deg, te_as, lw=1.0)
-    a0.axhline(metrics.mean_windup_arcsec, color="0.5", ls="--", lw=0.8, label=f"mean wind-up {metrics.mean_windup_arcsec:.1f}″")
-    a0.set_xlabel("output angle (°)")
-    a0.set_ylabel("TE = θ_out − θ_in/i (arcsec)")
-    direction = "forward" if scenario.direction > 0 else "reverse"
-    a0.set_title(f"{scenario.spec.name}: loaded TE at {scenario.load_Nm:g} N·m, {direction}, {scenario.mode}, "
-                 f"peak-to-peak {metrics.te_pp_arcsec:.2f}″")
-    a0.grid(alpha=0.3)
-    a0.legend(fontsize=8)
-    orders, amp = order_spectrum(res.te_rad, scenario.revolutions)
-    keep = (orders > 0) & (orders <= max(3 * scenario.spec.cycloid.pin_count, 10))
-    a1.bar(orders[keep], amp[keep], width=0.8 / scenario.revolutions)
-    a1.set_xlabel("order (per output revolution)")
-    a1.set_ylabel("amplitude (arcsec)")
-    a1.set_title("order spectrum")
-    a1.grid(alpha=0.3)
+    fig = new_figure(figsize=(13, 4.6), layout="constrained")
+    a0, a1 = fig.subplots(1, 2, width_ratios=(2.2, 1))
+    result.plot(a0, label="_te")  # one curve: only the wind-up line in the legend
+    result.plot_orders(a1)
     te_png = out / "te.png"
     fig.savefig(te_png, dpi=120)
-    plt.close(fig)
     if res.pin_force_N.size == 0:  # dynamic runs record the angles only
         return [csv, te_png]
-    fig, ax = plt.subplots(figsize=(7, 4.2), layout="constrained")
-    zb = res.pin_force_N.shape[2]
-    for d in range(res.pin_force_N.shape[1]):
-        ax.bar(np.arange(zb) + 0.4 * d - 0.2, res.pin_force_N[0, d], width=0.4, label=f"disc {d + 1}")
-    ax.set_xlabel("pin number")
-    ax.set_ylabel("normal force (N)")
-    ax.set_title(f"pin load sharing at the first position ({scenario.load_Nm:g} N·m)")
-    ax.legend()
-    ax.grid(alpha=0.3)
+    ax = result.plot_load_sharing()
     share_png = out / "load_sharing.png"
-    fig.savefig(share_png, dpi=120)
-    plt.close(fig)
+    ax.figure.savefig(share_png, dpi=120)
     return [csv, te_png, share_png]
 
 
@@ -172,8 +259,8 @@ if __name__ == "__main__":
     from rvflex import catalog
 
     spec = catalog.load("rv40e")
-    scenario = LoadedTE(spec, seed001_errors(spec), spec.rated_torque_Nm)
-    res, met = run_loaded_te(scenario)
-    paths = write_te_outputs(Path(sys.argv[1] if len(sys.argv) > 1 else "out"), res, met, scenario)
+    result = LoadedTE(spec, seed001_errors(spec), spec.rated_torque_Nm).run()
+    paths = result.write(sys.argv[1] if len(sys.argv) > 1 else "out")
+    met = result.metrics
     print(f"TE peak-to-peak {met.te_pp_arcsec:.2f}″, mean wind-up {met.mean_windup_arcsec:.1f}″; wrote",
           ", ".join(map(str, paths)))

@@ -8,6 +8,7 @@ Run as a script for the catalogue RV-40E::
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -15,67 +16,112 @@ import numpy as np
 
 from rvflex.geometry.formulas import ARCSEC_PER_RAD
 from rvflex.metrics import HysteresisMetrics, hysteresis_metrics
-from rvflex.model import build_reducer, check_fidelity
+from rvflex.model import ReducerModel
+from rvflex.options import ModelOptions
+from rvflex.result import Result, new_axes, scenario_attrs, variable
+from rvflex.scenarios.common import check_model, check_scenario_inputs
 from rvflex.solve import TorqueStepResult, hysteresis_cycle, torque_stepping
 from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
 
-__all__ = ["LostMotion", "run_lost_motion", "write_lost_motion_outputs"]
+__all__ = ["LostMotion", "LostMotionResult", "run_lost_motion", "write_lost_motion_outputs"]
 
 
 @dataclass(frozen=True)
 class LostMotion:
-    """Scenario settings: reducer, errors, torque amplitude (default rated, N·m), torque steps,
-    fidelity ("rigid" or "flexible": FE-reduced discs)."""
+    """Catalogue torsional test. Reducer, errors (None: none), torque amplitude (N·m; None:
+    rated), torque steps over the cycle and the model options (:class:`~rvflex.options.ModelOptions`
+    or a preset name)."""
 
     spec: ReducerSpec
-    errors: ErrorSpec
-    torque_Nm: float
+    errors: ErrorSpec | None = None
+    torque_Nm: float | None = None
     steps: int = 200
-    fidelity: str = "rigid"
-    fe: tuple[tuple[str, float], ...] = ()  # reduction settings of the flexible discs (rvflex.fe.reduce.PartSettings)
+    options: ModelOptions | str = ModelOptions()
 
     def __post_init__(self) -> None:
+        check_scenario_inputs(self)
+        if self.torque_Nm is None:
+            object.__setattr__(self, "torque_Nm", self.spec.rated_torque_Nm)
         self.spec.check_torque("--torque", self.torque_Nm)
-        check_fidelity(self.fidelity)
         if not self.steps >= 40:
             raise SpecError("--steps", self.steps, "must be at least 40 torque steps")
 
+    @property
+    def torques_Nm(self) -> np.ndarray:
+        """The torque path of the cycle (N·m)."""
+        return hysteresis_cycle(self.torque_Nm, self.steps)
 
-def run_lost_motion(scenario: LostMotion, progress=None) -> tuple[TorqueStepResult, HysteresisMetrics]:
-    """Run the torque cycle and evaluate the catalogue metrics."""
-    model = build_reducer(scenario.spec, scenario.errors, scenario.fidelity, fe=dict(scenario.fe))
-    res = torque_stepping(model, hysteresis_cycle(scenario.torque_Nm, scenario.steps), progress=progress)
+    def run(self, *, model: ReducerModel | None = None, progress=None) -> LostMotionResult:
+        """Run on ``model`` (built here when None; it must come from this scenario's spec, errors
+        and options); ``progress(done, total)`` per torque step."""
+        t0 = time.perf_counter()
+        res, met = run_lost_motion(self, progress, model=model)
+        return LostMotionResult(self, met, time.perf_counter() - t0, res)
+
+
+def run_lost_motion(scenario: LostMotion, progress=None, *, model: ReducerModel | None = None
+                    ) -> tuple[TorqueStepResult, HysteresisMetrics]:
+    """Run the torque cycle on ``model`` (None: built here) and evaluate the catalogue metrics."""
+    model = check_model(scenario, model)
+    res = torque_stepping(model, scenario.torques_Nm, progress=progress)
     return res, hysteresis_metrics(res.torque_Nm, res.theta_out, scenario.torque_Nm)
+
+
+@dataclass(frozen=True, eq=False)
+class LostMotionResult(Result):
+    """Torsional hysteresis: per torque step the output torque and angle. ``raw`` is the solver's record."""
+
+    raw: TorqueStepResult
+
+    name = "hysteresis"
+    main_dim = "torque_step"
+
+    def to_xarray(self):
+        """Dataset over ``torque_step``: coordinate ``torque`` (N m), ``theta_out`` (rad) and
+        ``output_angle`` (arcmin); the metrics in ``attrs``."""
+        import xarray as xr
+
+        r, dims = self.raw, ("torque_step",)
+        coords = {"torque_step": variable(dims, np.arange(len(r.torque_Nm)), "1", "step of the torque cycle"),
+                  "torque": variable(dims, r.torque_Nm, "N m", "output torque (positive forward)")}
+        data = {"theta_out": variable(dims, r.theta_out, "rad", "output angle θ_out (input locked)"),
+                "output_angle": variable(dims, r.theta_out * ARCSEC_PER_RAD / 60.0, "arcmin",
+                                         "output angle θ_out (input locked)")}
+        return xr.Dataset(data, coords=coords, attrs=scenario_attrs(self.scenario, **self.metrics_dict()))
+
+    def plot(self, ax=None):
+        """The hysteresis loop (torque against output angle in arcmin) with the ±3 % band; returns the axes."""
+        ax = new_axes(ax, figsize=(8, 5.2))
+        r, met, sc = self.raw, self.metrics, self.scenario
+        ax.plot(r.theta_out * ARCSEC_PER_RAD / 60.0, r.torque_Nm, "-", lw=1.2, marker=".", ms=3)
+        t3 = 0.03 * sc.torque_Nm
+        ax.axhspan(-t3, t3, color="C1", alpha=0.15, label=f"±3 % T: lost motion {met.lost_motion_arcmin:.3f}′")
+        ax.axhline(0.0, color="0.4", lw=0.6)
+        ax.set_xlabel("output angle (arcmin)")
+        ax.set_ylabel("output torque (N·m)")
+        ax.set_title(f"{sc.spec.name}: torsional hysteresis, input locked — stiffness "
+                     f"{met.torsional_stiffness_Nm_per_arcmin:.1f} N·m/arcmin, backlash {met.backlash_arcmin:.3f}′, "
+                     f"hysteresis loss {met.hysteresis_loss_arcmin:.3f}′", fontsize=9)
+        ax.grid(alpha=0.3)
+        ax.legend(loc="upper left")
+        return ax
+
+    def files(self, out: Path) -> list[Path]:
+        """hysteresis.csv and hysteresis.png."""
+        return write_lost_motion_outputs(out, self.raw, self.metrics, self.scenario)
 
 
 def write_lost_motion_outputs(out: Path, res: TorqueStepResult, met: HysteresisMetrics,
                               scenario: LostMotion) -> list[Path]:
     """Write hysteresis.csv and hysteresis.png (the loop with its metrics marked)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     out.mkdir(parents=True, exist_ok=True)
     arcmin = res.theta_out * ARCSEC_PER_RAD / 60.0
     csv = out / "hysteresis.csv"
     np.savetxt(csv, np.column_stack([res.torque_Nm, res.theta_out, arcmin]), delimiter=",",
                header="torque_Nm,theta_out_rad,theta_out_arcmin", comments="", fmt="%.12g")
-    fig, ax = plt.subplots(figsize=(8, 5.2), layout="constrained")
-    ax.plot(arcmin, res.torque_Nm, "-", lw=1.2, marker=".", ms=3)
-    t3 = 0.03 * scenario.torque_Nm
-    ax.axhspan(-t3, t3, color="C1", alpha=0.15, label=f"±3 % T: lost motion {met.lost_motion_arcmin:.3f}′")
-    ax.axhline(0.0, color="0.4", lw=0.6)
-    ax.set_xlabel("output angle (arcmin)")
-    ax.set_ylabel("output torque (N·m)")
-    ax.set_title(f"{scenario.spec.name}: torsional hysteresis, input locked — stiffness "
-                 f"{met.torsional_stiffness_Nm_per_arcmin:.1f} N·m/arcmin, backlash {met.backlash_arcmin:.3f}′, "
-                 f"hysteresis loss {met.hysteresis_loss_arcmin:.3f}′", fontsize=9)
-    ax.grid(alpha=0.3)
-    ax.legend(loc="upper left")
+    ax = LostMotionResult(scenario, met, res.wall_s, res).plot()
     png = out / "hysteresis.png"
-    fig.savefig(png, dpi=120)
-    plt.close(fig)
+    ax.figure.savefig(png, dpi=120)
     return [csv, png]
 
 
@@ -84,8 +130,6 @@ if __name__ == "__main__":
 
     from rvflex import catalog
 
-    spec = catalog.load("rv40e")
-    sc = LostMotion(spec, ErrorSpec(), spec.rated_torque_Nm)
-    r, m = run_lost_motion(sc)
-    print(m)
-    print(write_lost_motion_outputs(Path(sys.argv[1] if len(sys.argv) > 1 else "out"), r, m, sc))
+    result = LostMotion(catalog.load("rv40e")).run()
+    print(result.metrics)
+    print(result.write(sys.argv[1] if len(sys.argv) > 1 else "out"))

@@ -12,76 +12,133 @@ catalogue's lost-motion level) it is the free play plus the small elastic turn a
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from rvflex.geometry.formulas import ARCMIN_PER_RAD
-from rvflex.model import build_reducer, check_fidelity
+from rvflex.model import ReducerModel
+from rvflex.options import ModelOptions
+from rvflex.result import Result, new_axes, scenario_attrs, variable
+from rvflex.scenarios.common import check_model, check_scenario_inputs
 from rvflex.solve import QuasiStaticResult, quasi_static
 from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
 
-__all__ = ["ReversalBacklash", "run_reversal_backlash", "write_backlash_outputs", "DEFAULT_LOAD_FRACTION"]
+__all__ = ["BacklashMetrics", "ReversalBacklash", "ReversalBacklashResult", "run_reversal_backlash",
+           "write_backlash_outputs", "DEFAULT_LOAD_FRACTION"]
 
 DEFAULT_LOAD_FRACTION = 0.03
 
 
 @dataclass(frozen=True)
 class ReversalBacklash:
-    """Reducer, errors, resisting load (N·m), input window (output degrees), positions and
-    fidelity ("rigid" or "flexible")."""
+    """Reducer, errors (None: none), resisting load (N·m; None: :data:`DEFAULT_LOAD_FRACTION` of
+    rated), input window (output degrees), positions and the model options
+    (:class:`~rvflex.options.ModelOptions` or a preset name)."""
 
     spec: ReducerSpec
-    errors: ErrorSpec
-    load_Nm: float
+    errors: ErrorSpec | None = None
+    load_Nm: float | None = None
     window_out_deg: float = 3.0
     positions: int = 60
-    fidelity: str = "rigid"
-    fe: tuple[tuple[str, float], ...] = ()  # reduction settings of the flexible discs (rvflex.fe.reduce.PartSettings)
+    options: ModelOptions | str = ModelOptions()
 
     def __post_init__(self) -> None:
+        check_scenario_inputs(self)
+        if self.load_Nm is None:
+            object.__setattr__(self, "load_Nm", DEFAULT_LOAD_FRACTION * self.spec.rated_torque_Nm)
         self.spec.check_torque("--load", self.load_Nm)
-        check_fidelity(self.fidelity)
         if not self.positions >= 8:
             raise SpecError("--positions", self.positions, "must be at least 8")
 
+    def run(self, *, model: ReducerModel | None = None, progress=None) -> ReversalBacklashResult:
+        """Run on ``model`` (built here when None; it must come from this scenario's spec, errors
+        and options); ``progress(done, total)`` after each branch."""
+        t0 = time.perf_counter()
+        lost, fwd, rev = run_reversal_backlash(self, model=model, progress=progress)
+        return ReversalBacklashResult(self, BacklashMetrics(lost), time.perf_counter() - t0, fwd, rev)
 
-def run_reversal_backlash(sc: ReversalBacklash) -> tuple[float, QuasiStaticResult, QuasiStaticResult]:
-    """Reversal backlash (arcmin) and the forward and reverse runs."""
-    model = build_reducer(sc.spec, sc.errors, sc.fidelity, fe=dict(sc.fe))
+
+@dataclass(frozen=True)
+class BacklashMetrics:
+    """Reversal backlash: mean distance between the forward and reverse output branches (arcmin)."""
+
+    reversal_backlash_arcmin: float
+
+
+def run_reversal_backlash(sc: ReversalBacklash, *, model: ReducerModel | None = None,
+                          progress=None) -> tuple[float, QuasiStaticResult, QuasiStaticResult]:
+    """Reversal backlash (arcmin) and the forward and reverse runs, on ``model`` (None: built here)."""
+    model = check_model(sc, model)
     span = math.radians(sc.window_out_deg) * model.ratio
     grid = np.linspace(0.0, span, sc.positions)
     fwd = quasi_static(model, grid, sc.load_Nm)
+    if progress is not None:
+        progress(1, 2)
     rev = quasi_static(model, grid[::-1], sc.load_Nm)
+    if progress is not None:
+        progress(2, 2)
     lost = float(np.mean(fwd.theta_out - rev.theta_out[::-1])) * ARCMIN_PER_RAD
     return abs(lost), fwd, rev
+
+
+@dataclass(frozen=True, eq=False)
+class ReversalBacklashResult(Result):
+    """Forward and reverse output branches over the input window (``forward``, ``reverse``: the
+    solver's records, the reverse one in its own, descending, order)."""
+
+    forward: QuasiStaticResult
+    reverse: QuasiStaticResult
+
+    name = "backlash"
+    main_dim = "position"
+
+    def to_xarray(self):
+        """Dataset over ``position`` (nominal output angle θ_in/i, rad): ``te_forward`` and
+        ``te_reverse`` (arcmin) at equal input angle; the metric in ``attrs``."""
+        import xarray as xr
+
+        f, r, dims = self.forward, self.reverse, ("position",)
+        coords = {"position": variable(dims, f.theta_in / f.ratio, "rad", "nominal output angle θ_in/i"),
+                  "theta_in": variable(dims, f.theta_in, "rad", "input angle θ_in")}
+        data = {"te_forward": variable(dims, f.te_rad * ARCMIN_PER_RAD, "arcmin", "TE θ_out − θ_in/i, input forward"),
+                "te_reverse": variable(dims, r.te_rad[::-1] * ARCMIN_PER_RAD, "arcmin",
+                                       "TE θ_out − θ_in/i, input reversed")}
+        return xr.Dataset(data, coords=coords, attrs=scenario_attrs(self.scenario, **self.metrics_dict()))
+
+    def plot(self, ax=None):
+        """Both branches (arcmin) against the output angle (°); returns the axes."""
+        ax = new_axes(ax)
+        f, r, sc = self.forward, self.reverse, self.scenario
+        x = np.degrees(f.theta_in / f.ratio)
+        ax.plot(x, f.te_rad * ARCMIN_PER_RAD, label="forward")
+        ax.plot(x, r.te_rad[::-1] * ARCMIN_PER_RAD, label="reverse")
+        ax.set_xlabel("output angle (°)")
+        ax.set_ylabel("TE (arcmin)")
+        ax.set_title(f"{sc.spec.name}: reversal backlash {self.metrics.reversal_backlash_arcmin:.4f}′ "
+                     f"at ±{sc.load_Nm:g} N·m")
+        ax.grid(alpha=0.3)
+        ax.legend()
+        return ax
+
+    def files(self, out: Path) -> list[Path]:
+        """backlash.csv and backlash.png."""
+        return write_backlash_outputs(out, self.metrics.reversal_backlash_arcmin, self.forward, self.reverse,
+                                      self.scenario)
 
 
 def write_backlash_outputs(out: Path, lost: float, fwd: QuasiStaticResult, rev: QuasiStaticResult,
                            sc: ReversalBacklash) -> list[Path]:
     """Write backlash.csv and backlash.png (both output branches against the input angle)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     out.mkdir(parents=True, exist_ok=True)
     csv = out / "backlash.csv"
     np.savetxt(csv, np.column_stack([fwd.theta_in, fwd.te_rad, rev.te_rad[::-1]]), delimiter=",",
                header="theta_in_rad,te_forward_rad,te_reverse_rad", comments="", fmt="%.12g")
-    fig, ax = plt.subplots(figsize=(8, 4.5), layout="constrained")
-    x = np.degrees(fwd.theta_in / fwd.ratio)
-    ax.plot(x, fwd.te_rad * ARCMIN_PER_RAD, label="forward")
-    ax.plot(x, rev.te_rad[::-1] * ARCMIN_PER_RAD, label="reverse")
-    ax.set_xlabel("output angle (°)")
-    ax.set_ylabel("TE (arcmin)")
-    ax.set_title(f"{sc.spec.name}: reversal backlash {lost:.4f}′ at ±{sc.load_Nm:g} N·m")
-    ax.grid(alpha=0.3)
-    ax.legend()
+    ax = ReversalBacklashResult(sc, BacklashMetrics(lost), fwd.wall_s + rev.wall_s, fwd, rev).plot()
     png = out / "backlash.png"
-    fig.savefig(png, dpi=120)
-    plt.close(fig)
+    ax.figure.savefig(png, dpi=120)
     return [csv, png]
 
 
@@ -90,8 +147,6 @@ if __name__ == "__main__":
 
     from rvflex import catalog
 
-    spec = catalog.load("rv40e")
-    sc = ReversalBacklash(spec, ErrorSpec(), DEFAULT_LOAD_FRACTION * spec.rated_torque_Nm)
-    lost, f, r = run_reversal_backlash(sc)
-    print(f"reversal backlash {lost:.4f}′")
-    print(write_backlash_outputs(Path(sys.argv[1] if len(sys.argv) > 1 else "out"), lost, f, r, sc))
+    result = ReversalBacklash(catalog.load("rv40e")).run()
+    print(f"reversal backlash {result.metrics.reversal_backlash_arcmin:.4f}′")
+    print(result.write(sys.argv[1] if len(sys.argv) > 1 else "out"))

@@ -298,10 +298,7 @@ def write_sensitivity_outputs(out: Path, rows: list[SensitivityRow]) -> list[Pat
     which is how the paper's column can be compared)."""
     import csv
 
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
 
     out.mkdir(parents=True, exist_ok=True)
     b0 = nominal_backlash(rows)
@@ -323,7 +320,8 @@ def write_sensitivity_outputs(out: Path, rows: list[SensitivityRow]) -> list[Pat
     ref = {r.key: r for r in rows}.get("mod_equidistant")
     names = [r.name.replace(" (eccentric needle bearings)", " (eccentric)") for r in rows]
     y = np.arange(len(rows))[::-1]
-    fig, (a1, a2) = plt.subplots(1, 2, figsize=(14, 0.42 * len(rows) + 2), layout="constrained", sharey=True)
+    fig = Figure(figsize=(14, 0.42 * len(rows) + 2), layout="constrained")
+    a1, a2 = fig.subplots(1, 2, sharey=True)
     modelled = [r.note != "not modelled" for r in rows]
     a1.barh(y + 0.27, [mag(r) if m else 0 for r, m in zip(rows, modelled)], 0.27, label="model |slope|")
     a1.barh(y, [abs(r.formula_coupled) if math.isfinite(r.formula_coupled) else 0 for r in rows], 0.27,
@@ -347,7 +345,6 @@ def write_sensitivity_outputs(out: Path, rows: list[SensitivityRow]) -> list[Pat
                  f"{rows[0].h_m / UM:g} µm)")
     path_png = out / "sensitivity.png"
     fig.savefig(path_png, dpi=110)
-    plt.close(fig)
     return [path_csv, path_md, path_png]
 
 

@@ -4,6 +4,8 @@ CI stays quick; the full-size reduction is exercised by the slow tests and bench
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -121,17 +123,28 @@ def test_flexibility_effect_scenario_writes_its_table(setup, tmp_path):
     stay the larger compliance), and the files are written."""
     from rvflex.scenarios.flexibility_effect import (FlexibilityEffect, run_flexibility_effect,
                                                      write_flexibility_outputs)
+    from rvflex.options import DISC_FE
     from rvflex.spec import ErrorSpec
 
     spec, _, _, _ = setup
     sc = FlexibilityEffect(spec, ErrorSpec(), load_fractions=(0.0, 1.0), positions_per_rev=16, steps=40,
-                           fe=tuple(COARSE.items()))
-    rows = run_flexibility_effect(sc, progress=lambda msg: None)
+                           discs=dataclasses.replace(DISC_FE, **COARSE))
+    rows = run_flexibility_effect(sc, progress=lambda done, total: None)
     rated = next(r for r in rows if r["fidelity"] == "flexible" and r["load_fraction"] == 1.0)
     assert 0.0 < rated["elastic_share_windup"] < 0.5
     assert 0.0 < rated["elastic_share_compliance"] < 0.5
     paths = write_flexibility_outputs(tmp_path, rows, sc)
     assert all(p.stat().st_size > 0 for p in paths)
+    # the same table through the API: Dataset over variant × load, metrics at rated torque
+    import rvflex
+
+    result = rvflex.run(sc)
+    ds = result.to_xarray()
+    assert ds.sizes == {"variant": 2, "load": 2}
+    assert float(ds.elastic_share_windup.sel(variant="flexible", load=412.0)) == pytest.approx(
+        rated["elastic_share_windup"], abs=1e-9)
+    assert result.metrics.elastic_share_compliance == pytest.approx(rated["elastic_share_compliance"], abs=1e-9)
+    assert len(result.to_dataframe()) == len(rows)
 
 
 def test_fe_convergence_scenario_runs_its_cases(setup):

@@ -6,12 +6,14 @@ flexibility_effect scenario."""
 from __future__ import annotations
 
 import argparse
+import dataclasses
 
 import numpy as np
 import pytest
 
 from rvflex.geometry.formulas import ARCSEC_PER_RAD
 from rvflex.model import build_reducer
+from rvflex.options import CARRIER_FE, DISC_FE, ModelOptions
 from rvflex.solve import quasi_static
 from conftest import COARSE_DISC
 
@@ -46,8 +48,8 @@ def _te(spec, disc, carrier, theta, monkeypatch=None, scale=1.0, seat_marker="vi
             return o
 
         monkeypatch.setattr(ffrf, "ffrf_interface", stiffer)
-    model = build_reducer(spec, None, "flexible", reduced_disc=disc, flexible_carrier=True, reduced_carrier=carrier,
-                          carrier_seat_marker=seat_marker)
+    model = build_reducer(spec, None, ModelOptions(carrier_seat_marker=seat_marker), reduced_disc=disc,
+                          reduced_carrier=carrier)
     return quasi_static(model, theta, spec.rated_torque_Nm).te_rad * ARCSEC_PER_RAD
 
 
@@ -56,7 +58,7 @@ def test_model_layout_of_the_flexible_carrier(setup):
     output angle is its 6th coordinate, node_slices leaves it out (no contiguous x, y, θ),
     the kinematic guess sets θ_out and zero modal coordinates; two support bearings per crank."""
     spec, disc, carrier, _, _ = setup
-    m = build_reducer(spec, None, "flexible", reduced_disc=disc, flexible_carrier=True, reduced_carrier=carrier)
+    m = build_reducer(spec, None, "flexible", reduced_disc=disc, reduced_carrier=carrier)
     i = m.mbs.GetNodeODE2Index(m.carrier.node)
     assert m.flexible_carrier and "carrier" not in m.node_slices()
     assert m.planar_index()["carrier"].tolist() == [i, i + 1, i + 5] and m.output_index == i + 5
@@ -136,8 +138,8 @@ def test_virtual_seat_nodes_move_like_the_all_node_seat_markers(setup):
     frame = [1e-5, -2e-5, 0.0, 0.0, 0.0, 0.3]
     outs, masses = {}, {}
     for mode in ("all_nodes", "virtual"):
-        m = build_reducer(spec, None, "flexible", reduced_disc=disc, flexible_carrier=True, reduced_carrier=carrier,
-                          carrier_seat_marker=mode)
+        m = build_reducer(spec, None, ModelOptions(carrier_seat_marker=mode), reduced_disc=disc,
+                          reduced_carrier=carrier)
         deformed = _seat_marker_outputs(m, q_modal, frame)
         masses[mode] = _mass_matrix(m)  # at the deformed, turned state just set
         outs[mode] = (deformed, _seat_marker_outputs(m, 0 * q_modal, frame))
@@ -206,14 +208,20 @@ def test_stiff_carrier_recovers_the_flexible_disc_model(setup, monkeypatch):
     assert np.abs(stiff - discs_only).max() < 0.01
 
 
-def test_cli_flag_needs_the_flexible_fidelity():
-    from rvflex.cli import _fe
+def test_cli_fidelity_maps_to_the_presets():
+    """--fidelity names a ModelOptions preset, --fe-* override the disc settings of a flexible one
+    and are refused with the rigid one (naming the flag); a reduced carrier makes the carrier
+    flexible with the reduction's own settings."""
+    from rvflex.cli import _options
     from rvflex.spec import SpecError
 
-    ns = dict(fe_maxh_m=None, fe_n_modes=None, fe_attach_per_tooth=None, fe_mesh_order=None, flexible_carrier=True)
-    with pytest.raises(SpecError, match="flexible-carrier"):
-        _fe(argparse.Namespace(fidelity="rigid", **ns))
-    assert _fe(argparse.Namespace(fidelity="flexible", **ns)) == (("flexible_carrier", True),)
+    ns = dict(fe_maxh_m=None, fe_n_modes=None, fe_attach_per_tooth=None, fe_mesh_order=None)
+    assert _options(argparse.Namespace(fidelity="rigid", **ns)) == ModelOptions.rigid()
+    assert _options(argparse.Namespace(fidelity="flexible", **ns)) == ModelOptions.flexible_discs()
+    both = _options(argparse.Namespace(fidelity="flexible-carrier", **{**ns, "fe_n_modes": 24}))
+    assert both.carrier == CARRIER_FE and both.discs == dataclasses.replace(DISC_FE, n_modes=24)
+    with pytest.raises(SpecError, match="--fe-modes"):
+        _options(argparse.Namespace(fidelity="rigid", **{**ns, "fe_n_modes": 24}))
 
 
 def test_flexibility_effect_scenario_has_the_carrier_row(setup, tmp_path):
@@ -225,8 +233,9 @@ def test_flexibility_effect_scenario_has_the_carrier_row(setup, tmp_path):
 
     spec = setup[0]
     sc = FlexibilityEffect(spec, ErrorSpec(), load_fractions=(0.0, 1.0), positions_per_rev=16, steps=40,
-                           fe=tuple(COARSE_DISC.items()), carrier_fe=tuple(COARSE_CARRIER.items()))
-    rows = run_flexibility_effect(sc, progress=lambda msg: None)
+                           discs=dataclasses.replace(DISC_FE, **COARSE_DISC),
+                           carrier=dataclasses.replace(CARRIER_FE, **COARSE_CARRIER))
+    rows = run_flexibility_effect(sc, progress=lambda done, total: None)
     rated = next(r for r in rows if r["fidelity"] == "flexible+carrier" and r["load_fraction"] == 1.0)
     assert 0.0 < rated["carrier_share_windup"] < rated["elastic_share_windup"] < 1.0
     assert 0.0 < rated["carrier_share_compliance"] < 1.0

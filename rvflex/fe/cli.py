@@ -10,11 +10,23 @@ import time
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the FE sub-commands to the ``rvflex`` parser."""
+    from rvflex.fe.reduce import DEFAULTS
+    from rvflex.options import CARRIER_FE, DISC_FE
+
+    def basis(s, part: str = "disc") -> str:
+        attach = f", {s.attach_per_tooth} attachment patches/tooth" if part == "disc" else ""
+        return f"{s.maxh_m * 1e3:g} mm order-{s.mesh_order} tets, {s.n_modes} modes{attach}"
+
     p = sub.add_parser("reduce", help="Craig–Bampton-reduce a flexible part (cached on disk)",
                        description="Mesh a part with netgen, reduce it (Hurty–Craig–Bampton, RBE2 interfaces) and "
                                    "report its size, eigenfrequencies and the reduced-vs-full static error at "
                                    "rated load. JSON keys: n_nodes, n_modes, freqs_hz, static_error_pct "
-                                   "({flank, interface, max}, %), wall_s, cached.")
+                                   "({flank, interface, max}, %), wall_s, cached. Defaults (rvflex.fe.reduce.DEFAULTS): "
+                                   f"disc {basis(DEFAULTS['disc'])} (the reference basis of the flank check); carrier "
+                                   f"{basis(DEFAULTS['carrier'], 'carrier')}, {DEFAULTS['carrier'].seat_coupling} seats. The "
+                                   "models of --fidelity flexible / flexible-carrier use the ModelOptions presets "
+                                   f"(rvflex.options): disc {basis(DISC_FE)} (global deformation only), carrier "
+                                   f"{basis(CARRIER_FE, 'carrier')} — the same carrier reduction as this command's.")
     p.add_argument("--reducer", required=True, help="catalogue name (rv40e) or spec TOML path")
     p.add_argument("--part", required=True, choices=("disc", "carrier"))
     p.add_argument("--json", help="write the result document here")

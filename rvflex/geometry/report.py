@@ -163,10 +163,7 @@ def plot_profile(spec: ReducerSpec, path: str | Path, errors: ErrorSpec | None =
 
     Returns the path of the PNG written.
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
 
     c = spec.cycloid
     theo = build_profile(c, modified=False)
@@ -185,7 +182,7 @@ def plot_profile(spec: ReducerSpec, path: str | Path, errors: ErrorSpec | None =
     centre, angle = nominal_disc_pose(c, 0.0, 0)
     xp = to_disc_frame(pins, centre, angle)
 
-    fig = plt.figure(figsize=(15, 5.4), layout="constrained")
+    fig = Figure(figsize=(15, 5.4), layout="constrained")
     gs = fig.add_gridspec(1, 3)
     ax0, ax1, ax2 = fig.add_subplot(gs[0]), fig.add_subplot(gs[1]), fig.add_subplot(gs[2])
     ring = np.linspace(0, 2 * np.pi, 97)
@@ -223,5 +220,4 @@ def plot_profile(spec: ReducerSpec, path: str | Path, errors: ErrorSpec | None =
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=130)
-    plt.close(fig)
     return path

@@ -1,0 +1,138 @@
+"""The Python API behind ``import rvflex``: load a reducer and its errors, build a model, run a
+scenario and get a labelled :class:`~rvflex.result.Result`.
+
+::
+
+    import rvflex
+    spec = rvflex.load_reducer("rv40e")
+    r = rvflex.run(rvflex.LoadedTE(spec, load_Nm=412.0, positions_per_rev=256))
+    r.metrics.te_pp_arcsec, r.to_dataframe(), r.plot()
+
+The ``rvflex`` command calls exactly these functions.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from rvflex import catalog
+from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
+from rvflex.spec import load_errors as load_errors_file
+from rvflex.spec import load_spec
+
+__all__ = ["SCENARIO_TYPES", "load_errors", "load_reducer", "run"]
+
+SCENARIO_TYPES = ("LoadedTE", "LostMotion", "ReversalBacklash", "FlexibilityEffect")
+
+
+def load_reducer(name_or_path: str | os.PathLike, *, field: str = "reducer") -> ReducerSpec:
+    """A built-in catalogue reducer (``"rv40e"``; :func:`rvflex.catalog.names`) or a spec TOML file.
+
+    Raises
+    ------
+    SpecError
+        Unknown name, missing file or an invalid spec (naming ``field``).
+    """
+    if not isinstance(name_or_path, (str, os.PathLike)):
+        raise TypeError(f"load_reducer: expected a catalogue name or a TOML path, got {type(name_or_path).__name__}")
+    name = os.fspath(name_or_path)
+    if name.endswith(".toml") or os.sep in name or isinstance(name_or_path, os.PathLike):
+        path = Path(name)
+        if not path.is_file():
+            raise SpecError(field, name, "file not found")
+        return load_spec(path)
+    return catalog.load(name)
+
+
+def load_errors(name_or_path: str | os.PathLike, spec: ReducerSpec, *, field: str = "errors") -> ErrorSpec:
+    """An ErrorSpec TOML file (omitted keys are zero) or a built-in error set (``"rv40e_seed001"``;
+    :func:`rvflex.catalog.error_set_names`), checked against ``spec``.
+
+    Raises
+    ------
+    SpecError
+        Unknown name, missing file, or errors that do not fit ``spec`` (naming ``field``).
+    """
+    if not isinstance(spec, ReducerSpec):
+        raise TypeError(f"load_errors: spec must be a ReducerSpec (rvflex.load_reducer(...)), got {type(spec).__name__}")
+    name = os.fspath(name_or_path)
+    if Path(name).is_file():
+        return load_errors_file(name, spec)
+    if not name.endswith(".toml") and os.sep not in name:
+        return catalog.load_error_set(name, spec)
+    raise SpecError(field, name, "file not found")
+
+
+def run(scenario, *, model=None, progress=None):
+    """Run ``scenario`` (:class:`~rvflex.scenarios.loaded_te.LoadedTE`,
+    :class:`~rvflex.scenarios.lost_motion.LostMotion`,
+    :class:`~rvflex.scenarios.reversal_backlash.ReversalBacklash` or
+    :class:`~rvflex.scenarios.flexibility_effect.FlexibilityEffect`) and return its
+    :class:`~rvflex.result.Result`.
+
+    ``model`` (from :func:`rvflex.build_reducer` with the scenario's spec, errors and options)
+    is reused instead of building one, and left as it was found: the same items, and the
+    loads, drive and regulariser settings and coordinates it had. ``progress(done, total)`` is
+    called as the run advances.
+
+    Raises
+    ------
+    TypeError
+        ``scenario`` is not one of the scenario types, or ``model`` not a ReducerModel.
+    SpecError
+        ``model`` was built from another spec, errors or options than the scenario's.
+    """
+    from rvflex.scenarios.flexibility_effect import FlexibilityEffect
+    from rvflex.scenarios.loaded_te import LoadedTE
+    from rvflex.scenarios.lost_motion import LostMotion
+    from rvflex.scenarios.reversal_backlash import ReversalBacklash
+
+    types = (LoadedTE, LostMotion, ReversalBacklash, FlexibilityEffect)
+    if not isinstance(scenario, types):
+        raise TypeError(f"rvflex.run: expected a scenario ({', '.join('rvflex.' + n for n in SCENARIO_TYPES)}), "
+                        f"got {type(scenario).__name__}: {scenario!r:.80}")
+    if model is None:
+        return scenario.run(progress=progress)
+    with _preserved(model):
+        return scenario.run(model=model, progress=progress)
+
+
+class _preserved:
+    """Restore the run-time settings a solver changes on a model (output load, regulariser,
+    input drive, coordinates), so a run leaves a passed-in model as it found it."""
+
+    def __init__(self, model):
+        from rvflex.model import ReducerModel
+
+        if not isinstance(model, ReducerModel):
+            raise TypeError(f"rvflex.run: model must be a ReducerModel (rvflex.build_reducer(...)) or None, "
+                            f"got {type(model).__name__}")
+        self.model = model
+
+    def __enter__(self):
+        import exudyn as exu
+
+        m = self.model
+        mbs, sd = m.mbs, m.mbs.systemData
+        self.load = mbs.GetLoadParameter(m.carrier.load, "load")
+        self.reg = {k: mbs.GetObjectParameter(m.carrier.regulariser, k) for k in ("stiffness", "offset")}
+        self.drive = mbs.GetObjectParameter(m.sun.drive, "offset")
+        self.items = m.item_count
+        self.q = {c: (sd.GetODE2Coordinates(configuration=c), sd.GetODE2Coordinates_t(configuration=c))
+                  for c in (exu.ConfigurationType.Initial, exu.ConfigurationType.Current)}
+        return self
+
+    def __exit__(self, *exc):
+        m = self.model
+        mbs, sd = m.mbs, m.mbs.systemData
+        mbs.SetLoadParameter(m.carrier.load, "load", self.load)
+        for k, v in self.reg.items():
+            mbs.SetObjectParameter(m.carrier.regulariser, k, v)
+        mbs.SetObjectParameter(m.sun.drive, "offset", self.drive)
+        for c, (q, v) in self.q.items():
+            sd.SetODE2Coordinates(q, configuration=c)
+            sd.SetODE2Coordinates_t(v, configuration=c)
+        if m.item_count != self.items:  # a solver that adds items is a bug: say so rather than hide it
+            raise RuntimeError(f"rvflex.run changed the model's item count ({self.items} → {m.item_count})")
+        return False

@@ -1,0 +1,196 @@
+"""``ModelOptions``: what fidelity each part of the reducer model has, in one typed object.
+
+One frozen options object selects how :func:`rvflex.model.build_reducer` builds every part:
+the cycloid discs and the carrier are each ``"rigid"`` or an FE reduction
+(:class:`rvflex.fe.reduce.PartSettings`: Craig–Bampton, floating frame), the flexible
+carrier's seat markers are a :data:`SeatMarker`, and the pin contact law is the spec's
+default line contact unless one is given. The presets hold the one default reduction per
+part that every entry point (scripts, the CLI's ``--fidelity``, sweeps, the notebook) uses:
+
+============================================  ==================  ==================
+preset                                        discs               carrier
+============================================  ==================  ==================
+:meth:`ModelOptions.rigid`                    rigid               rigid
+:meth:`ModelOptions.flexible_discs`           :data:`DISC_FE`     rigid
+:meth:`ModelOptions.flexible_discs_and_carrier`  :data:`DISC_FE`  :data:`CARRIER_FE`
+============================================  ==================  ==================
+
+Variants by :func:`dataclasses.replace` (e.g. more disc modes:
+``replace(opts, discs=replace(opts.discs, n_modes=24))``) or :meth:`ModelOptions.with_fe`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Literal, get_args
+
+from rvflex.fe.reduce import PartSettings
+from rvflex.spec import SpecError
+
+if TYPE_CHECKING:
+    from rvflex.contact.cycloid_pin import ContactLaw
+
+__all__ = ["CARRIER_FE", "DISC_FE", "FIDELITIES", "Fidelity", "ModelOptions", "PartFidelity", "SeatCoupling",
+           "SeatMarker", "as_options"]
+
+Fidelity = Literal["rigid", "flexible", "flexible-carrier"]
+"""Names of the presets (the CLI's ``--fidelity``): rigid parts, FE discs, FE discs and carrier."""
+FIDELITIES: tuple[str, ...] = get_args(Fidelity)
+
+SeatMarker = Literal["virtual", "all_nodes"]
+"""Flexible carrier seat markers: on four massless nodes carrying each seat's RBE3 motion
+(``"virtual"``) or on all seat nodes (``"all_nodes"``: the same coupling, slow — for comparison)."""
+
+SeatCoupling = Literal["rbe3", "rbe2"]
+"""Carrier crank-seat coupling of the reduction (:attr:`PartSettings.seat_coupling`):
+distributing (RBE3) or rigid rings (RBE2)."""
+
+PartFidelity = Literal["rigid"]
+"""A part that is not FE-reduced (the alternative to a :class:`PartSettings`)."""
+
+DISC_FE = PartSettings(maxh_m=6e-3, n_modes=12, mesh_order=2, patch_half_width_m=3e-3, attach_per_tooth=0,
+                       curvature_safety=1.0, attach_tangential=True)
+"""Disc reduction of the flexible presets: global deformation only — 6 bore (RBE2) modes and
+12 fixed-interface modes on 6 mm quadratic tets, no flank attachment modes, whose
+patch-local compliance the line-contact law already carries (docs/fe.md: convergence
+study). ``rvflex reduce --part disc`` instead defaults to the reference basis with flank
+attachment modes (``rvflex.fe.reduce.DEFAULTS``: 10 modes, 2 attachment patches per tooth),
+the basis its static flank check is about; the model reaches it with ``--fe-modes 10
+--fe-attach 2``."""
+
+CARRIER_FE = PartSettings(maxh_m=6e-3, n_modes=10, mesh_order=2, curvature_safety=1.0, seat_coupling="rbe3")
+"""Carrier reduction of :meth:`ModelOptions.flexible_discs_and_carrier`: output face the
+reference, 4 distributing (RBE3) seats with 6 attachment modes each, 10 fixed-interface
+modes, 6 mm quadratic tets (static check 3.3 % at the seats, 0.1 % at the pillars:
+docs/fe.md) — the same settings as ``rvflex reduce --part carrier``."""
+
+
+@dataclass(frozen=True)
+class ModelOptions:
+    """Fidelity of each part of the reducer model.
+
+    discs, carrier : ``"rigid"`` or :class:`PartSettings`
+        Rigid planar bodies, or Craig–Bampton FFRF bodies reduced with these settings
+        (cached on disk). The other parts (sun, cranks, pin ring) are rigid in every preset.
+    carrier_seat_marker : SeatMarker
+        Marker kind of the flexible carrier's crank seats (ignored for a rigid carrier).
+    contact_law : ContactLaw or None
+        The cycloid–pin law; None: the spec's line contact
+        (:func:`rvflex.model.default_contact_law`).
+    """
+
+    discs: PartSettings | PartFidelity = "rigid"
+    carrier: PartSettings | PartFidelity = "rigid"
+    carrier_seat_marker: SeatMarker = "virtual"
+    contact_law: ContactLaw | None = None
+
+    def __post_init__(self) -> None:
+        for name in ("discs", "carrier"):
+            value = getattr(self, name)
+            if value != "rigid" and not isinstance(value, PartSettings):
+                raise SpecError(name, value, "must be 'rigid' or an rvflex.fe.reduce.PartSettings")
+        if isinstance(self.carrier, PartSettings) and self.carrier.seat_coupling not in get_args(SeatCoupling):
+            raise SpecError("carrier.seat_coupling", self.carrier.seat_coupling,
+                            f"must be one of {get_args(SeatCoupling)}")
+        if self.carrier_seat_marker not in get_args(SeatMarker):
+            raise SpecError("carrier_seat_marker", self.carrier_seat_marker, f"must be one of {get_args(SeatMarker)}")
+        if self.contact_law is not None:
+            from rvflex.contact.cycloid_pin import ContactLaw
+
+            if not isinstance(self.contact_law, ContactLaw):
+                raise SpecError("contact_law", self.contact_law, "must be an rvflex.contact.cycloid_pin.ContactLaw")
+
+    # -- presets ------------------------------------------------------------------------------
+    @classmethod
+    def rigid(cls) -> ModelOptions:
+        """Every part rigid (planar rigid bodies)."""
+        return cls()
+
+    @classmethod
+    def flexible_discs(cls) -> ModelOptions:
+        """FE-reduced cycloid discs (:data:`DISC_FE`), the other parts rigid."""
+        return cls(discs=DISC_FE)
+
+    @classmethod
+    def flexible_discs_and_carrier(cls) -> ModelOptions:
+        """FE-reduced discs (:data:`DISC_FE`) and carrier (:data:`CARRIER_FE`, RBE3 seats)."""
+        return cls(discs=DISC_FE, carrier=CARRIER_FE)
+
+    @classmethod
+    def preset(cls, fidelity: Fidelity) -> ModelOptions:
+        """The preset of a fidelity name: ``"rigid"``, ``"flexible"`` (discs) or ``"flexible-carrier"``
+        (discs and carrier)."""
+        presets = {"rigid": cls.rigid, "flexible": cls.flexible_discs,
+                   "flexible-carrier": cls.flexible_discs_and_carrier}
+        if fidelity not in presets:
+            raise SpecError("fidelity", fidelity, f"must be one of {', '.join(map(repr, FIDELITIES))}")
+        return presets[fidelity]()
+
+    # -- reading ------------------------------------------------------------------------------
+    @property
+    def flexible_discs_on(self) -> bool:
+        """True when the discs are FE-reduced."""
+        return isinstance(self.discs, PartSettings)
+
+    @property
+    def flexible_carrier_on(self) -> bool:
+        """True when the carrier is FE-reduced."""
+        return isinstance(self.carrier, PartSettings)
+
+    @property
+    def fidelity(self) -> str:
+        """The preset name these options extend: ``"rigid"``, ``"flexible"`` or ``"flexible-carrier"``
+        (reductions other than the presets' keep their preset's name; see :meth:`describe`)."""
+        if self.flexible_carrier_on:
+            return "flexible-carrier" if self.flexible_discs_on else "rigid+carrier"
+        return "flexible" if self.flexible_discs_on else "rigid"
+
+    def with_fe(self, part: Literal["discs", "carrier"], **settings) -> ModelOptions:
+        """These options with the reduction of ``part`` changed (``PartSettings`` field names, e.g.
+        ``n_modes=24``); the part must be flexible."""
+        current = getattr(self, part, None)
+        if not isinstance(current, PartSettings):
+            raise SpecError(part, current, "is rigid in these options: FE settings apply to a flexible part only")
+        try:
+            return dataclasses.replace(self, **{part: dataclasses.replace(current, **settings)})
+        except TypeError as err:
+            raise SpecError(part, settings, f"not PartSettings fields ({err})") from None
+
+    def describe(self) -> str:
+        """One line naming each part's fidelity and reduction."""
+
+        def part(p) -> str:
+            if not isinstance(p, PartSettings):
+                return "rigid"
+            s = (f"FE {p.maxh_m * 1e3:g} mm order {p.mesh_order}, {p.n_modes} modes, "
+                 f"{p.attach_per_tooth} attachment patches/tooth")
+            return s
+        car = part(self.carrier)
+        if self.flexible_carrier_on:
+            car += f", {self.carrier.seat_coupling} seats ({self.carrier_seat_marker} markers)"
+        return f"discs {part(self.discs)}; carrier {car}"
+
+    def as_dict(self) -> dict:
+        """Plain values (for result attributes and JSON): part settings as dicts, the law by kind."""
+        def part(p):
+            return dataclasses.asdict(p) if isinstance(p, PartSettings) else p
+        return {"discs": part(self.discs), "carrier": part(self.carrier),
+                "carrier_seat_marker": self.carrier_seat_marker,
+                "contact_law": "default (line)" if self.contact_law is None else self.contact_law.kind}
+
+
+def as_options(value: ModelOptions | Fidelity | None, field: str = "options") -> ModelOptions:
+    """``value`` as :class:`ModelOptions`: options pass through, a preset name maps to its preset
+    (``"rigid"``, ``"flexible"``, ``"flexible-carrier"``), None is rigid; anything else is refused
+    naming ``field``."""
+    if value is None:
+        return ModelOptions.rigid()
+    if isinstance(value, ModelOptions):
+        return value
+    if isinstance(value, str):
+        if value not in FIDELITIES:
+            raise SpecError(field, value, f"must be ModelOptions or one of {', '.join(map(repr, FIDELITIES))}")
+        return ModelOptions.preset(value)
+    raise SpecError(field, value, f"must be ModelOptions or one of {', '.join(map(repr, FIDELITIES))} "
+                                  f"(got a {type(value).__name__})")

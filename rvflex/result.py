@@ -1,0 +1,169 @@
+"""``Result``: the one shape every scenario run returns (:func:`rvflex.run`).
+
+A result holds the ``scenario`` it ran, its ``metrics`` (a frozen dataclass whose field names
+carry their unit, e.g. ``te_pp_arcsec``) and the labelled data: :meth:`Result.to_xarray` (an
+``xarray.Dataset`` with named dimensions, SI coordinates, ``units`` and ``long_name`` on every
+variable, the scenario and spec in ``attrs``), :meth:`Result.to_dataframe` (tidy pandas),
+:meth:`Result.plot` (on a given ``Axes`` or a new :class:`matplotlib.figure.Figure`; pyplot's
+global state and the backend are never touched) and :meth:`Result.write` (the CSV/PNG files of
+the CLI plus ``<name>.nc``, the Dataset as netCDF-4 through h5netcdf).
+
+Each scenario module subclasses :class:`Result` with its data and drawing; this module holds
+what they share.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import shutil
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from rvflex.spec import SpecError, dumps_errors, dumps_spec
+
+__all__ = ["Result", "new_axes", "new_figure", "scenario_attrs", "variable"]
+
+UNIT_SUFFIX = {"rad": "rad", "arcsec": "arcsec", "arcmin": "arcmin", "N m": "Nm", "N": "N", "m": "m", "1": "",
+               "N m/arcmin": "Nm_per_arcmin", "deg": "deg"}
+"""Column-name suffix of each ``units`` attribute in :meth:`Result.to_dataframe`."""
+
+
+def variable(dims, values, units: str, long_name: str) -> tuple:
+    """An ``xarray`` variable tuple ``(dims, values, attrs)`` with ``units`` and ``long_name``."""
+    return (dims, np.asarray(values), {"units": units, "long_name": long_name})
+
+
+def scenario_attrs(scenario, **extra) -> dict:
+    """Dataset attributes recording ``scenario``: its settings as JSON, the spec's name and TOML,
+    the errors' TOML and the model options; netCDF-safe (strings and numbers only)."""
+    settings = {}
+    for f in dataclasses.fields(scenario):
+        value = getattr(scenario, f.name)
+        if f.name in ("spec", "errors"):
+            continue
+        if f.name == "options":
+            value = value.as_dict()
+        elif dataclasses.is_dataclass(value):
+            value = dataclasses.asdict(value)
+        settings[f.name] = value
+    attrs = {"scenario": type(scenario).__name__,
+             "scenario_settings": json.dumps(settings, default=_json_default),
+             "reducer": scenario.spec.name,
+             "spec_toml": dumps_spec(scenario.spec),
+             "errors_toml": dumps_errors(scenario.errors),
+             "Conventions": "CF-1.8",
+             "source": "rvflex"}
+    attrs.update(extra)
+    return attrs
+
+
+def _json_default(value):
+    if isinstance(value, (np.integer, np.floating)):
+        return value.item()
+    if isinstance(value, tuple):
+        return list(value)
+    return str(value)
+
+
+def new_figure(**kw):
+    """A :class:`matplotlib.figure.Figure` not registered with pyplot (no backend switch, no
+    global current figure)."""
+    from matplotlib.figure import Figure
+
+    return Figure(**kw)
+
+
+def new_axes(ax=None, **figure_kw):
+    """``ax``, or the axes of a new :func:`new_figure`."""
+    if ax is not None:
+        return ax
+    return new_figure(**({"figsize": (8, 4.5), "layout": "constrained"} | figure_kw)).subplots()
+
+
+@dataclass(frozen=True, eq=False)
+class Result:
+    """What a scenario run returns.
+
+    Attributes
+    ----------
+    scenario
+        The scenario that ran (a frozen dataclass: spec, errors, options and settings).
+    metrics
+        A frozen dataclass of scalar results, unit in each field name.
+    wall_s : float
+        Wall time of the run (s): model build (unless a model was passed), FE reduction on a cold
+        cache, solve.
+    """
+
+    scenario: Any
+    metrics: Any
+    wall_s: float
+
+    name = "result"  # file stem of the netCDF file
+    main_dim = "position"  # the dimension of :meth:`to_dataframe`'s rows
+
+    def metrics_dict(self) -> dict:
+        """The metrics as a plain dict (JSON-ready)."""
+        return dataclasses.asdict(self.metrics)
+
+    def to_xarray(self):
+        """The labelled data as an ``xarray.Dataset`` (subclasses)."""
+        raise NotImplementedError
+
+    def to_dataframe(self):
+        """Tidy table: one row per element of :attr:`main_dim`, one column per variable (and
+        coordinate) along it, the unit in the column name (``te_arcsec``)."""
+        ds = self.to_xarray()
+        names = [n for n, v in {**ds.coords, **ds.data_vars}.items() if v.dims == (self.main_dim,)]
+        df = ds[[n for n in names if n in ds.data_vars]].to_dataframe().reset_index()
+        df = df[[n for n in names if n in df.columns]]
+        return df.rename(columns={n: _column(n, ds[n].attrs.get("units", "")) for n in names})
+
+    def plot(self, ax=None):
+        """Draw the main curve on ``ax`` (or on a new Figure's axes) and return the axes (subclasses)."""
+        raise NotImplementedError
+
+    def files(self, out: Path) -> list[Path]:
+        """Write the CSV/PNG files into the existing directory ``out`` (subclasses)."""
+        raise NotImplementedError
+
+    def write(self, out: str | os.PathLike) -> list[Path]:
+        """Write the CLI's files and ``<name>.nc`` (the Dataset, netCDF-4 via h5netcdf) into the
+        directory ``out`` (created if missing). Everything is written into a temporary directory
+        first and moved in at the end, so a failure leaves nothing half-written.
+
+        Raises
+        ------
+        SpecError
+            ``out`` exists and is not a directory.
+        """
+        out = Path(out)
+        if out.exists() and not out.is_dir():
+            raise SpecError("out", str(out), "is a file, not a directory: results are written as several files")
+        out.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(dir=out, prefix=".rvflex-write-"))
+        try:
+            paths = self.files(tmp)
+            nc = tmp / f"{self.name}.nc"
+            self.to_xarray().to_netcdf(nc, engine="h5netcdf")
+            paths.append(nc)
+            final = []
+            for p in paths:
+                os.chmod(p, 0o644)
+                os.replace(p, out / p.name)
+                final.append(out / p.name)
+            return final
+        finally:
+            shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _column(name: str, units: str) -> str:
+    suffix = UNIT_SUFFIX.get(units, units.replace(" ", "").replace("/", "_per_"))
+    return f"{name}_{suffix}" if suffix and not name.endswith(suffix) else name
+

@@ -1,0 +1,44 @@
+"""What the model scenarios share: normalising their spec/errors/options and checking a
+model passed in for reuse."""
+
+from __future__ import annotations
+
+from rvflex.model import ReducerModel, build_reducer
+from rvflex.options import as_options
+from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
+
+__all__ = ["check_model", "check_scenario_inputs"]
+
+
+def check_scenario_inputs(scenario) -> None:
+    """Normalise and check the spec, errors and options shared by the model scenarios (in
+    ``__post_init__``): errors None → none, options a preset name → its preset."""
+    if not isinstance(scenario.spec, ReducerSpec):
+        raise TypeError(f"{type(scenario).__name__}.spec: expected a ReducerSpec (rvflex.load_reducer(...)), "
+                        f"got {type(scenario.spec).__name__}")
+    if scenario.errors is None:
+        object.__setattr__(scenario, "errors", ErrorSpec())
+    elif not isinstance(scenario.errors, ErrorSpec):
+        raise TypeError(f"{type(scenario).__name__}.errors: expected an ErrorSpec or None "
+                        f"(rvflex.load_errors(...)), got {type(scenario.errors).__name__}")
+    scenario.errors.check_against(scenario.spec)
+    object.__setattr__(scenario, "options", as_options(scenario.options, "options"))
+
+
+def check_model(scenario, model: ReducerModel | None) -> ReducerModel:
+    """``model`` if it was built from the scenario's spec, errors and options, else a SpecError
+    naming what differs; None builds the model."""
+    if model is None:
+        return build_reducer(scenario.spec, scenario.errors, scenario.options)
+    if not isinstance(model, ReducerModel):
+        raise TypeError(f"model: expected a ReducerModel (rvflex.build_reducer(...)) or None, "
+                        f"got {type(model).__name__}")
+    for name in ("spec", "errors", "options"):
+        if getattr(model, name) != getattr(scenario, name):
+            def show(x):
+                return x.name if name == "spec" else x.describe() if name == "options" else x
+            got, want = show(getattr(model, name)), show(getattr(scenario, name))
+            raise SpecError("model", f"{name} {got}",
+                            f"the model was built from another {name} than the scenario's ({want}): "
+                            f"build it with rvflex.build_reducer(scenario.spec, scenario.errors, scenario.options)")
+    return model

@@ -1,0 +1,188 @@
+"""The Python API (``import rvflex``): scenarios in, labelled results out.
+
+The loaded-TE result's Dataset, DataFrame, metrics and netCDF file hold the same numbers as the
+CLI's JSON; a run on a passed-in model leaves it as found (items and the next run's answer);
+plots leave matplotlib's backend and pyplot's figures alone; bad input is refused naming what
+was passed; the README's Python block runs as written."""
+
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import rvflex
+
+README = Path(__file__).resolve().parents[1] / "README.md"
+
+
+@pytest.fixture(scope="module")
+def rv40e():
+    return rvflex.load_reducer("rv40e")
+
+
+@pytest.fixture(scope="module")
+def te_result(rv40e):
+    return rvflex.run(rvflex.LoadedTE(rv40e, load_Nm=412.0, positions_per_rev=256))
+
+
+def test_import_is_lazy():
+    """``import rvflex`` loads none of the engine (Exudyn, numba, xarray): they load on first
+    use of a top-level name (PEP 562)."""
+    code = ("import sys, rvflex; heavy = [m for m in ('exudyn', 'numba', 'xarray', 'rvflex.model', 'numpy') "
+            "if m in sys.modules]; print(heavy); rvflex.LoadedTE; print('rvflex.model' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split("\n")
+    assert out[0] == "[]" and out[1] == "True"
+
+
+def test_loaded_te_result_is_labelled_and_matches_the_cli(te_result, tmp_path):
+    """The issue's check: ``te`` (arcsec) over ``position`` (256), the DataFrame with the same
+    numbers, te_pp equal to the CLI's for the same inputs (the same code path: bit-equal), and
+    the netCDF file reopening identical to the Dataset."""
+    import xarray as xr
+
+    r = te_result
+    ds = r.to_xarray()
+    assert ds["te"].dims == ("position",) and ds.sizes["position"] == 256
+    for name in ds.variables:
+        assert {"units", "long_name"} <= set(ds[name].attrs), name
+    assert ds["te"].attrs["units"] == "arcsec" and ds["position"].attrs["units"] == "rad"
+    assert ds.attrs["reducer"] == "rv40e" and ds.attrs["scenario"] == "LoadedTE"
+    # TE pp of the Dataset is the metric; the position coordinate is θ_in/i over one revolution
+    assert float(ds["te"].max() - ds["te"].min()) == pytest.approx(r.metrics.te_pp_arcsec, abs=1e-12)
+    assert float(ds["position"][1] - ds["position"][0]) == pytest.approx(2 * np.pi / 256, rel=1e-12)
+    df = r.to_dataframe()
+    assert len(df) == 256 and np.array_equal(df["te_arcsec"].to_numpy(), ds["te"].to_numpy())
+    assert np.array_equal(df["position_rad"].to_numpy(), ds["position"].to_numpy())
+
+    from rvflex.cli import main
+
+    assert main(["te", "--reducer", "rv40e", "--load", "412", "--positions", "256", "--json", str(tmp_path / "t.json")]) == 0
+    assert json.loads((tmp_path / "t.json").read_text())["te_pp_arcsec"] == r.metrics.te_pp_arcsec
+    assert r.metrics_dict()["te_pp_arcsec"] == r.metrics.te_pp_arcsec
+
+    paths = r.write(tmp_path / "out")
+    assert sorted(p.name for p in paths) == ["load_sharing.png", "te.csv", "te.nc", "te.png"]
+    with xr.open_dataset(tmp_path / "out" / "te.nc") as back:
+        assert back.load().identical(ds)
+
+
+def test_plots_leave_matplotlib_alone(te_result, rv40e, tmp_path):
+    """Plotting and writing from the API neither switch the backend nor leave pyplot figures."""
+    import matplotlib
+    import matplotlib.pyplot as plt
+
+    backend = matplotlib.get_backend()
+    figures = plt.get_fignums()
+    ax = te_result.plot()
+    assert ax.figure.axes == [ax]
+    te_result.plot_orders()
+    te_result.write(tmp_path / "te")
+    lm = rvflex.run(rvflex.LostMotion(rv40e, steps=40))
+    lm.plot()
+    lm.write(tmp_path / "lm")
+    assert matplotlib.get_backend() == backend and plt.get_fignums() == figures
+
+
+def test_a_passed_model_is_reused_and_left_as_found(rv40e):
+    """Every scenario (and the dynamic mode, which used to add sensors) runs on a prebuilt model
+    without adding items; a second run on the same model gives the same TE as a fresh model
+    (the first run leaves no state behind: same equilibria to 1e-6″)."""
+    model = rvflex.build_reducer(rv40e)
+    items = model.item_count
+    q0 = np.asarray(model.mbs.systemData.GetODE2Coordinates())
+    short = rvflex.LoadedTE(rv40e, load_Nm=412.0, revolutions=0.02, positions_per_rev=1600)
+    first = rvflex.run(short, model=model)
+    rvflex.run(rvflex.LostMotion(rv40e, steps=40), model=model)
+    rvflex.run(rvflex.ReversalBacklash(rv40e, positions=8), model=model)
+    rvflex.run(rvflex.LoadedTE(rv40e, load_Nm=412.0, revolutions=0.001, positions_per_rev=16000, mode="dynamic",
+                               speed_out_rpm=15.0), model=model)
+    assert model.item_count == items
+    assert np.array_equal(np.asarray(model.mbs.systemData.GetODE2Coordinates()), q0)
+    again = rvflex.run(short, model=model).to_xarray()["te"]
+    fresh = rvflex.run(short).to_xarray()["te"]
+    assert np.abs(again - fresh).max() < 1e-6 and np.abs(first.to_xarray()["te"] - fresh).max() < 1e-6
+
+
+def test_bad_input_is_refused_naming_it(rv40e, te_result, tmp_path):
+    """Not a scenario → TypeError naming the type; a model of another spec or options →
+    SpecError naming it; Result.write into a file → SpecError, the file untouched and nothing
+    else written."""
+    with pytest.raises(TypeError, match=r"expected a scenario .*rvflex\.LoadedTE.*got str"):
+        rvflex.run("te")
+    with pytest.raises(TypeError, match="expected a ReducerSpec.*got str"):
+        rvflex.LoadedTE("rv40e")
+    rv80e = rvflex.load_reducer("rv80e")
+    with pytest.raises(rvflex.SpecError, match="another spec"):
+        rvflex.run(rvflex.LoadedTE(rv40e, positions_per_rev=16, revolutions=0.01), model=rvflex.build_reducer(rv80e))
+    with pytest.raises(rvflex.SpecError, match="another options"):
+        rvflex.run(rvflex.LoadedTE(rv40e, positions_per_rev=16, revolutions=0.01, options="flexible"),
+                   model=rvflex.build_reducer(rv40e))
+    with pytest.raises(TypeError, match="ReducerModel.*got str"):
+        rvflex.run(rvflex.LoadedTE(rv40e, positions_per_rev=16, revolutions=0.01), model="rv40e")
+    with pytest.raises(rvflex.SpecError, match="options"):
+        rvflex.LoadedTE(rv40e, options="elastic")
+    target = tmp_path / "a_file"
+    target.write_text("keep")
+    with pytest.raises(rvflex.SpecError, match="is a file"):
+        te_result.write(target)
+    assert target.read_text() == "keep" and sorted(p.name for p in tmp_path.iterdir()) == ["a_file"]
+
+
+def test_model_options_presets_are_the_one_default():
+    """The presets hold the model's reductions; a preset name maps to its preset everywhere
+    (build_reducer, scenarios, the CLI)."""
+    from rvflex.options import CARRIER_FE, DISC_FE, as_options
+
+    assert rvflex.ModelOptions.rigid().fidelity == "rigid"
+    assert rvflex.ModelOptions.flexible_discs() == as_options("flexible")
+    assert rvflex.ModelOptions.flexible_discs_and_carrier() == as_options("flexible-carrier")
+    assert (DISC_FE.n_modes, DISC_FE.attach_per_tooth, DISC_FE.maxh_m, DISC_FE.mesh_order) == (12, 0, 6e-3, 2)
+    assert (CARRIER_FE.n_modes, CARRIER_FE.seat_coupling) == (10, "rbe3")
+    with pytest.raises(rvflex.SpecError, match="rigid in these options"):
+        rvflex.ModelOptions.rigid().with_fe("discs", n_modes=24)
+
+
+def _readme_python_block() -> str:
+    text = README.read_text()
+    m = re.search(r"<!-- ci:python-example -->\s*```python\n(.*?)```", text, re.S)
+    assert m, "README.md needs a ```python block after <!-- ci:python-example -->"
+    return m.group(1)
+
+
+@pytest.mark.flexible
+@pytest.mark.slow
+def test_readme_python_example_runs(fe_cache, tmp_path, monkeypatch, capsys):
+    """The README's Python block, as written (a private FE cache; cold: one default disc
+    reduction): it prints the TE table and writes its figure and result files; the elastic
+    discs wind the unit up further (TE is negative under a resisting torque)."""
+    monkeypatch.chdir(tmp_path)
+    namespace: dict = {}
+    exec(compile(_readme_python_block(), "README.md", "exec"), namespace)
+    assert "rigid" in capsys.readouterr().out
+    assert (tmp_path / "te_rigid_vs_flexible.png").stat().st_size > 0
+    assert {p.name for p in (tmp_path / "out" / "te_flexible").iterdir()} == {"te.csv", "te.png", "load_sharing.png",
+                                                                             "te.nc"}
+    te = namespace["te"]
+    assert te["flexible"].mean() < te["rigid"].mean() < 0.0
+
+
+def test_sweep_table_as_dataframe_and_dataset(tmp_path):
+    """A sweep's table comes back as a DataFrame (one row per point) and a Dataset over
+    ``point`` with units: the factor deviations in m, TE in arcsec, the same numbers as the rows."""
+    from rvflex.sweep import load_design, sweep
+
+    design = load_design(Path(__file__).resolve().parents[1] / "scenarios" / "designs" / "smoke.toml")
+    res = sweep(design, tmp_path / "s.sqlite", executor="serial")
+    df, ds = res.to_dataframe(), res.to_xarray()
+    assert len(df) == len(res.rows) == ds.sizes["point"] and df.index.name == "point"
+    metric = "te_pp_arcsec" if design.scenario == "te" else "lost_motion_arcmin"
+    assert np.array_equal(df[metric].to_numpy(), [r[metric] for r in res.rows])
+    assert np.array_equal(ds[metric].to_numpy(), df[metric].to_numpy())
+    assert ds[metric].attrs["units"] == metric.rsplit("_", 1)[1]
+    assert all(ds[f.name].attrs["units"] == "m" for f in design.factors)
