@@ -330,7 +330,7 @@ def test_selfcheck_two_cases(tmp_path):
                "pin_contact_friction")
     settings = SelfCheckSettings(cases=2, seed=3, control_every=2, two_effect_share=0.0, effects=effects,
                                  generator=GeneratorModel(positions_per_rev=256, hysteresis_steps=60),
-                                 diagnosis=DiagnosisSettings(positions_per_rev=128, max_order=63,
+                                 diagnosis=DiagnosisSettings(positions_per_rev=192, max_order=63,
                                                              hysteresis_steps=24, refine_top=2,
                                                              refine_iterations=1, workers=2))
     doc = selfcheck(tmp_path, settings, log=lambda s: None)
@@ -360,7 +360,7 @@ def test_thermal_expansion_is_told_from_a_modification_deviation(tmp_path):
     ds = read_bench(tmp_path / "bench")
     assert {r.temperature_C for r in ds.runs} == set(BENCH_TEMPERATURES_C.values())
     # coarse for CI time: orders 1…31 (no pin-mesh order), so the wind-ups and the torque cycle decide
-    settings = DiagnosisSettings(positions_per_rev=64, max_order=31, hysteresis_steps=16, refine_top=2,
+    settings = DiagnosisSettings(positions_per_rev=128, max_order=31, hysteresis_steps=16, refine_top=2,
                                  refine_iterations=3, workers=2)
     diag = diagnose(ds, settings=settings, effects=("thermal_expansion", "disc_modification_deviation"),
                     cache_dir=tmp_path / "cache")
@@ -400,8 +400,8 @@ def test_replay_and_lost_motion_share_one_torque_stepping_engine():
 # ----------------------------------------------------------------------------- calibrate, then attribute
 
 CAL = ("contact_stiffness", "contact_law_form", "needle_bearing_stiffness", "mesh_stiffness", "crank_bearing_clearance")
-# coarse for CI time: orders 1…63 (the pin-mesh orders 39/40 in, 2·z_b out), 24-step torque cycle
-CI_SETTINGS = DiagnosisSettings(positions_per_rev=128, max_order=63, hysteresis_steps=24, refine_top=2,
+# coarse for CI time: orders 1…63 (the pin-mesh orders 39/40 in, 2·z_b out and not folded in), 24-step cycle
+CI_SETTINGS = DiagnosisSettings(positions_per_rev=192, max_order=63, hysteresis_steps=24, refine_top=2,
                                 refine_iterations=3, workers=2)
 
 
@@ -431,6 +431,11 @@ def test_a_control_with_30pct_stiffness_mismatch_is_nominal_parameters_off(tmp_p
     assert diag.chosen is None, diag.verdict
     assert "Nominal parameters off; no unmodelled effect" in diag.verdict
     assert diag.baseline.gap_shrink_pct >= 50.0  # calibration closes most of the nominal model's gap
+    # labelled tables for a notebook: the ranking, the gap per run and metric, the calibration
+    rank, gap, cal = (diag.to_dataframe(t) for t in ("ranking", "gap", "calibration"))
+    assert list(rank["effect"]) == [c.name for c in diag.candidates] and not rank["accepted"].any()
+    assert {"measured", "nominal_model", "calibrated", "after"} <= set(gap.columns)
+    assert set(cal["name"]) == set(CAL)
 
 
 @pytest.mark.slow

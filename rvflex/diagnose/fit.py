@@ -41,6 +41,7 @@ from scipy.optimize import lsq_linear
 from rvflex.diagnose.effects import Effect, available_effects
 from rvflex.diagnose.linear import (
     Candidate,
+    denoise_orders,
     Problem,
     Sensitivities,
     lin_fit,
@@ -97,6 +98,37 @@ class Diagnosis:
     windows: dict = dc.field(default_factory=dict)  # per TE run: the analysed window and its fit figures
     calibration_ties: tuple[str, ...] = ()  # nominal parameters that can mimic the accepted effect
     separating_runs: tuple[str, ...] = ()  # runs that would separate such a tie
+
+    def to_dataframe(self, table: str = "ranking"):
+        """A tidy pandas table: ``"ranking"`` (one row per candidate: name, score, gap shrink, withheld
+        improvement, accepted, refined, and each parameter in SI), ``"gap"`` (per run and metric:
+        measured, nominal model, calibrated and after the accepted effect) or ``"calibration"`` (the
+        calibrated nominal parameters)."""
+        import pandas as pd
+
+        from rvflex.diagnose.report import json_document
+
+        if table == "ranking":
+            rows = []
+            for c in self.candidates:
+                row = {"effect": c.name, "score": c.score, "gap_shrink_pct": c.gap_shrink_pct,
+                       "withheld_improvement_pct": c.withheld.get("improvement_pct"), "accepted": c.accepted,
+                       "refined": c.refined}
+                row.update({f"{n} [{u}]": float(v) for n, u, v in zip(c.param_names, c.units, c.x)})
+                rows.append(row)
+            return pd.DataFrame(rows)
+        doc = json_document(self)
+        if table == "calibration":
+            return pd.DataFrame(doc["calibration"])
+        if table == "gap":
+            rows = []
+            for b, cal, a in zip(doc["gap_before"]["metrics"], doc["gap_calibrated"]["metrics"],
+                                 doc["gap_after"]["metrics"]):
+                rows.append({k: b[k] for k in ("run", "direction", "load_Nm", "temperature_C", "metric", "unit",
+                                               "measured")}
+                            | {"nominal_model": b["model"], "calibrated": cal["model"], "after": a["model"]})
+            return pd.DataFrame(rows)
+        raise ValueError(f"table = {table!r}: must be 'ranking', 'gap' or 'calibration'")
 
 
 def withheld_split(plan: tuple[PlanRun, ...]) -> tuple[tuple[int, ...], tuple[int, ...]]:
@@ -166,6 +198,7 @@ def diagnose(dataset, *, settings: DiagnosisSettings | None = None, effects: tup
     t0 = time.perf_counter()
     settings = settings or DiagnosisSettings()
     spec: ReducerSpec = dataset.reducer
+    check_aliasing(settings, spec)
     errors = errors or ErrorSpec()
     plan = plan_from_dataset(dataset, settings)
     y, lay, windows = measured_runs(dataset, plan, settings)
@@ -289,6 +322,19 @@ def diagnose(dataset, *, settings: DiagnosisSettings | None = None, effects: tup
     return Diagnosis(dataset, settings, plan, lay, w, y, none, none.response or resp0, tuple(final), chosen,
                      folds, unavailable, failed, size, text, runner.model_runs,
                      time.perf_counter() - t0, tied, nominal_model, windows, cal_ties, runs_needed)
+
+
+def check_aliasing(settings: DiagnosisSettings, spec: ReducerSpec) -> None:
+    """Refuse a model position grid that folds the pin-mesh orders z_b and 2·z_b into the analysed
+    orders: the model's TE is sampled at ``positions_per_rev`` points per revolution, so order k
+    appears at positions_per_rev − k; the bench fit (many samples per revolution) does not alias,
+    and an aliased model order would be a signature the data can never show (measured: a 2.5 µm
+    crank-bearing clearance's order 80 folded to 48 at 128 positions, 1.6″)."""
+    top = 2 * spec.cycloid.pin_count
+    if settings.positions_per_rev - top <= settings.max_order:
+        raise ValueError(f"positions_per_rev = {settings.positions_per_rev}: order 2·z_b = {top} folds to "
+                         f"{settings.positions_per_rev - top} ≤ max_order = {settings.max_order}; use at least "
+                         f"{settings.max_order + top + 1} positions per revolution or fewer orders")
 
 
 def _shrink(rss: float, ref: float) -> float:
@@ -452,6 +498,9 @@ def sensitivities(runner, cands, f0, resp0, plan, settings, n) -> tuple[Sensitiv
         # one-sided: the secant (f+ − f0)/h; central: (f+ − f0)/(2h) + (f0 − f−)/(2h)
         scale = e.params[j].step * (2.0 if e.central else 1.0)
         sens.setdefault(name, np.zeros((n, e.n)))[:, j] += sign * (fj - f0) / scale
+    _, lay = features(resp0, plan, settings)
+    sens = {k: denoise_orders(v, lay) for k, v in sens.items()}
+    minus = {k: denoise_orders(v, lay) for k, v in minus.items()}
     return Sensitivities(sens, minus, responses), failed
 
 

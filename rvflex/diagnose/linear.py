@@ -14,7 +14,7 @@ from rvflex.diagnose.effects import Effect
 from rvflex.diagnose.replay import DiagnosisSettings, Layout, Response, shift_measured
 
 __all__ = ["Candidate", "Problem", "Sensitivities", "bic", "bounds", "lin_fit", "make_candidate",
-           "nuisance_columns", "prior_of", "prior_penalty", "split_params", "weights"]
+           "denoise_orders", "nuisance_columns", "prior_of", "prior_penalty", "split_params", "weights"]
 
 DELTA_GRID = 2048  # origin shifts tried over one output revolution (0.18° apart), then refined locally
 Z95 = 1.959964
@@ -289,6 +289,30 @@ def weights(f0: np.ndarray, y: np.ndarray, lay: Layout, s: DiagnosisSettings) ->
     for r, sl in lay.hyst.items():
         w[sl] = 1.0 / (s.windup_floor_arcsec + s.windup_floor_rel * np.abs(f0[sl] - np.mean(f0[sl])))
     return w
+
+
+MODEL_NOISE_K = 3.0  # an order's model change below this many times the run's numerical noise is not signature
+
+
+def denoise_orders(df: np.ndarray, lay: Layout) -> np.ndarray:
+    """A model feature change (or columns of changes) with its TE order coefficients below
+    MODEL_NOISE_K times the model's own numerical noise set to zero. The noise of each TE run is
+    estimated like the measurement's (median over the upper half of the orders): a clearance that lets
+    a disc float in its bearing leaves ~0.1″ of solver noise on every order, which the tight order
+    floors would otherwise read as a signature hundreds of floors strong."""
+    out = np.array(df, float, copy=True)
+    two = out.ndim == 2
+    cols = out if two else out[:, None]
+    for r in lay.te_runs:
+        a, b = cols[lay.cos[r]], cols[lay.sin[r]]
+        amp = np.hypot(a, b)
+        half = amp[amp.shape[0] // 2:]
+        noise = np.median(half, axis=0) / 1.18
+        small = amp < MODEL_NOISE_K * noise[None, :]
+        a[small] = 0.0
+        b[small] = 0.0
+        cols[lay.cos[r]], cols[lay.sin[r]] = a, b
+    return out if two else cols[:, 0]
 
 
 def split_params(effects, x) -> list[tuple[Effect, np.ndarray]]:

@@ -138,7 +138,7 @@ def verdict(cands, chosen, none, has_folds, settings, unavailable, failed, tied=
         return (f"No effect is confirmed: {blocked.name} fits best in the linearised model (score "
                 f"{blocked.score:.1f}, gap shrink {blocked.gap_shrink_pct:.0f} %) but its model evaluation at the "
                 f"fitted values failed ({failed.get(blocked.name, '')[:160]}), so no weaker candidate is accepted "
-                f"in its place; the gap stays unexplained.")
+                f"in its place; what calibration leaves stays unexplained.")
     best = cands[0]
     significant = best.score >= settings.bic_threshold and best.gap_shrink_pct >= settings.min_shrink_pct
     if significant and not has_folds:
@@ -154,7 +154,7 @@ def verdict(cands, chosen, none, has_folds, settings, unavailable, failed, tied=
                        f"(≥ {settings.min_withheld_pct:g} % needed)")
         return (f"No effect is confirmed: the best candidate, {best.name}, removes {best.gap_shrink_pct:.0f} % "
                 f"of the gap (score {best.score:.1f}), but {' and '.join(why or ['it was not accepted'])}; "
-                "the gap stays unexplained.")
+                "what calibration leaves stays unexplained.")
     return (f"No significant unmodelled effect: the best candidate, {best.name}, removes only "
             f"{max(best.gap_shrink_pct, 0):.0f} % of the gap (score {best.score:.1f}, withheld "
             f"{fmt_pct(best.withheld.get('improvement_pct'))}); the remaining gap is model-form "
