@@ -7,37 +7,21 @@ temporary name and renamed, so a failed run leaves no half-written output.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
-import tempfile
 from pathlib import Path
 
 from rvflex import catalog
-from rvflex.spec import ErrorSpec, ReducerSpec, SpecError, load_errors, load_spec
+from rvflex.io import emit, write_atomic, write_json
+from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
 
 __all__ = ["main", "resolve_reducer"]
 
 
-def resolve_reducer(name: str) -> ReducerSpec:
-    """A built-in catalogue name (``rv40e``) or the path of a reducer spec TOML file."""
-    if name.endswith(".toml") or os.sep in name:
-        path = Path(name)
-        if not path.is_file():
-            raise SpecError("--reducer", name, "file not found")
-        return load_spec(path)
-    return catalog.load(name)
-
-
-def _errors(path: str | None, spec: ReducerSpec) -> ErrorSpec | None:
-    """An ErrorSpec TOML file, or a built-in error set name (``rv40e_seed001``)."""
-    if path is None:
-        return None
-    if Path(path).is_file():
-        return load_errors(path, spec)
-    if not path.endswith(".toml") and os.sep not in path:
-        return catalog.load_error_set(path, spec)
-    raise SpecError("--errors", path, "file not found")
+resolve_reducer = catalog.resolve
+"""Deprecated alias of :func:`rvflex.catalog.resolve` (kept for one release)."""
+_emit = emit  # old private names, still imported by rvflex.diagnose (use rvflex.io.emit / write_atomic)
+_write_atomic = write_atomic
 
 
 def _with_progress(total: int, desc: str, run):
@@ -52,44 +36,21 @@ def _with_progress(total: int, desc: str, run):
     return result, time.perf_counter() - t0
 
 
-def _emit(args: argparse.Namespace, doc: dict, write_outputs) -> int:
-    """Write ``--out`` files (``write_outputs(dir) -> paths``) and the ``--json`` document."""
-    if args.out:
-        for path in write_outputs(Path(args.out)):
-            print(f"wrote {path}")
-    if args.json:
-        _write_atomic(Path(args.json), json.dumps(doc, indent=2).encode())
-    return 0
-
-
 def _model_inputs(args: argparse.Namespace) -> tuple[ReducerSpec, ErrorSpec]:
     """Spec and errors of a model command (``--reducer``, ``--fidelity``, ``--errors``, ``--perfect``)."""
     from rvflex.scenarios.loaded_te import perfect_spec
 
-    spec = resolve_reducer(args.reducer)
+    spec = catalog.resolve(args.reducer)
     if args.perfect:
         return perfect_spec(spec), ErrorSpec()
-    return spec, _errors(args.errors, spec) or ErrorSpec()
-
-
-def _write_atomic(path: Path, data: bytes) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-        os.chmod(tmp, 0o644)  # mkstemp creates 0600; results are ordinary files
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    return spec, catalog.resolve_errors(args.errors, spec) or ErrorSpec()
 
 
 def _cmd_geometry(args: argparse.Namespace) -> int:
     from rvflex.geometry.report import geometry_report, plot_profile
 
-    spec = resolve_reducer(args.reducer)
-    errors = _errors(args.errors, spec)
+    spec = catalog.resolve(args.reducer)
+    errors = catalog.resolve_errors(args.errors, spec)
     report = geometry_report(spec, errors)
     print(report.text())
     if args.out:
@@ -101,10 +62,10 @@ def _cmd_geometry(args: argparse.Namespace) -> int:
             os.replace(tmp, out / "profile.png")
         finally:
             tmp.unlink(missing_ok=True)
-        _write_atomic(out / "geometry.json", json.dumps(report.as_json(), indent=2).encode())
+        write_json(out / "geometry.json", report.as_json())
         print(f"wrote {out / 'profile.png'} and {out / 'geometry.json'}")
     if args.json:
-        _write_atomic(Path(args.json), json.dumps(report.as_json(), indent=2).encode())
+        write_json(Path(args.json), report.as_json())
     return 0
 
 
@@ -128,7 +89,7 @@ def _cmd_te(args: argparse.Namespace) -> int:
           f"mean wind-up {met.mean_windup_arcsec:.2f}″, {len(res.te_rad)} positions in {wall:.1f} s "
           f"(solver {res.wall_s:.1f} s, the rest builds the model)")
     print("strongest orders: " + ", ".join(f"{o}: {a:.3f}″" for o, a in met.orders[:5]))
-    return _emit(args, doc, lambda out: write_te_outputs(out, res, met, scenario))
+    return emit(args, doc, lambda out: write_te_outputs(out, res, met, scenario))
 
 
 def _cmd_lost_motion(args: argparse.Namespace) -> int:
@@ -148,7 +109,7 @@ def _cmd_lost_motion(args: argparse.Namespace) -> int:
           f"torsional stiffness {met.torsional_stiffness_Nm_per_arcmin:.2f} N·m/arcmin "
           f"(secant ±T {met.secant_stiffness_Nm_per_arcmin:.2f}), "
           f"backlash {met.backlash_arcmin:.4f}′ ({len(res.torque_Nm)} steps in {wall:.1f} s)")
-    return _emit(args, doc, lambda out: write_lost_motion_outputs(out, res, met, sc))
+    return emit(args, doc, lambda out: write_lost_motion_outputs(out, res, met, sc))
 
 
 def _cmd_backlash(args: argparse.Namespace) -> int:
@@ -164,7 +125,7 @@ def _cmd_backlash(args: argparse.Namespace) -> int:
     lost, fwd, rev = run_reversal_backlash(sc)
     doc = {"reversal_backlash_arcmin": lost, "wall_s": time.perf_counter() - t0}
     print(f"reversal backlash {lost:.4f}′ at ±{sc.load_Nm:g} N·m ({doc['wall_s']:.1f} s)")
-    return _emit(args, doc, lambda out: write_backlash_outputs(out, lost, fwd, rev, sc))
+    return emit(args, doc, lambda out: write_backlash_outputs(out, lost, fwd, rev, sc))
 
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
@@ -218,7 +179,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
             print(f"  {r['factor']:32s} {r['index_name']} {r['index']:.4f} ± {conf:.4f}  {extra}  "
                   f"{classes.get(r['factor'], '')}")
         if args.json:
-            _write_atomic(Path(args.json), json.dumps(doc, indent=2).encode())
+            write_json(Path(args.json), doc)
         return 0
     ranking = (range_table(design, res.rows, metric) if design.kind not in ("lhs", "sobol", "monte-carlo") else [])
     classes = classify(ranking)
@@ -235,7 +196,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     for r in ranking:
         print(f"  {r['factor']:32s} range {r['range']:.4f} {unit}  {classes[r['factor']]}")
     if args.json:
-        _write_atomic(Path(args.json), json.dumps(doc, indent=2).encode())
+        write_json(Path(args.json), doc)
     return 0
 
 
@@ -256,7 +217,7 @@ def _cmd_bench_sweep(args: argparse.Namespace) -> int:
           f"(busy {res['busy_1_worker']:.2f} / {res['busy_2_workers']:.2f}: below ~0.95 other jobs share the cores; "
           f"CPU-makespan speed-up {res['speedup_cpu']:.2f})")
     if args.json:
-        _write_atomic(Path(args.json), json.dumps(res, indent=2).encode())
+        write_json(Path(args.json), res)
     return 0
 
 
@@ -277,7 +238,7 @@ def _cmd_bench_contact(args: argparse.Namespace) -> int:
     for name, ok, goal in targets:
         print(f"target {name:24s} {goal:8s} {'met' if ok else 'NOT met'}")
     if args.json:
-        _write_atomic(Path(args.json), json.dumps(result, indent=2).encode())
+        write_json(Path(args.json), result)
     return 0
 
 

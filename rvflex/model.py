@@ -21,7 +21,7 @@ import numpy as np
 from rvflex.contact.cycloid_pin import ContactLaw
 from rvflex.parts import carrier as carrier_part
 from rvflex.parts import crankshaft, cycloid_disc, input_stage, pin_ring
-from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
+from rvflex.spec import ErrorSpec, ReducerSpec, SpecError, check_geometry
 
 __all__ = ["ReducerModel", "build_reducer", "check_fidelity", "default_contact_law", "FIDELITIES"]
 
@@ -171,6 +171,7 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None, fidelity: 
     from exudyn.itemInterface import MarkerNodeCoordinate, NodePointGround, ObjectGround
 
     check_fidelity(fidelity, "fidelity")
+    check_geometry(spec)  # the profile check of every spec entering a model (variants made by replace)
     errors = errors or ErrorSpec()
     errors.check_against(spec)
     law = law or default_contact_law(spec)

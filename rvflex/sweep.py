@@ -299,14 +299,14 @@ def evaluate_point(args: tuple[str | ReducerSpec, str, float, int, float, dict[s
     """Evaluate one point in the current process (a worker): build the variant, its model, run.
 
     ``args[0]`` is the nominal reducer: a :class:`ReducerSpec` (the sweep resolves it once and
-    ships it; it is immutable) or a name/path for :func:`rvflex.cli.resolve_reducer`."""
+    ships it; it is immutable) or a name/path for :func:`rvflex.catalog.resolve`."""
     reducer, scenario, load, positions, revs, point = args
     if isinstance(reducer, ReducerSpec):
         spec = reducer
     else:
-        from rvflex.cli import resolve_reducer
+        from rvflex.catalog import resolve
 
-        spec = resolve_reducer(reducer)
+        spec = resolve(reducer)
     errors = ErrorSpec()
     for name, value in point.items():
         spec, errors = FACTORS[name][2](spec, errors, value)
@@ -399,9 +399,9 @@ def warm_process(reducer: str | ReducerSpec, scenario: str) -> ReducerSpec:
         import rvflex.scenarios.lost_motion
     if isinstance(reducer, ReducerSpec):
         return reducer
-    from rvflex.cli import resolve_reducer
+    from rvflex.catalog import resolve
 
-    spec = resolve_reducer(reducer)
+    spec = resolve(reducer)
     rvflex.model.build_reducer(spec)  # loads the contact and mesh kernels; the model is dropped
     return spec
 

@@ -52,13 +52,12 @@ from pathlib import Path
 
 import numpy as np
 
-from rvflex.geometry.formulas import ARCMIN_PER_RAD
 from rvflex.spec import ErrorSpec, ReducerSpec
+from rvflex.units import ARCMIN_PER_RAD, UM
 
 __all__ = ["ERRORS", "PAPER", "SensitivityRow", "backlash_arcmin", "formula_sensitivity", "kinematic_coupling",
            "markdown_table", "nominal_backlash", "perturb", "run_sensitivity", "write_sensitivity_outputs"]
 
-UM = 1e-6
 
 PAPER = {  # seed 002's table as printed ("arc-min/µm"; read as relative weights, tables.md)
     "E_bp": 1.12, "E_a": 0.77, "F_r": 0.77, "dr_p": 46.09, "dr_rp": 135.61, "hole": 67.81, "F_rc": 33.90,

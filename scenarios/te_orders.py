@@ -10,10 +10,10 @@ import numpy as np
 
 from rvflex.metrics import order_spectrum
 from rvflex.spec import ErrorSpec
+from rvflex.units import UM
 
 __all__ = ["SOURCES", "added_orders"]
 
-UM = 1e-6
 SOURCES = {
     "sun eccentricity 10 µm": ErrorSpec(sun_base_eccentricity_m=10 * UM),
     "planet eccentricity 10 µm (crank 1)": ErrorSpec(planet_base_eccentricity_m=(10 * UM, 0.0)),

@@ -16,12 +16,12 @@ import hashlib
 import io
 import json
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 import scipy.sparse as sp
 
+from rvflex.io import write_atomic
 from rvflex.spec import ReducerSpec
 
 __all__ = ["FORMAT", "cache_root", "key_for", "load", "path_for", "store"]
@@ -153,21 +153,7 @@ def store(rp, cache_dir: str | os.PathLike | None = None) -> Path:
     payload = buf.getvalue()
     header = json.dumps({"format": FORMAT, "key": rp.key, "length": len(payload),
                          "sha256": hashlib.sha256(payload).hexdigest()}).encode() + b"\n"
-    path = path_for(rp.key, cache_dir)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(header)
-            fh.write(payload)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
+    return write_atomic(path_for(rp.key, cache_dir), header + payload, fsync=True)
 
 
 def _read_valid(path: Path, key: str) -> bytes | None:

@@ -7,6 +7,9 @@ import json
 import sys
 import time
 
+from rvflex import catalog
+from rvflex.io import emit
+
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the FE sub-commands to the ``rvflex`` parser."""
@@ -29,10 +32,9 @@ def register(sub: argparse._SubParsersAction) -> None:
 def _cmd_reduce(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
-    from rvflex.cli import _emit, resolve_reducer
     from rvflex.fe.reduce import STEPS, reduce_part
 
-    spec = resolve_reducer(args.reducer)
+    spec = catalog.resolve(args.reducer)
     t0 = time.perf_counter()
     with tqdm(total=len(STEPS), desc=f"reduce {args.part}", unit="step", file=sys.stderr, mininterval=0.2,
               bar_format="{desc}: {n}/{total} {postfix} [{elapsed}]") as bar:
@@ -57,4 +59,4 @@ def _cmd_reduce(args: argparse.Namespace) -> int:
           f"{rp.n_attach} attachment); static error flank {chk.flank_pct:.2f} %, interface "
           f"{chk.interface_pct:.2g} % ({chk.case}); {'cached' if doc['cached'] else 'computed'} in {wall:.1f} s",
           file=sys.stderr)
-    return _emit(args, doc, lambda out: [])
+    return emit(args, doc, lambda out: [])
