@@ -11,6 +11,7 @@ import os
 import sys
 from pathlib import Path
 
+import rvflex.scenarios  # noqa: F401 -- registers the scenarios sweeps run (rvflex.scenarios.sweepable)
 from rvflex import catalog
 from rvflex.io import emit, write_atomic, write_json
 from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
@@ -141,6 +142,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         plot_indices,
         plot_main_effects,
         range_table,
+        registry,
         sensitivity_indices,
         sweep,
         write_indices_csv,
@@ -152,13 +154,13 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     with tqdm(total=n, desc=f"sweep {design.name}", unit="point", file=sys.stderr, mininterval=0.5) as bar:
         res = sweep(design, out / f"{design.name}.sqlite", executor=args.executor, workers=args.workers,
                     scheduler=args.scheduler, progress=lambda: bar.update(1))
-    metric = "te_pp_arcsec" if design.scenario == "te" else "lost_motion_arcmin"
+    entry = registry.get(design.scenario)
+    metric, unit = entry.metric, entry.unit
     keys = sorted({k for r in res.rows for k in r})
     with open(out / "table.csv", "w", newline="", encoding="utf-8") as fh:
         w = csv.DictWriter(fh, fieldnames=keys)
         w.writeheader()
         w.writerows(res.rows)
-    unit = "arcsec" if design.scenario == "te" else "arcmin"
     print(f"{res.finished} of {n} points finished, {res.failed} failed, {res.wall_s:.1f} s "
           f"(+ {res.startup_s:.1f} s start-up; {res.executor}, {res.workers} workers); table in {out / 'table.csv'}")
     doc = {"points": n, "finished": res.finished, "failed": res.failed, "wall_s": res.wall_s,
