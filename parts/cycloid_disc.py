@@ -9,6 +9,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from rvflex.contact.cycloid_pin import ContactLaw, CycloidPinContact, add_cycloid_pin_contact
+from rvflex.fe.ffrf import ffrf_interface
+from rvflex.fe.geometry import pillar_angles
 from rvflex.parts import bearings
 from rvflex.spec import ErrorSpec, ReducerSpec
 
@@ -124,8 +126,6 @@ def _half_turn_symmetric(spec: ReducerSpec) -> bool:
         b = np.mod(a + math.pi, 2 * math.pi)
         return all(np.min(np.abs(np.angle(np.exp(1j * (a - x))))) < 1e-9 for x in b)
 
-    from rvflex.fe.geometry import pillar_angles
-
     return spec.cycloid.disc_teeth % 2 == 1 and symmetric(spec.cranks.angles_rad) and symmetric(pillar_angles(spec))
 
 
@@ -136,8 +136,6 @@ def _build_flexible(mbs, spec, errors, cranks, law, eccentric_offsets, axes, red
     contact law (the flank rows average the mesh over a patch of a few mm of flank, so the
     mesh's own local contact deformation is not sampled)."""
     from exudyn.itemInterface import CoordinateConstraint, MarkerNodeCoordinate, MarkerSuperElementRigid
-
-    from rvflex.fe.ffrf import ffrf_interface
 
     if reduced is None or int(ground_coordinate) < 0:
         raise ValueError("fidelity = 'flexible': needs the reduced disc and a ground coordinate marker")

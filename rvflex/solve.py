@@ -5,7 +5,7 @@ applied; each step is a static equilibrium (Exudyn's static solver) started from
 previous one advanced by the ideal kinematics. The first loaded step is reached by
 continuation from a stiffly held output (DESIGN.md: clearances make the bodies float; weak
 springs carry a negligible share — see :mod:`rvflex.parts.bearings` and
-:data:`rvflex.parts.carrier.OUTPUT_REGULARISER_NM_RAD`).
+:data:`rvflex.numerics.OUTPUT_REGULARISER_NM_RAD`).
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ import numpy as np
 
 from rvflex.contact.cycloid_pin import install_penetration_guard
 from rvflex.model import ReducerModel
-from rvflex.parts.carrier import OUTPUT_REGULARISER_NM_RAD
+from rvflex.numerics import OUTPUT_REGULARISER_NM_RAD, generalized_alpha_settings
 
 __all__ = ["DynamicResult", "QuasiStaticResult", "SolveError", "TorqueStepResult", "dynamic", "hysteresis_cycle",
            "generalized_alpha_settings", "input_angle", "quasi_static", "static_settings", "torque_stepping"]
@@ -384,26 +384,6 @@ def torque_stepping(model: ReducerModel, torques_Nm: np.ndarray, *, progress=Non
         if progress is not None:
             progress(done, len(torques))
     return TorqueStepResult(torques, out, time.perf_counter() - t0)
-
-
-def generalized_alpha_settings(end_s: float, step_s: float, spectral_radius: float, *, relative_tolerance: float,
-                               differentiation_epsilon: float | None = None):
-    """Generalized-α settings shared by the dynamic runs: fixed step, dense solver, sensors
-    stored every step, no solution file."""
-    import exudyn as exu
-
-    ss = exu.SimulationSettings()
-    ss.timeIntegration.numberOfSteps = int(round(end_s / step_s))
-    ss.timeIntegration.endTime = end_s
-    ss.timeIntegration.verboseMode = 0
-    ss.timeIntegration.generalizedAlpha.spectralRadius = spectral_radius
-    ss.timeIntegration.newton.relativeTolerance = relative_tolerance
-    if differentiation_epsilon is not None:
-        ss.timeIntegration.newton.numericalDifferentiation.relativeEpsilon = differentiation_epsilon
-    ss.solution.file.write = False
-    ss.solution.sensors.writePeriod = step_s
-    ss.linearSolver.solverType = exu.LinearSolverType.EXUdense
-    return ss
 
 
 @dataclass(frozen=True)

@@ -21,6 +21,8 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 
+from rvflex.fe import geometry
+from rvflex.fe.types import FlankRows, Interface, PartSettings, ReducedPart, StaticCheck
 from rvflex.io import write_atomic
 from rvflex.spec import ReducerSpec
 
@@ -57,8 +59,6 @@ def key_for(spec: ReducerSpec, part: str, settings, code_version: str) -> str:
     """Content hash (hex, 24 chars) of geometry, material, mesh/reduction settings and code version."""
     # versions from the metadata: importing exudyn/ngsolve here would slow every warm load
     from importlib.metadata import version
-
-    from rvflex.fe import geometry
 
     sett = dataclasses.asdict(settings)
     if part != "carrier":
@@ -109,14 +109,6 @@ def _to_arrays(rp) -> dict[str, np.ndarray]:
 
 def _from_arrays(a) -> object:
     from exudyn.FEM import FEMinterface
-
-    from rvflex.fe.reduce import (
-        FlankRows,
-        Interface,
-        PartSettings,
-        ReducedPart,
-        StaticCheck,
-    )
 
     meta = json.loads(bytes(a["meta_json"]).decode())
     nn = a["nodes"].shape[0]
@@ -177,7 +169,7 @@ def _read_valid(path: Path, key: str) -> bytes | None:
 
 
 def load(key: str, cache_dir: str | os.PathLike | None = None):
-    """The cached :class:`~rvflex.fe.reduce.ReducedPart` of ``key``, or None (missing, or
+    """The cached :class:`~rvflex.fe.types.ReducedPart` of ``key``, or None (missing, or
     corrupt/partial: then the bad file is removed so that it is rebuilt)."""
     path = path_for(key, cache_dir)
     if not path.exists():

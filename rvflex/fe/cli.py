@@ -8,6 +8,7 @@ import sys
 import time
 
 from rvflex import catalog
+from rvflex.fe.reduce import STEPS, reduce_part
 from rvflex.io import emit
 
 
@@ -31,8 +32,6 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def _cmd_reduce(args: argparse.Namespace) -> int:
     from tqdm import tqdm
-
-    from rvflex.fe.reduce import STEPS, reduce_part
 
     spec = catalog.resolve(args.reducer)
     t0 = time.perf_counter()
