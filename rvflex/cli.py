@@ -7,13 +7,14 @@ temporary name and renamed, so a failed run leaves no half-written output.
 from __future__ import annotations
 
 import argparse
+import io
 import os
 import sys
 from pathlib import Path
 
 import rvflex.scenarios  # noqa: F401 -- registers the scenarios sweeps run (rvflex.scenarios.sweepable)
 from rvflex import catalog
-from rvflex.io import emit, write_atomic, write_json
+from rvflex.io import emit, write_atomic, write_json, write_text
 from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
 
 __all__ = ["main", "resolve_reducer"]
@@ -157,10 +158,11 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     entry = registry.get(design.scenario)
     metric, unit = entry.metric, entry.unit
     keys = sorted({k for r in res.rows for k in r})
-    with open(out / "table.csv", "w", newline="", encoding="utf-8") as fh:
-        w = csv.DictWriter(fh, fieldnames=keys)
-        w.writeheader()
-        w.writerows(res.rows)
+    fh = io.StringIO(newline="")
+    w = csv.DictWriter(fh, fieldnames=keys)
+    w.writeheader()
+    w.writerows(res.rows)
+    write_text(out / "table.csv", fh.getvalue())
     print(f"{res.finished} of {n} points finished, {res.failed} failed, {res.wall_s:.1f} s "
           f"(+ {res.startup_s:.1f} s start-up; {res.executor}, {res.workers} workers); table in {out / 'table.csv'}")
     doc = {"points": n, "finished": res.finished, "failed": res.failed, "wall_s": res.wall_s,
@@ -188,12 +190,13 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     doc["ranking"] = [{"factor": r["factor"], f"range_{unit}": r["range"], "class": classes[r["factor"]]}
                       for r in ranking]
     if ranking:
-        with open(out / "range_table.csv", "w", newline="", encoding="utf-8") as fh:
-            w = csv.writer(fh)
-            k = max(len(r["K"]) for r in ranking)
-            w.writerow(["factor"] + [f"K{j + 1}" for j in range(k)] + ["R", "class"])
-            for r in ranking:
-                w.writerow([r["factor"]] + r["K"] + [""] * (k - len(r["K"])) + [r["range"], classes[r["factor"]]])
+        fh = io.StringIO(newline="")
+        w = csv.writer(fh)
+        k = max(len(r["K"]) for r in ranking)
+        w.writerow(["factor"] + [f"K{j + 1}" for j in range(k)] + ["R", "class"])
+        for r in ranking:
+            w.writerow([r["factor"]] + r["K"] + [""] * (k - len(r["K"])) + [r["range"], classes[r["factor"]]])
+        write_text(out / "range_table.csv", fh.getvalue())
         print(f"main effects in {plot_main_effects(design, ranking, metric, out / 'main_effects.png')}")
     for r in ranking:
         print(f"  {r['factor']:32s} range {r['range']:.4f} {unit}  {classes[r['factor']]}")

@@ -8,12 +8,13 @@ one, and a failed run leaves no partial output.
 
 from __future__ import annotations
 
+import io
 import json
 import os
 import tempfile
 from pathlib import Path
 
-__all__ = ["emit", "write_atomic", "write_json"]
+__all__ = ["emit", "save_figure", "write_atomic", "write_json", "write_text"]
 
 
 def write_atomic(path: str | os.PathLike, data: bytes, *, fsync: bool = False) -> Path:
@@ -40,6 +41,18 @@ def write_atomic(path: str | os.PathLike, data: bytes, *, fsync: bool = False) -
 def write_json(path: str | os.PathLike, doc, **dumps_kwargs) -> Path:
     """Write ``doc`` as indented JSON (2 spaces; ``dumps_kwargs`` go to :func:`json.dumps`) atomically."""
     return write_atomic(path, json.dumps(doc, indent=2, **dumps_kwargs).encode())
+
+
+def write_text(path: str | os.PathLike, text: str) -> Path:
+    """Write ``text`` (UTF-8) to ``path`` atomically."""
+    return write_atomic(path, text.encode("utf-8"))
+
+
+def save_figure(fig, path: str | os.PathLike, **savefig_kwargs) -> Path:
+    """Render a matplotlib figure (format from the suffix, default PNG) and write it atomically."""
+    buf = io.BytesIO()
+    fig.savefig(buf, format=Path(path).suffix[1:] or "png", **savefig_kwargs)
+    return write_atomic(path, buf.getvalue())
 
 
 def emit(args, doc: dict, write_outputs) -> int:

@@ -26,6 +26,7 @@ from pathlib import Path
 import tomli_w
 
 from rvflex.geometry.profile import check_stage
+from rvflex.io import write_text
 from rvflex.spec_types import (
     Bearing,
     Bearings,
@@ -173,7 +174,7 @@ def dumps_spec(spec: ReducerSpec) -> str:
 
 def dump_spec(spec: ReducerSpec, path: str | Path) -> None:
     """Write ``spec`` as TOML to ``path``."""
-    Path(path).write_text(dumps_spec(spec), encoding="utf-8")
+    write_text(path, dumps_spec(spec))
 
 
 def loads_errors(text: str, source: str = "<string>", spec: ReducerSpec | None = None) -> ErrorSpec:
@@ -200,4 +201,4 @@ def dumps_errors(errors: ErrorSpec) -> str:
 
 def dump_errors(errors: ErrorSpec, path: str | Path) -> None:
     """Write ``errors`` as TOML to ``path``."""
-    Path(path).write_text(dumps_errors(errors), encoding="utf-8")
+    write_text(path, dumps_errors(errors))

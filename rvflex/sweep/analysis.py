@@ -4,12 +4,14 @@ the sensitive/insensitive split, and SALib's global sensitivity indices (Morris 
 from __future__ import annotations
 
 import csv
+import io
 import itertools
 import math
 from pathlib import Path
 
 import numpy as np
 
+from rvflex.io import write_text
 from rvflex.sweep.designs import SALIB_KINDS, Design, salib_problem, salib_samples
 
 __all__ = ["classify", "range_table", "sensitivity_indices", "write_indices_csv"]
@@ -100,9 +102,10 @@ def sensitivity_indices(design: Design, rows: list[dict], metric: str, *, num_re
 def write_indices_csv(ranking: list[dict], classes: dict[str, str], path: Path) -> Path:
     """Write the :func:`sensitivity_indices` table (one row per factor, with its class) as CSV."""
     keys = ["factor", "index_name", "index"] + [k for k in ranking[0] if k not in ("factor", "index_name", "index")]
-    with open(path, "w", newline="", encoding="utf-8") as fh:
-        w = csv.writer(fh)
-        w.writerow(keys + ["class"])
-        for r in ranking:
-            w.writerow([r[k] for k in keys] + [classes.get(r["factor"], "")])
+    fh = io.StringIO(newline="")
+    w = csv.writer(fh)
+    w.writerow(keys + ["class"])
+    for r in ranking:
+        w.writerow([r[k] for k in keys] + [classes.get(r["factor"], "")])
+    write_text(path, fh.getvalue())
     return path

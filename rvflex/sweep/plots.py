@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rvflex.io import save_figure
 from rvflex.sweep.analysis import classify
 from rvflex.sweep.designs import Design
 
@@ -45,7 +46,7 @@ def plot_indices(design: Design, ranking: list[dict], metric: str, path: Path) -
     ax.grid(alpha=0.3, axis="x")
     fig.suptitle(f"{design.name}: {design.kind} ({design.samples} {'trajectories' if morris else 'base samples'}, "
                  f"{ranking[0]['groups_used']} complete)")
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     return path
 
 
@@ -69,5 +70,5 @@ def plot_main_effects(design: Design, ranking: list[dict], metric: str, path: Pa
         ax.set_visible(False)
     axes[0, 0].set_ylabel(metric)
     fig.suptitle(f"{design.name}: main effects ({design.kind}, {design.reducer})")
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     return path
