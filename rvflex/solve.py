@@ -20,7 +20,7 @@ from rvflex.model import ReducerModel
 from rvflex.numerics import OUTPUT_REGULARISER_NM_RAD, generalized_alpha_settings
 
 __all__ = ["DynamicResult", "QuasiStaticResult", "SolveError", "TorqueStepResult", "dynamic", "hysteresis_cycle",
-           "generalized_alpha_settings", "input_angle", "quasi_static", "static_settings", "torque_stepping"]
+           "generalized_alpha_settings", "input_angle", "quasi_static", "solve_at", "static_settings", "torque_stepping"]
 
 # the first loaded state is reached by a homotopy in the output regulariser: a stiff spring
 # to the kinematic output angle (1e6 N·m/rad: 412 N·m turn the output ~85″) holds the
@@ -78,7 +78,13 @@ def static_settings():
     return ss
 
 
-def _solve_at(model: ReducerModel, ss, theta_in: float, q_abs: np.ndarray) -> np.ndarray:
+def solve_at(model: ReducerModel, ss, theta_in: float, q_abs: np.ndarray) -> np.ndarray:
+    """One static equilibrium with Exudyn's solver (settings ``ss``, e.g. :func:`static_settings`)
+    at input angle ``theta_in`` (rad), the output regulariser centred on its kinematic angle,
+    started from the absolute coordinates ``q_abs``; returns the absolute coordinates.
+
+    Raises RuntimeError when the solver does not converge; the contacts' penetration guard
+    raises on an overloaded contact."""
     import exudyn as exu
 
     mbs = model.mbs
@@ -91,6 +97,8 @@ def _solve_at(model: ReducerModel, ss, theta_in: float, q_abs: np.ndarray) -> np
         c.check_penetration()
     return np.asarray(mbs.systemData.GetODE2Coordinates()) + model.reference
 
+
+_solve_at = solve_at  # old private name, still imported by rvflex.diagnose.replay (use solve_at)
 
 SUBSTEP_LEVELS = 3  # a step that fails is retried in 2, 4, then 8 sub-steps from the last converged state
 
@@ -232,7 +240,7 @@ def _advance(model: ReducerModel, ss, q: np.ndarray, th0: float, th1: float, lev
             newton.lu = None  # its Jacobian may belong to a wild iterate
             guess = kinematic_guess()
     try:
-        return _solve_at(model, ss, th1, guess)
+        return solve_at(model, ss, th1, guess)
     except Exception:
         if level >= SUBSTEP_LEVELS:
             raise
@@ -375,7 +383,7 @@ def torque_stepping(model: ReducerModel, torques_Nm: np.ndarray, *, progress=Non
     for j, torque in enumerate(torques):
         mbs.SetLoadParameter(model.carrier.load, "load", float(torque))
         try:
-            q = _advance(model, ss, q, 0.0, 0.0, SUBSTEP_LEVELS, newton=newton) if j else _solve_at(model, ss, 0.0, q)
+            q = _advance(model, ss, q, 0.0, 0.0, SUBSTEP_LEVELS, newton=newton) if j else solve_at(model, ss, 0.0, q)
         except Exception as err:
             raise SolveError(f"torque step {j} ({torque:.3f} N·m) did not converge: {err}",
                              TorqueStepResult(torques[:done], out[:done], time.perf_counter() - t0)) from None
