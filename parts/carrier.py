@@ -10,7 +10,7 @@ output encoder measures. Each crank has two support bearings, one per plate seat
 of the spec's lumped pair (``split_support_bearing``), on distributing (RBE3)
 ``MarkerSuperElementRigid`` seat markers. By default (``seat_marker="virtual"``) a seat marker
 holds four massless virtual nodes appended to the reduced carrier whose mode rows are the
-seat's RBE3 motion (:func:`rvflex.fe.reduce.rbe3_virtual_nodes`): the same kinematics, hence
+seat's RBE3 motion (:func:`rvflex.fe.couplings.rbe3_virtual_nodes`): the same kinematics, hence
 the same loads, as the marker on all 108–136 seat nodes with the reduction's weights
 (``seat_marker="all_nodes"``), at a fraction of the cost.
 """
@@ -23,13 +23,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rvflex.fe import ffrf as ffrf_module
+from rvflex.fe.couplings import rbe3_virtual_nodes
+from rvflex.numerics import OUTPUT_REGULARISER_NM_RAD  # re-exported: the regulariser this builder installs
 from rvflex.spec import ErrorSpec, ReducerSpec
 from rvflex.parts import bearings
 
 __all__ = ["CarrierHandles", "build", "crank_axis_positions", "OUTPUT_REGULARISER_NM_RAD", "add_input_seat_bearings",
            "split_support_bearing", "SEAT_MARKERS"]
 
-OUTPUT_REGULARISER_NM_RAD = 1.0  # to the kinematic output angle: 1e-4 N·m per 1e-4 rad of TE
 SEAT_MARKERS = ("virtual", "all_nodes")  # flexible carrier: seat markers on 4 virtual RBE3 nodes | on all seat nodes
 
 
@@ -142,9 +144,6 @@ def _build_flexible(mbs, spec, errors, ground_body, ground_coordinate, reduced, 
     from exudyn.itemInterface import (CoordinateConstraint, LoadCoordinate, MarkerBodyRigid, MarkerNodeCoordinate,
                                       MarkerNodeRigid, MarkerSuperElementRigid,
                                       ObjectConnectorCoordinateSpringDamper)
-
-    from rvflex.fe import ffrf as ffrf_module
-    from rvflex.fe.reduce import rbe3_virtual_nodes
 
     if seat_marker not in SEAT_MARKERS:
         raise ValueError(f"seat_marker = {seat_marker!r}: one of {SEAT_MARKERS}")

@@ -9,6 +9,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from rvflex.contact.cycloid_pin import ContactLaw, CycloidPinContact, add_cycloid_pin_contact
+from rvflex.fe import ffrf as ffrf_module  # called through the module: tests stand in for ffrf_interface
+from rvflex.fe.geometry import pillar_angles
 from rvflex.parts import bearings
 from rvflex.spec import ErrorSpec, ReducerSpec
 
@@ -124,8 +126,6 @@ def _half_turn_symmetric(spec: ReducerSpec) -> bool:
         b = np.mod(a + math.pi, 2 * math.pi)
         return all(np.min(np.abs(np.angle(np.exp(1j * (a - x))))) < 1e-9 for x in b)
 
-    from rvflex.fe.geometry import pillar_angles
-
     return spec.cycloid.disc_teeth % 2 == 1 and symmetric(spec.cranks.angles_rad) and symmetric(pillar_angles(spec))
 
 
@@ -137,8 +137,6 @@ def _build_flexible(mbs, spec, errors, cranks, law, eccentric_offsets, axes, red
     mesh's own local contact deformation is not sampled)."""
     from exudyn.itemInterface import CoordinateConstraint, MarkerNodeCoordinate, MarkerSuperElementRigid
 
-    from rvflex.fe.ffrf import ffrf_interface
-
     if reduced is None or int(ground_coordinate) < 0:
         raise ValueError("fidelity = 'flexible': needs the reduced disc and a ground coordinate marker")
     cy = spec.cycloid
@@ -146,7 +144,7 @@ def _build_flexible(mbs, spec, errors, cranks, law, eccentric_offsets, axes, red
     if reduced.flank is None or reduced.flank.rows.shape[0] % cy.disc_teeth:
         raise ValueError("fidelity = 'flexible': the reduced disc has no flank mode rows on a whole-tooth grid")
     grid_per_tooth = reduced.flank.rows.shape[0] // cy.disc_teeth
-    ffrf = ffrf_interface(reduced)  # one interface (cached on disk) serves every disc
+    ffrf = ffrf_module.ffrf_interface(reduced)  # one interface (cached on disk) serves every disc
     nodes, bodies, contacts, ecc_bearings, modal_nodes = [], [], [], [], []
     for d in range(cy.disc_count):
         if errors.disc_bore_distance_error_m and errors.disc_bore_distance_error_m[d]:

@@ -7,13 +7,14 @@ temporary name and renamed, so a failed run leaves no half-written output.
 from __future__ import annotations
 
 import argparse
-import json
+import io
 import os
 import sys
-import tempfile
 from pathlib import Path
 
+import rvflex.scenarios  # noqa: F401 -- registers the scenarios sweeps run (rvflex.scenarios.sweepable)
 from rvflex import catalog
+from rvflex.io import emit, write_json, write_text
 from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
 
 __all__ = ["main", "resolve_reducer"]
@@ -45,44 +46,21 @@ def _with_progress(total: int, desc: str, run):
     return result, time.perf_counter() - t0
 
 
-def _emit(args: argparse.Namespace, doc: dict, write_outputs) -> int:
-    """Write ``--out`` files (``write_outputs(dir) -> paths``) and the ``--json`` document."""
-    if args.out:
-        for path in write_outputs(Path(args.out)):
-            print(f"wrote {path}")
-    if args.json:
-        _write_atomic(Path(args.json), json.dumps(doc, indent=2).encode())
-    return 0
-
-
 def _model_inputs(args: argparse.Namespace) -> tuple[ReducerSpec, ErrorSpec]:
     """Spec and errors of a model command (``--reducer``, ``--fidelity``, ``--errors``, ``--perfect``)."""
     from rvflex.scenarios.loaded_te import perfect_spec
 
-    spec = resolve_reducer(args.reducer)
+    spec = catalog.resolve(args.reducer)
     if args.perfect:
         return perfect_spec(spec), ErrorSpec()
-    return spec, _errors(args.errors, spec) or ErrorSpec()
-
-
-def _write_atomic(path: Path, data: bytes) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-        os.chmod(tmp, 0o644)  # mkstemp creates 0600; results are ordinary files
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    return spec, catalog.resolve_errors(args.errors, spec) or ErrorSpec()
 
 
 def _cmd_geometry(args: argparse.Namespace) -> int:
     from rvflex.geometry.report import geometry_report, plot_profile
 
-    spec = resolve_reducer(args.reducer)
-    errors = _errors(args.errors, spec)
+    spec = catalog.resolve(args.reducer)
+    errors = catalog.resolve_errors(args.errors, spec)
     report = geometry_report(spec, errors)
     print(report.text())
     if args.out:
@@ -94,10 +72,10 @@ def _cmd_geometry(args: argparse.Namespace) -> int:
             os.replace(tmp, out / "profile.png")
         finally:
             tmp.unlink(missing_ok=True)
-        _write_atomic(out / "geometry.json", json.dumps(report.as_json(), indent=2).encode())
+        write_json(out / "geometry.json", report.as_json())
         print(f"wrote {out / 'profile.png'} and {out / 'geometry.json'}")
     if args.json:
-        _write_atomic(Path(args.json), json.dumps(report.as_json(), indent=2).encode())
+        write_json(Path(args.json), report.as_json())
     return 0
 
 
@@ -122,7 +100,7 @@ def _cmd_te(args: argparse.Namespace) -> int:
           f"mean wind-up {met.mean_windup_arcsec:.2f}″, {n} positions in {wall:.1f} s "
           f"(solver {result.raw.wall_s:.1f} s, the rest builds the model)")
     print("strongest orders: " + ", ".join(f"{o}: {a:.3f}″" for o, a in met.orders[:5]))
-    return _emit(args, doc, result.write)
+    return emit(args, doc, result.write)
 
 
 def _cmd_lost_motion(args: argparse.Namespace) -> int:
@@ -139,7 +117,7 @@ def _cmd_lost_motion(args: argparse.Namespace) -> int:
           f"torsional stiffness {met.torsional_stiffness_Nm_per_arcmin:.2f} N·m/arcmin "
           f"(secant ±T {met.secant_stiffness_Nm_per_arcmin:.2f}), "
           f"backlash {met.backlash_arcmin:.4f}′ ({len(result.raw.torque_Nm)} steps in {wall:.1f} s)")
-    return _emit(args, doc, result.write)
+    return emit(args, doc, result.write)
 
 
 def _cmd_backlash(args: argparse.Namespace) -> int:
@@ -151,7 +129,7 @@ def _cmd_backlash(args: argparse.Namespace) -> int:
     doc = {**result.metrics_dict(), "wall_s": result.wall_s}
     print(f"reversal backlash {result.metrics.reversal_backlash_arcmin:.4f}′ at ±{sc.load_Nm:g} N·m "
           f"({doc['wall_s']:.1f} s)")
-    return _emit(args, doc, result.write)
+    return emit(args, doc, result.write)
 
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
@@ -167,6 +145,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         plot_indices,
         plot_main_effects,
         range_table,
+        registry,
         sensitivity_indices,
         sweep,
         write_indices_csv,
@@ -178,13 +157,14 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     with tqdm(total=n, desc=f"sweep {design.name}", unit="point", file=sys.stderr, mininterval=0.5) as bar:
         res = sweep(design, out / f"{design.name}.sqlite", executor=args.executor, workers=args.workers,
                     scheduler=args.scheduler, progress=lambda: bar.update(1))
-    metric = "te_pp_arcsec" if design.scenario == "te" else "lost_motion_arcmin"
+    entry = registry.get(design.scenario)
+    metric, unit = entry.metric, entry.unit
     keys = sorted({k for r in res.rows for k in r})
-    with open(out / "table.csv", "w", newline="", encoding="utf-8") as fh:
-        w = csv.DictWriter(fh, fieldnames=keys)
-        w.writeheader()
-        w.writerows(res.rows)
-    unit = "arcsec" if design.scenario == "te" else "arcmin"
+    fh = io.StringIO(newline="")
+    w = csv.DictWriter(fh, fieldnames=keys)
+    w.writeheader()
+    w.writerows(res.rows)
+    write_text(out / "table.csv", fh.getvalue())
     print(f"{res.finished} of {n} points finished, {res.failed} failed, {res.wall_s:.1f} s "
           f"(+ {res.startup_s:.1f} s start-up; {res.executor}, {res.workers} workers); table in {out / 'table.csv'}")
     doc = {"points": n, "finished": res.finished, "failed": res.failed, "wall_s": res.wall_s,
@@ -205,24 +185,25 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
             print(f"  {r['factor']:32s} {r['index_name']} {r['index']:.4f} ± {conf:.4f}  {extra}  "
                   f"{classes.get(r['factor'], '')}")
         if args.json:
-            _write_atomic(Path(args.json), json.dumps(doc, indent=2).encode())
+            write_json(Path(args.json), doc)
         return 0
     ranking = (range_table(design, res.rows, metric) if design.kind not in ("lhs", "sobol", "monte-carlo") else [])
     classes = classify(ranking)
     doc["ranking"] = [{"factor": r["factor"], f"range_{unit}": r["range"], "class": classes[r["factor"]]}
                       for r in ranking]
     if ranking:
-        with open(out / "range_table.csv", "w", newline="", encoding="utf-8") as fh:
-            w = csv.writer(fh)
-            k = max(len(r["K"]) for r in ranking)
-            w.writerow(["factor"] + [f"K{j + 1}" for j in range(k)] + ["R", "class"])
-            for r in ranking:
-                w.writerow([r["factor"]] + r["K"] + [""] * (k - len(r["K"])) + [r["range"], classes[r["factor"]]])
+        fh = io.StringIO(newline="")
+        w = csv.writer(fh)
+        k = max(len(r["K"]) for r in ranking)
+        w.writerow(["factor"] + [f"K{j + 1}" for j in range(k)] + ["R", "class"])
+        for r in ranking:
+            w.writerow([r["factor"]] + r["K"] + [""] * (k - len(r["K"])) + [r["range"], classes[r["factor"]]])
+        write_text(out / "range_table.csv", fh.getvalue())
         print(f"main effects in {plot_main_effects(design, ranking, metric, out / 'main_effects.png')}")
     for r in ranking:
         print(f"  {r['factor']:32s} range {r['range']:.4f} {unit}  {classes[r['factor']]}")
     if args.json:
-        _write_atomic(Path(args.json), json.dumps(doc, indent=2).encode())
+        write_json(Path(args.json), doc)
     return 0
 
 
@@ -243,7 +224,7 @@ def _cmd_bench_sweep(args: argparse.Namespace) -> int:
           f"(busy {res['busy_1_worker']:.2f} / {res['busy_2_workers']:.2f}: below ~0.95 other jobs share the cores; "
           f"CPU-makespan speed-up {res['speedup_cpu']:.2f})")
     if args.json:
-        _write_atomic(Path(args.json), json.dumps(res, indent=2).encode())
+        write_json(Path(args.json), res)
     return 0
 
 
@@ -264,7 +245,7 @@ def _cmd_bench_contact(args: argparse.Namespace) -> int:
     for name, ok, goal in targets:
         print(f"target {name:24s} {goal:8s} {'met' if ok else 'NOT met'}")
     if args.json:
-        _write_atomic(Path(args.json), json.dumps(result, indent=2).encode())
+        write_json(Path(args.json), result)
     return 0
 
 
@@ -320,11 +301,15 @@ def _output_arguments(p: argparse.ArgumentParser, files: str) -> None:
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``rvflex`` command."""
-    p = argparse.ArgumentParser(prog="rvflex", description="Rigid–flexible RV reducer models: geometry, TE, lost motion.")
+    p = argparse.ArgumentParser(prog="rvflex", description="Rigid–flexible RV reducer models: geometry, TE, lost motion.",
+                                epilog="SI inside; reports TE in arcsec, lost motion and backlash in arcmin, "
+                                       "stiffness in N·m/arcmin. Each command's --help states its defaults. "
+                                       "FE reductions are cached under $RVFLEX_CACHE_DIR or ~/.cache/rvflex.")
     sub = p.add_subparsers(dest="command", required=True)
     g = sub.add_parser("geometry", help="cycloid-stage geometry report and profile plot")
     g.add_argument("--reducer", required=True, help=f"built-in reducer ({', '.join(catalog.names())}) or a spec TOML path")
-    g.add_argument("--errors", help="ErrorSpec TOML file (omitted keys are zero) or a built-in set (rv40e_seed001)")
+    g.add_argument("--errors", help="ErrorSpec TOML file (omitted keys are zero) or a built-in set (rv40e_seed001); "
+                                    "default: no errors")
     g.add_argument("--json", help="write the report as JSON to this path")
     g.add_argument("--out", help="directory for profile.png and geometry.json")
     g.set_defaults(func=_cmd_geometry)
@@ -352,19 +337,33 @@ def build_parser() -> argparse.ArgumentParser:
     bl.set_defaults(func=_cmd_backlash)
     sw = sub.add_parser("sweep", help="parameter sweep / tolerance design from a design TOML")
     sw.add_argument("design", help="design TOML (see scenarios/designs/smoke.toml)")
-    sw.add_argument("--executor", default="process", choices=("serial", "process", "dask"), help="default: process")
-    sw.add_argument("--scheduler", help="Dask scheduler address tcp://HOST:PORT (default: a LocalCluster)")
-    sw.add_argument("--workers", type=int, help="process workers (default: CPU count)")
+    sw.add_argument("--executor", default="process", choices=("serial", "process", "dask"),
+                    help="serial: this process; process: a local pool of workers forked warm from this process "
+                         "(a killed worker's points are retried); dask: a Dask cluster (default process)")
+    sw.add_argument("--scheduler", help="with --executor dask: scheduler address tcp://HOST:PORT (default: a "
+                                        "LocalCluster of --workers single-threaded worker processes)")
+    sw.add_argument("--workers", type=int,
+                    help=f"workers of the process pool or the LocalCluster (default: the CPU count, {os.cpu_count()} "
+                         f"here; serial uses 1)")
     sw.add_argument("--json", help="write the summary as JSON to this path")
     sw.add_argument("--out", help="directory for the store and table.csv (default out/sweeps/NAME)")
     sw.set_defaults(func=_cmd_sweep)
     b = sub.add_parser("bench", help="benchmarks")
     bsub = b.add_subparsers(dest="bench", required=True)
-    bc = bsub.add_parser("contact", help="cycloid–pin contact: rvflex element vs ObjectContactCurveCircles")
+    bc = bsub.add_parser("contact", help="cycloid–pin contact: rvflex element vs ObjectContactCurveCircles",
+                         description="One rigid RV-40E disc (catalogue modification) on its pin ring, 50 N·m resisting, "
+                                     "crank at 1 rev/s for a quarter revolution, generalized-α with a 0.2 ms step "
+                                     "(rvflex.contact.bench): evaluation "
+                                     "time of the rvflex contact element, steps per second against Exudyn's "
+                                     "polygon contact, and both contacts' geometric error.")
     bc.add_argument("--json", help="write the results as JSON to this path")
     bc.add_argument("--segments", type=int, default=8000, help="polygon segments of the Exudyn contact (default 8000)")
     bc.set_defaults(func=_cmd_bench_contact)
-    bs = bsub.add_parser("sweep", help="Monte Carlo sweep time and the 1→2 worker speed-up")
+    bs = bsub.add_parser("sweep", help="Monte Carlo sweep time and the 1→2 worker speed-up",
+                         description="Rigid RV-40E, quasi-static loaded TE at 412 N·m over one output revolution "
+                                     "(2048 positions), five tolerances uniform in their bands "
+                                     "(rvflex.sweep.monte_carlo_design); process executor with 2 workers for the "
+                                     "Monte Carlo (seed 1), 1 and 2 workers on the same speed-up points (seed 2).")
     bs.add_argument("--points", type=int, default=100, help="Monte Carlo points (default 100)")
     bs.add_argument("--speedup-points", type=int, default=32,
                     help="points for the speed-up measurement (default 32: 16 per worker keeps the idle tail small)")

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rvflex.geometry.formulas import ARCSEC_PER_RAD
+from rvflex.units import ARCSEC_PER_RAD
 
 __all__ = ["HysteresisMetrics", "TEMetrics", "hysteresis_metrics", "te_metrics", "order_spectrum"]
 

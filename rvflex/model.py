@@ -22,7 +22,7 @@ from rvflex.contact.cycloid_pin import ContactLaw
 from rvflex.options import ModelOptions, as_options
 from rvflex.parts import carrier as carrier_part
 from rvflex.parts import crankshaft, cycloid_disc, input_stage, pin_ring
-from rvflex.spec import ErrorSpec, ReducerSpec
+from rvflex.spec import ErrorSpec, ReducerSpec, check_geometry
 
 __all__ = ["ReducerModel", "build_reducer", "check_fidelity", "default_contact_law", "FIDELITIES"]
 
@@ -178,6 +178,7 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None,
         options = dataclasses.replace(options, discs=reduced_disc.settings)
     if reduced_carrier is not None:
         options = dataclasses.replace(options, carrier=reduced_carrier.settings)
+    check_geometry(spec)  # the profile check of every spec entering a model (variants made by replace)
     errors = errors or ErrorSpec()
     errors.check_against(spec)
     law = law or options.contact_law or default_contact_law(spec)

@@ -5,7 +5,7 @@ applied; each step is a static equilibrium (Exudyn's static solver) started from
 previous one advanced by the ideal kinematics. The first loaded step is reached by
 continuation from a stiffly held output (DESIGN.md: clearances make the bodies float; weak
 springs carry a negligible share — see :mod:`rvflex.parts.bearings` and
-:data:`rvflex.parts.carrier.OUTPUT_REGULARISER_NM_RAD`).
+:data:`rvflex.numerics.OUTPUT_REGULARISER_NM_RAD`).
 """
 
 from __future__ import annotations
@@ -16,10 +16,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from rvflex.model import ReducerModel
-from rvflex.parts.carrier import OUTPUT_REGULARISER_NM_RAD
+from rvflex.numerics import OUTPUT_REGULARISER_NM_RAD, generalized_alpha_settings
 
 __all__ = ["DynamicResult", "QuasiStaticResult", "SolveError", "TorqueStepResult", "dynamic", "hysteresis_cycle",
-           "generalized_alpha_settings", "input_angle", "quasi_static", "static_settings", "torque_stepping"]
+           "generalized_alpha_settings", "input_angle", "quasi_static", "solve_at", "static_settings", "torque_stepping"]
 
 # the first loaded state is reached by a homotopy in the output regulariser: a stiff spring
 # to the kinematic output angle (1e6 N·m/rad: 412 N·m turn the output ~85″) holds the
@@ -77,7 +77,13 @@ def static_settings():
     return ss
 
 
-def _solve_at(model: ReducerModel, ss, theta_in: float, q_abs: np.ndarray) -> np.ndarray:
+def solve_at(model: ReducerModel, ss, theta_in: float, q_abs: np.ndarray) -> np.ndarray:
+    """One static equilibrium with Exudyn's solver (settings ``ss``, e.g. :func:`static_settings`)
+    at input angle ``theta_in`` (rad), the output regulariser centred on its kinematic angle,
+    started from the absolute coordinates ``q_abs``; returns the absolute coordinates.
+
+    Raises RuntimeError when the solver does not converge; the contacts' penetration guard
+    raises on an overloaded contact."""
     import exudyn as exu
 
     mbs = model.mbs
@@ -90,6 +96,8 @@ def _solve_at(model: ReducerModel, ss, theta_in: float, q_abs: np.ndarray) -> np
         c.check_penetration()
     return np.asarray(mbs.systemData.GetODE2Coordinates()) + model.reference
 
+
+_solve_at = solve_at  # old private name, still imported by rvflex.diagnose.replay (use solve_at)
 
 SUBSTEP_LEVELS = 3  # a step that fails is retried in 2, 4, then 8 sub-steps from the last converged state
 
@@ -231,7 +239,7 @@ def _advance(model: ReducerModel, ss, q: np.ndarray, th0: float, th1: float, lev
             newton.lu = None  # its Jacobian may belong to a wild iterate
             guess = kinematic_guess()
     try:
-        return _solve_at(model, ss, th1, guess)
+        return solve_at(model, ss, th1, guess)
     except Exception:
         if level >= SUBSTEP_LEVELS:
             raise
@@ -408,7 +416,7 @@ def torque_stepping(model: ReducerModel, torques_Nm: np.ndarray, *, progress=Non
             except Exception as err:  # noqa: BLE001 - the caller's abort, passed through unchanged
                 raise _Abort() from err
         mbs.SetLoadParameter(model.carrier.load, "load", float(t))
-        q1 = _solve_at(model, ss, 0.0, q0) if first or newton is None else _advance(model, ss, q0, 0.0, 0.0,
+        q1 = solve_at(model, ss, 0.0, q0) if first or newton is None else _advance(model, ss, q0, 0.0, 0.0,
                                                                                      SUBSTEP_LEVELS, newton=newton)
         if abs(q1[car]) > MAX_CYCLE_ANGLE_RAD:
             raise RuntimeError(f"output angle {q1[car]:.4g} rad is not a deflection (jumped across the free play)")
@@ -467,26 +475,6 @@ def torque_stepping(model: ReducerModel, torques_Nm: np.ndarray, *, progress=Non
     except _Abort as abort:
         raise abort.__cause__ from None
     return TorqueStepResult(torques, out, time.perf_counter() - t0)
-
-
-def generalized_alpha_settings(end_s: float, step_s: float, spectral_radius: float, *, relative_tolerance: float,
-                               differentiation_epsilon: float | None = None):
-    """Generalized-α settings shared by the dynamic runs: fixed step, dense solver, sensors
-    stored every step, no solution file."""
-    import exudyn as exu
-
-    ss = exu.SimulationSettings()
-    ss.timeIntegration.numberOfSteps = int(round(end_s / step_s))
-    ss.timeIntegration.endTime = end_s
-    ss.timeIntegration.verboseMode = 0
-    ss.timeIntegration.generalizedAlpha.spectralRadius = spectral_radius
-    ss.timeIntegration.newton.relativeTolerance = relative_tolerance
-    if differentiation_epsilon is not None:
-        ss.timeIntegration.newton.numericalDifferentiation.relativeEpsilon = differentiation_epsilon
-    ss.solution.file.write = False
-    ss.solution.sensors.writePeriod = step_s
-    ss.linearSolver.solverType = exu.LinearSolverType.EXUdense
-    return ss
 
 
 @dataclass(frozen=True)

@@ -1,8 +1,13 @@
-"""Frozen, validated specifications of an RV reducer, its errors and its tooth modification.
+"""Reducer specifications: the validated dataclasses (from :mod:`rvflex.spec_types`), their
+TOML load/dump, and the geometric check every spec passes where it enters rvflex.
 
 Everything is SI (m, rad, N, N·m, kg, Pa, s). Every dataclass validates itself in
-``__post_init__`` and raises :class:`SpecError` naming the field, its value and the rule
-it breaks; variants are made with :func:`dataclasses.replace`, which re-validates.
+``__post_init__`` (closed-form rules) and raises :class:`SpecError` naming the field, its
+value and the rule it breaks; variants are made with :func:`dataclasses.replace`, which
+re-validates. The cycloid profile's geometric check (:func:`check_geometry`: theoretical and
+modified profiles are simple counter-clockwise closed curves) needs the exact profile, so it
+runs where specs enter: :func:`loads_spec`/:func:`load_spec` (and so the catalogue) and
+``build_reducer``, not on every ``replace``.
 
 TOML mirrors the dataclasses one table per nested dataclass. :func:`loads_spec` is
 strict: an unknown (e.g. misspelled) or a missing key is refused. Error files
@@ -13,13 +18,29 @@ from __future__ import annotations
 
 import dataclasses
 import difflib
-import math
 import tomllib
 import typing
-from dataclasses import dataclass, fields
+from dataclasses import fields
 from pathlib import Path
 
 import tomli_w
+
+from rvflex.geometry.profile import check_stage
+from rvflex.io import write_text
+from rvflex.spec_types import (
+    Bearing,
+    Bearings,
+    Carrier,
+    Cranks,
+    CycloidStage,
+    ErrorSpec,
+    InputStage,
+    Material,
+    Materials,
+    Modification,
+    ReducerSpec,
+    SpecError,
+)
 
 __all__ = [
     "SpecError",
@@ -34,6 +55,7 @@ __all__ = [
     "Carrier",
     "ReducerSpec",
     "ErrorSpec",
+    "check_geometry",
     "loads_spec",
     "load_spec",
     "dumps_spec",
@@ -44,502 +66,12 @@ __all__ = [
     "dump_errors",
 ]
 
-MM = 1e-3
-UM = 1e-6
-BEARING_KINDS = (
-    "needle",
-    "cylindrical_roller",
-    "tapered_roller",
-    "angular_contact_ball",
-    "deep_groove_ball",
-    "crossed_roller",
-)
 
-
-class SpecError(ValueError):
-    """A specification value breaks a rule.
-
-    Parameters
-    ----------
-    field : str
-        Dotted name of the offending field (``cycloid.pin_circle_radius_m``).
-    value : object
-        The value found.
-    rule : str
-        The rule it breaks, in words.
-    source : str, optional
-        File (or other origin) the value came from.
-    """
-
-    def __init__(self, field: str, value: object, rule: str, source: str | None = None):
-        self.field, self.value, self.rule, self.source = field, value, rule, source
-        where = f"{source}: " if source else ""
-        super().__init__(f"{where}{field} = {value!r}: {rule}")
-
-    def __reduce__(self):  # picklable across worker processes
-        return (type(self), (self.field, self.value, self.rule, self.source))
-
-    def within(self, prefix: str = "", source: str | None = None) -> "SpecError":
-        """Return the same error with a table prefix and/or a source file attached."""
-        name = f"{prefix}.{self.field}" if prefix and not self.field.startswith(prefix + ".") else self.field
-        return SpecError(name, self.value, self.rule, source or self.source)
-
-
-def _range(name: str, value: float, lo: float, hi: float, rule: str) -> None:
-    if not (isinstance(value, (int, float)) and math.isfinite(value) and lo <= value <= hi):
-        raise SpecError(name, value, rule)
-
-
-def _positive(name: str, value: float, unit: str) -> None:
-    if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-        raise SpecError(name, value, f"must be a positive number in {unit}")
-
-
-def _int_range(name: str, value: int, lo: int, hi: int) -> None:
-    if not (isinstance(value, int) and not isinstance(value, bool) and lo <= value <= hi):
-        raise SpecError(name, value, f"must be an integer from {lo} to {hi}")
-
-
-# --------------------------------------------------------------------------- materials
-
-
-@dataclass(frozen=True, slots=True)
-class Material:
-    """Isotropic linear-elastic material."""
-
-    name: str
-    density_kg_m3: float
-    youngs_modulus_Pa: float
-    poisson_ratio: float
-
-    def __post_init__(self) -> None:
-        _range("density_kg_m3", self.density_kg_m3, 500.0, 25_000.0, "expected kg/m³ (steel is 7850)")
-        _range("youngs_modulus_Pa", self.youngs_modulus_Pa, 1e9, 1e12,
-               "expected Pa, 1 GPa to 1000 GPa (steel is 2.07e11, not 207)")
-        _range("poisson_ratio", self.poisson_ratio, 0.0, 0.5, "must lie in [0, 0.5]")
-
-
-@dataclass(frozen=True, slots=True)
-class Materials:
-    """Materials of the reducer's parts (seed 004 Table 2)."""
-
-    gears_cranks_discs: Material
-    pins: Material
-    pin_housing: Material
-    carriers: Material
-
-
-# --------------------------------------------------------------------------- input stage
-
-
-@dataclass(frozen=True, slots=True)
-class InputStage:
-    """Involute first stage: sun on the input shaft, one planet per crank.
-
-    ``mesh_stiffness_*`` describe the time-varying mesh stiffness
-    k(t) = mean + amplitude·cos(mesh phase) (seed 003 Table 3). ``backlash_m`` is the
-    circumferential backlash at the pitch circle (the normal backlash is that times cos α).
-    """
-
-    sun_teeth: int
-    planet_teeth: int
-    module_m: float
-    pressure_angle_rad: float
-    face_width_m: float
-    mesh_stiffness_mean_N_m: float
-    mesh_stiffness_amplitude_N_m: float
-    mesh_damping_Ns_m: float
-    backlash_m: float
-
-    def __post_init__(self) -> None:
-        _int_range("sun_teeth", self.sun_teeth, 6, 400)
-        _int_range("planet_teeth", self.planet_teeth, 6, 400)
-        _range("module_m", self.module_m, 0.1 * MM, 20 * MM, "expected metres, 0.1 mm to 20 mm")
-        _range("pressure_angle_rad", self.pressure_angle_rad, math.radians(10), math.radians(35),
-               "expected radians, 10° to 35° (20° is 0.349)")
-        _range("face_width_m", self.face_width_m, 1 * MM, 0.2, "expected metres, 1 mm to 200 mm")
-        _range("mesh_stiffness_mean_N_m", self.mesh_stiffness_mean_N_m, 1e6, 1e12, "expected N/m, 1e6 to 1e12")
-        _range("mesh_stiffness_amplitude_N_m", self.mesh_stiffness_amplitude_N_m, 0.0,
-               self.mesh_stiffness_mean_N_m, "expected N/m, from 0 to the mean stiffness")
-        _range("mesh_damping_Ns_m", self.mesh_damping_Ns_m, 0.0, 1e7, "expected N·s/m, 0 to 1e7")
-        _range("backlash_m", self.backlash_m, 0.0, 1 * MM, "expected metres, 0 to 1 mm")
-
-    @property
-    def centre_distance_m(self) -> float:
-        """Sun–planet centre distance of the unshifted gears, m(z1 + z2)/2 (m)."""
-        return self.module_m * (self.sun_teeth + self.planet_teeth) / 2.0
-
-
-# --------------------------------------------------------------------------- cycloid stage
-
-
-@dataclass(frozen=True, slots=True)
-class Modification:
-    """Cycloid tooth-profile modification; all four kinds may be combined.
-
-    Sign convention (seeds 002 and 004): the modified profile is generated by pins of
-    radius ``r_rp + equidistant_m`` on a pin circle of radius ``r_p + moved_m``.
-    A positive ``equidistant_m`` (Δr_rp) removes material evenly and opens clearance;
-    a positive ``moved_m`` (Δr_p) moves the flank outward and closes clearance. To first
-    order the normal clearance at the pin at angle φ is
-    Δr_rp − Δr_p·(1 − K1·cosφ)/√(1 + K1² − 2K1·cosφ).
-
-    Pressure-angle segmented modification (seed 003 eqs. 26–29): where the pressure angle
-    exceeds ``tip_pressure_angle_rad`` on the tooth-tip side (``root_pressure_angle_rad``
-    on the root side) the generating pin radius grows by up to ``tip_amount_m``
-    (``root_amount_m``) at the tip (root) apex, blended in with a C² quintic so that the
-    profile and its curvature stay continuous. An amount of 0 switches a zone off.
-
-    Deformation-compensated modification (seed 002): the generating pin radius grows
-    by δ(τ) = ``compensation_m``·|sin τ|/√(1 + K1² − 2K1·cosτ) (τ: tooth phase, 0 at the
-    root); |sin τ| is smoothed within ~0.01 rad of root and tip so the profile stays C².
-    """
-
-    moved_m: float = 0.0
-    equidistant_m: float = 0.0
-    tip_pressure_angle_rad: float = math.radians(65.0)
-    tip_amount_m: float = 0.0
-    root_pressure_angle_rad: float = math.radians(75.0)
-    root_amount_m: float = 0.0
-    compensation_m: float = 0.0
-
-    def __post_init__(self) -> None:
-        for name in ("moved_m", "equidistant_m"):
-            _range(name, getattr(self, name), -0.5 * MM, 0.5 * MM,
-                   "expected metres; modifications are tens of µm, at most ±0.5 mm")
-        for name in ("tip_pressure_angle_rad", "root_pressure_angle_rad"):
-            _range(name, getattr(self, name), math.radians(5), math.radians(89.5),
-                   "expected radians between 5° and 89.5°")
-        for name in ("tip_amount_m", "root_amount_m"):
-            _range(name, getattr(self, name), 0.0, 0.5 * MM, "expected metres, 0 to 0.5 mm")
-        _range("compensation_m", self.compensation_m, -0.1 * MM, 0.1 * MM,
-               "expected metres; elastic compensation is a few µm, at most ±0.1 mm")
-
-    @property
-    def kinds(self) -> tuple[str, ...]:
-        """Names of the modification kinds that are switched on."""
-        out = []
-        if self.equidistant_m:
-            out.append("equidistant")
-        if self.moved_m:
-            out.append("moved")
-        if self.tip_amount_m or self.root_amount_m:
-            out.append("pressure_angle")
-        if self.compensation_m:
-            out.append("compensated")
-        return tuple(out)
-
-
-@dataclass(frozen=True, slots=True)
-class CycloidStage:
-    """Cycloid–pin stage: ``disc_count`` discs of ``disc_teeth`` teeth in a ring of ``pin_count`` pins.
-
-    The short-width coefficient is K1 = e·z_b/r_p (seed 003; seed 002 writes a·z_c/r_p);
-    the pin-centre curve is regular only for K1 < 1.
-    """
-
-    disc_teeth: int
-    pin_count: int
-    pin_circle_radius_m: float
-    pin_radius_m: float
-    eccentricity_m: float
-    disc_thickness_m: float
-    disc_center_hole_radius_m: float
-    disc_count: int
-    disc_phase_rad: tuple[float, ...]
-    modification: Modification
-
-    def __post_init__(self) -> None:
-        _int_range("disc_teeth", self.disc_teeth, 5, 200)
-        if self.pin_count != self.disc_teeth + 1:
-            raise SpecError("pin_count", self.pin_count,
-                            f"must equal disc_teeth + 1 = {self.disc_teeth + 1} (z_b = z_c + 1)")
-        _range("pin_circle_radius_m", self.pin_circle_radius_m, 5 * MM, 1.0, "expected metres, 5 mm to 1 m")
-        _range("pin_radius_m", self.pin_radius_m, 0.3 * MM, 0.05, "expected metres, 0.3 mm to 50 mm")
-        _range("eccentricity_m", self.eccentricity_m, 0.05 * MM, 0.05, "expected metres, 0.05 mm to 50 mm")
-        _range("disc_thickness_m", self.disc_thickness_m, 1 * MM, 0.2, "expected metres, 1 mm to 200 mm")
-        _range("disc_center_hole_radius_m", self.disc_center_hole_radius_m, 0.0,
-               self.pin_circle_radius_m - self.eccentricity_m - self.pin_radius_m,
-               "expected metres, from 0 to the profile's root radius r_p − e − r_rp")
-        if self.k1 >= 1.0:
-            raise SpecError("eccentricity_m", self.eccentricity_m,
-                            f"K1 = e·z_b/r_p = {self.k1:.4f} must be < 1 (the pin-centre curve loops)")
-        gap = 2 * self.pin_circle_radius_m * math.sin(math.pi / self.pin_count)
-        if 2 * self.pin_radius_m >= gap:
-            raise SpecError("pin_radius_m", self.pin_radius_m,
-                            f"pin cannot fit: neighbouring pins {gap * 1e3:.3f} mm apart overlap")
-        _int_range("disc_count", self.disc_count, 1, 4)
-        if len(self.disc_phase_rad) != self.disc_count:
-            raise SpecError("disc_phase_rad", self.disc_phase_rad, f"needs one phase per disc ({self.disc_count})")
-        for k, ph in enumerate(self.disc_phase_rad):
-            _range(f"disc_phase_rad[{k}]", ph, 0.0, 2 * math.pi, "expected radians in [0, 2π]")
-        from rvflex.geometry.profile import check_stage  # geometry depends on the spec, not vice versa
-
-        check_stage(self)
-
-    @property
-    def k1(self) -> float:
-        """Short-width coefficient K1 = e·z_b/r_p (–)."""
-        return self.eccentricity_m * self.pin_count / self.pin_circle_radius_m
-
-
-# --------------------------------------------------------------------------- cranks, bearings, carrier
-
-
-@dataclass(frozen=True, slots=True)
-class Cranks:
-    """Crankshafts: ``count`` cranks on a circle, each with one eccentric per disc."""
-
-    count: int
-    crank_circle_radius_m: float
-    angles_rad: tuple[float, ...]
-    eccentric_axial_positions_m: tuple[float, ...]
-    eccentric_journal_radius_m: float
-    disc_bore_radius_m: float
-
-    def __post_init__(self) -> None:
-        if self.count not in (2, 3):
-            raise SpecError("count", self.count, "an RV reducer has 2 or 3 cranks")
-        _range("crank_circle_radius_m", self.crank_circle_radius_m, 5 * MM, 1.0, "expected metres, 5 mm to 1 m")
-        if len(self.angles_rad) != self.count:
-            raise SpecError("angles_rad", self.angles_rad, f"needs one angle per crank ({self.count})")
-        for k, a in enumerate(self.angles_rad):
-            _range(f"angles_rad[{k}]", a, 0.0, 2 * math.pi, "expected radians in [0, 2π]")
-        for k, z in enumerate(self.eccentric_axial_positions_m):
-            _range(f"eccentric_axial_positions_m[{k}]", z, -0.5, 0.5, "expected metres within ±0.5 m")
-        _range("eccentric_journal_radius_m", self.eccentric_journal_radius_m, 1 * MM, 0.2,
-               "expected metres, 1 mm to 200 mm")
-        if not self.eccentric_journal_radius_m < self.disc_bore_radius_m < self.crank_circle_radius_m:
-            raise SpecError("disc_bore_radius_m", self.disc_bore_radius_m,
-                            "must lie between the eccentric journal radius and the crank circle radius")
-
-
-@dataclass(frozen=True, slots=True)
-class Bearing:
-    """A rolling bearing as a bushing: radial stiffness beyond a radial clearance."""
-
-    kind: str
-    radial_stiffness_N_m: float
-    axial_stiffness_N_m: float
-    tilt_stiffness_Nm_rad: float
-    radial_damping_Ns_m: float
-    clearance_m: float
-
-    def __post_init__(self) -> None:
-        if self.kind not in BEARING_KINDS:
-            raise SpecError("kind", self.kind, f"must be one of {', '.join(BEARING_KINDS)}")
-        _range("radial_stiffness_N_m", self.radial_stiffness_N_m, 1e5, 1e12, "expected N/m, 1e5 to 1e12")
-        _range("axial_stiffness_N_m", self.axial_stiffness_N_m, 1e5, 1e12, "expected N/m, 1e5 to 1e12")
-        _range("tilt_stiffness_Nm_rad", self.tilt_stiffness_Nm_rad, 1e2, 1e10, "expected N·m/rad, 1e2 to 1e10")
-        _range("radial_damping_Ns_m", self.radial_damping_Ns_m, 0.0, 1e7, "expected N·s/m, 0 to 1e7")
-        _range("clearance_m", self.clearance_m, 0.0, 0.2 * MM, "expected metres, 0 to 0.2 mm (µm-scale)")
-
-
-@dataclass(frozen=True, slots=True)
-class Bearings:
-    """The reducer's bearings: crank supports in the carrier, eccentric (disc) bearings, main bearing."""
-
-    crank_support: Bearing
-    eccentric: Bearing
-    main: Bearing
-
-
-@dataclass(frozen=True, slots=True)
-class Carrier:
-    """Output carrier (input-end and output-end plates joined by pillars through the discs)."""
-
-    hole_distance_m: float
-    pillar_count: int
-    pillar_circle_radius_m: float
-    pillar_radius_m: float
-    disc_pillar_hole_radius_m: float
-    plate_thickness_m: float
-    outer_radius_m: float
-
-    def __post_init__(self) -> None:
-        _range("hole_distance_m", self.hole_distance_m, 5 * MM, 1.0, "expected metres, 5 mm to 1 m")
-        _int_range("pillar_count", self.pillar_count, 0, 6)
-        _range("pillar_circle_radius_m", self.pillar_circle_radius_m, 0.0, 1.0, "expected metres, 0 to 1 m")
-        _range("pillar_radius_m", self.pillar_radius_m, 0.0, 0.2, "expected metres, 0 to 200 mm")
-        if self.pillar_count and not self.disc_pillar_hole_radius_m > self.pillar_radius_m:
-            raise SpecError("disc_pillar_hole_radius_m", self.disc_pillar_hole_radius_m,
-                            "must exceed pillar_radius_m (the pillars pass through the discs with clearance)")
-        _range("plate_thickness_m", self.plate_thickness_m, 1 * MM, 0.2, "expected metres, 1 mm to 200 mm")
-        _range("outer_radius_m", self.outer_radius_m, 5 * MM, 1.0, "expected metres, 5 mm to 1 m")
-
-
-# --------------------------------------------------------------------------- reducer
-
-
-@dataclass(frozen=True, slots=True)
-class ReducerSpec:
-    """A whole RV reducer (housing and pins fixed, carrier is the output).
-
-    ``ratio`` is the catalogue ratio; it must equal 1 + (z2/z1)·z_b.
-    """
-
-    name: str
-    description: str
-    ratio: float
-    rated_torque_Nm: float
-    momentary_max_torque_Nm: float
-    rated_output_speed_rpm: float
-    input_stage: InputStage
-    cycloid: CycloidStage
-    cranks: Cranks
-    bearings: Bearings
-    carrier: Carrier
-    materials: Materials
-
-    def __post_init__(self) -> None:
-        if not self.name or not self.name.replace("_", "").replace("-", "").isalnum():
-            raise SpecError("name", self.name, "must be a non-empty identifier (letters, digits, - or _)")
-        _positive("rated_torque_Nm", self.rated_torque_Nm, "N·m")
-        _positive("rated_output_speed_rpm", self.rated_output_speed_rpm, "rpm")
-        if not self.momentary_max_torque_Nm >= self.rated_torque_Nm:
-            raise SpecError("momentary_max_torque_Nm", self.momentary_max_torque_Nm,
-                            f"must be at least the rated torque {self.rated_torque_Nm:g} N·m")
-        if abs(self.ratio - self.nominal_ratio) > 1e-9 * self.nominal_ratio:
-            s = self.input_stage
-            raise SpecError("ratio", self.ratio,
-                            f"must equal 1 + (z2/z1)·z_b = 1 + ({s.planet_teeth}/{s.sun_teeth})·"
-                            f"{self.cycloid.pin_count} = {self.nominal_ratio:g}")
-        a0 = self.input_stage.centre_distance_m
-        if abs(self.cranks.crank_circle_radius_m - a0) > self.input_stage.module_m:
-            raise SpecError("cranks.crank_circle_radius_m", self.cranks.crank_circle_radius_m,
-                            f"must be within one module of the sun–planet centre distance {a0 * 1e3:.3f} mm")
-        chord = 2 * self.cranks.crank_circle_radius_m * math.sin(
-            math.pi / self.cranks.count if self.cranks.count > 2 else math.pi / 2)
-        if abs(self.carrier.hole_distance_m - chord) > 1 * MM:
-            raise SpecError("carrier.hole_distance_m", self.carrier.hole_distance_m,
-                            f"must match the crank-bore spacing {chord * 1e3:.3f} mm of the crank circle")
-        if len(self.cranks.eccentric_axial_positions_m) != self.cycloid.disc_count:
-            raise SpecError("cranks.eccentric_axial_positions_m", self.cranks.eccentric_axial_positions_m,
-                            f"needs one eccentric per disc ({self.cycloid.disc_count})")
-
-    def check_torque(self, field_name: str, value: float, *, allow_zero: bool = False) -> None:
-        """Refuse an output torque outside (0, momentary maximum] N·m ([0, …] with ``allow_zero``)."""
-        lo_ok = value >= 0.0 if allow_zero else value > 0.0
-        if not (lo_ok and value <= self.momentary_max_torque_Nm):
-            bracket = "[0" if allow_zero else "(0"
-            raise SpecError(field_name, value, f"must lie in {bracket}, {self.momentary_max_torque_Nm:g}] N·m "
-                                               f"(the momentary maximum torque of {self.name})")
-
-    @property
-    def nominal_ratio(self) -> float:
-        """Ratio input/output of the kinematic chain, 1 + (z2/z1)·z_b (–)."""
-        s = self.input_stage
-        return 1.0 + s.planet_teeth / s.sun_teeth * self.cycloid.pin_count
-
-
-# --------------------------------------------------------------------------- errors
-
-
-@dataclass(frozen=True, slots=True)
-class ErrorSpec:
-    """Manufacturing and assembly errors (seed 001 Table 2, seed 004 Table 1), all in m or rad.
-
-    A tuple field is either empty (no error) or has one entry per item: per pin
-    (``pin_count``), per crank (``count``), per disc (``disc_count``), or per disc and
-    tooth (``disc_count`` tuples of ``disc_teeth`` values). Pin radial errors are positive
-    outward; tangential errors positive counter-clockwise (arc length at the pin circle);
-    disc profile errors positive where material is added (the flank moves toward the pin);
-    disc pitch errors are cumulative, arc length at the pin circle, positive CCW.
-    ``eccentric_bearing_clearance_m`` is ordered crank-major: entry k·disc_count + d is the
-    bearing of crank k in disc d.
-    """
-
-    # first stage
-    sun_base_eccentricity_m: float = 0.0
-    sun_base_eccentricity_phase_rad: float = 0.0
-    sun_runout_m: float = 0.0
-    sun_runout_phase_rad: float = 0.0
-    sun_pitch_radius_error_m: float = 0.0
-    planet_base_eccentricity_m: tuple[float, ...] = ()
-    planet_base_eccentricity_phase_rad: tuple[float, ...] = ()
-    planet_runout_m: tuple[float, ...] = ()
-    planet_pitch_radius_error_m: tuple[float, ...] = ()
-    planet_base_pitch_error_m: tuple[float, ...] = ()
-    # pin ring
-    pin_radial_m: tuple[float, ...] = ()
-    pin_tangential_m: tuple[float, ...] = ()
-    pin_radius_error_m: float = 0.0
-    pin_radius_individual_m: tuple[float, ...] = ()
-    pin_circle_radius_error_m: float = 0.0
-    pin_ring_runout_m: float = 0.0
-    pin_ring_runout_phase_rad: float = 0.0
-    # carrier
-    carrier_bore_eccentricity_m: tuple[float, ...] = ()
-    carrier_bore_eccentricity_phase_rad: tuple[float, ...] = ()
-    carrier_runout_m: float = 0.0
-    carrier_runout_phase_rad: float = 0.0
-    input_carrier_hole_distance_error_m: float = 0.0
-    output_carrier_hole_distance_error_m: float = 0.0
-    # cranks
-    crank_eccentricity_error_m: tuple[float, ...] = ()
-    crank_phase_error_rad: tuple[float, ...] = ()
-    # bearings (radial clearance added to the nominal clearance of each bearing)
-    crank_support_clearance_m: tuple[float, ...] = ()
-    eccentric_bearing_clearance_m: tuple[float, ...] = ()
-    main_bearing_clearance_m: float = 0.0
-    # discs
-    disc_pitch_error_m: tuple[tuple[float, ...], ...] = ()
-    disc_profile_error_m: tuple[tuple[float, ...], ...] = ()
-    disc_bore_distance_error_m: tuple[float, ...] = ()
-    disc_moved_error_m: tuple[float, ...] = ()
-    disc_equidistant_error_m: tuple[float, ...] = ()
-
-    def __post_init__(self) -> None:
-        for f in fields(self):
-            v = getattr(self, f.name)
-            is_angle = f.name.endswith("_rad")
-            limit = 2 * math.pi if is_angle else 1 * MM
-            rule = ("expected radians within ±2π" if is_angle
-                    else "expected metres; manufacturing errors are µm-scale, at most ±1 mm")
-            if not isinstance(v, tuple):
-                items = [(f.name, v)]
-            elif v and isinstance(v[0], tuple):  # per disc and tooth
-                items = [(f"{f.name}[{i}][{j}]", x) for i, row in enumerate(v) for j, x in enumerate(row)]
-            else:
-                items = [(f"{f.name}[{i}]", x) for i, x in enumerate(v)]
-            for name, x in items:
-                _range(name, x, -limit, limit, rule)
-                if f.name.endswith("_clearance_m"):
-                    _range(name, x, 0.0, limit, "a clearance cannot be negative")
-
-    def check_against(self, spec: ReducerSpec) -> None:
-        """Raise :class:`SpecError` if a per-item tuple does not match ``spec``'s item counts."""
-        nc, nd = spec.cranks.count, spec.cycloid.disc_count
-        self.check_cycloid(spec.cycloid, spec.name)
-        self._check_counts({
-            "planet_base_eccentricity_m": (nc, "crank"), "planet_base_eccentricity_phase_rad": (nc, "crank"),
-            "planet_runout_m": (nc, "crank"), "planet_pitch_radius_error_m": (nc, "crank"),
-            "planet_base_pitch_error_m": (nc, "crank"),
-            "carrier_bore_eccentricity_m": (nc, "crank"), "carrier_bore_eccentricity_phase_rad": (nc, "crank"),
-            "crank_eccentricity_error_m": (nc, "crank"), "crank_phase_error_rad": (nc, "crank"),
-            "crank_support_clearance_m": (nc, "crank"), "eccentric_bearing_clearance_m": (nc * nd, "crank×disc"),
-            "disc_bore_distance_error_m": (nd, "disc"),
-        }, spec.name)
-
-    def check_cycloid(self, stage: CycloidStage, name: str = "the stage") -> None:
-        """Raise :class:`SpecError` if the pin and disc errors do not match ``stage``'s pins,
-        discs and teeth."""
-        zb, zc, nd = stage.pin_count, stage.disc_teeth, stage.disc_count
-        self._check_counts({
-            "pin_radial_m": (zb, "pin"), "pin_tangential_m": (zb, "pin"), "pin_radius_individual_m": (zb, "pin"),
-            "disc_moved_error_m": (nd, "disc"), "disc_equidistant_error_m": (nd, "disc"),
-            "disc_pitch_error_m": (nd, "disc"), "disc_profile_error_m": (nd, "disc"),
-        }, name)
-        for field_name in ("disc_pitch_error_m", "disc_profile_error_m"):
-            for k, row in enumerate(getattr(self, field_name)):
-                if len(row) != zc:
-                    raise SpecError(f"{field_name}[{k}]", row, f"needs {zc} values, one per tooth of the disc")
-
-    def _check_counts(self, expect: dict[str, tuple[int, str]], name: str) -> None:
-        for field_name, (n, what) in expect.items():
-            v = getattr(self, field_name)
-            if v and len(v) != n:
-                raise SpecError(field_name, v, f"needs {n} values (one per {what} of {name}) or none")
+def check_geometry(spec: ReducerSpec) -> None:
+    """Refuse a spec whose theoretical or modified cycloid profile is not a simple closed
+    counter-clockwise curve (undercut, swallowtail); raises :class:`SpecError` naming
+    ``cycloid.pin_radius_m`` or ``cycloid.modification``."""
+    check_stage(spec.cycloid)
 
 
 # --------------------------------------------------------------------------- TOML
@@ -619,9 +151,12 @@ def _parse(text: str, source: str) -> dict:
 
 
 def loads_spec(text: str, source: str = "<string>") -> ReducerSpec:
-    """Parse a reducer spec from TOML text; every key is required, none may be unknown."""
+    """Parse a reducer spec from TOML text; every key is required, none may be unknown; the
+    profile geometry is checked (:func:`check_geometry`)."""
     try:
-        return _from_dict(ReducerSpec, _parse(text, source))  # type: ignore[return-value]
+        spec = _from_dict(ReducerSpec, _parse(text, source))
+        check_geometry(spec)  # type: ignore[arg-type]
+        return spec  # type: ignore[return-value]
     except SpecError as err:
         raise err.within(source=source) from None
 
@@ -639,7 +174,7 @@ def dumps_spec(spec: ReducerSpec) -> str:
 
 def dump_spec(spec: ReducerSpec, path: str | Path) -> None:
     """Write ``spec`` as TOML to ``path``."""
-    Path(path).write_text(dumps_spec(spec), encoding="utf-8")
+    write_text(path, dumps_spec(spec))
 
 
 def loads_errors(text: str, source: str = "<string>", spec: ReducerSpec | None = None) -> ErrorSpec:
@@ -666,4 +201,4 @@ def dumps_errors(errors: ErrorSpec) -> str:
 
 def dump_errors(errors: ErrorSpec, path: str | Path) -> None:
     """Write ``errors`` as TOML to ``path``."""
-    Path(path).write_text(dumps_errors(errors), encoding="utf-8")
+    write_text(path, dumps_errors(errors))

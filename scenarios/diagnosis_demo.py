@@ -22,7 +22,13 @@ from pathlib import Path
 
 import numpy as np
 
+from rvflex import catalog
+from rvflex.diagnose.bench import read_bench
+from rvflex.diagnose.effects import EFFECTS
+from rvflex.diagnose.fit import diagnose
 from rvflex.diagnose.replay import DiagnosisSettings
+from rvflex.diagnose.report import json_document
+from rvflex.diagnose.selfcheck import generate_case
 
 __all__ = ["DiagnosisDemo", "run_diagnosis_demo"]
 
@@ -41,13 +47,6 @@ class DiagnosisDemo:
 
 def run_diagnosis_demo(scenario: DiagnosisDemo):
     """Generate the dataset (truth kept apart), diagnose it blind; returns (truth, diagnosis, JSON)."""
-    from rvflex import catalog
-    from rvflex.diagnose.bench import read_bench
-    from rvflex.diagnose.effects import EFFECTS
-    from rvflex.diagnose.fit import diagnose
-    from rvflex.diagnose.report import json_document
-    from rvflex.diagnose.selfcheck import generate_case
-
     spec = catalog.load("rv40e")
     out = Path(scenario.out_dir)
     hidden = [(EFFECTS[scenario.effect], np.asarray(scenario.params, float))]

@@ -12,6 +12,7 @@ import dataclasses as dc
 from dataclasses import dataclass
 from pathlib import Path
 
+from rvflex.scenarios.loaded_te import LoadedTE, run_loaded_te
 from rvflex.spec import ErrorSpec, ReducerSpec
 
 __all__ = ["ERROR_GROUPS", "GroupTE", "decompose", "split_errors"]
@@ -50,8 +51,6 @@ def split_errors(errors: ErrorSpec) -> dict[str, ErrorSpec]:
 def decompose(spec: ReducerSpec, errors: ErrorSpec, load_Nm: float, *, positions_per_rev: int = 512,
               revolutions: float = 1.0) -> tuple[float, list[GroupTE]]:
     """TE peak-to-peak with all errors and with each group alone (quasi-static)."""
-    from rvflex.scenarios.loaded_te import LoadedTE, run_loaded_te
-
     def te(e: ErrorSpec) -> float:
         return run_loaded_te(LoadedTE(spec, e, load_Nm, revolutions, positions_per_rev))[1].te_pp_arcsec
 

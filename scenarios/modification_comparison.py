@@ -18,6 +18,9 @@ import numpy as np
 
 from rvflex.geometry.formulas import hertz_line_deflection
 from rvflex.metrics import HysteresisMetrics
+from rvflex.model import build_reducer
+from rvflex.scenarios.lost_motion import LostMotion, run_lost_motion
+from rvflex.solve import quasi_static
 from rvflex.spec import ErrorSpec, ReducerSpec
 
 __all__ = ["compensation_amount_m", "compensated_spec", "compare_modifications"]
@@ -26,9 +29,6 @@ __all__ = ["compensation_amount_m", "compensated_spec", "compare_modifications"]
 def compensation_amount_m(spec: ReducerSpec) -> float:
     """δ_max (m): Hertz line-contact approach of the most loaded pin of the traditional profile at
     rated torque, with that contact's flank curvature (seed 002)."""
-    from rvflex.model import build_reducer
-    from rvflex.solve import quasi_static
-
     model = build_reducer(spec)
     res = quasi_static(model, np.array([0.0]), spec.rated_torque_Nm)
     disc, pin = np.unravel_index(np.argmax(res.pin_force_N[0]), res.pin_force_N[0].shape)
@@ -51,8 +51,6 @@ def compensated_spec(spec: ReducerSpec, delta_max_m: float | None = None) -> Red
 def compare_modifications(spec: ReducerSpec, steps: int = 200, fidelity: str = "rigid") -> dict[str, HysteresisMetrics]:
     """Hysteresis metrics of the traditional and the compensated profile (no other errors),
     with rigid or FE-reduced (``fidelity="flexible"``) discs."""
-    from rvflex.scenarios.lost_motion import LostMotion, run_lost_motion
-
     out = {}
     for name, s in (("traditional", spec), ("compensated", compensated_spec(spec))):
         out[name] = run_lost_motion(LostMotion(s, ErrorSpec(), spec.rated_torque_Nm, steps, fidelity))[1]

@@ -52,13 +52,15 @@ from pathlib import Path
 
 import numpy as np
 
-from rvflex.geometry.formulas import ARCMIN_PER_RAD
+from rvflex.model import build_reducer
+from rvflex.parallel import map_warm
+from rvflex.solve import SolveError, torque_stepping
 from rvflex.spec import ErrorSpec, ReducerSpec
+from rvflex.units import ARCMIN_PER_RAD, UM
 
 __all__ = ["ERRORS", "PAPER", "SensitivityRow", "backlash_arcmin", "formula_sensitivity", "kinematic_coupling",
            "markdown_table", "nominal_backlash", "perturb", "run_sensitivity", "write_sensitivity_outputs"]
 
-UM = 1e-6
 
 PAPER = {  # seed 002's table as printed ("arc-min/µm"; read as relative weights, tables.md)
     "E_bp": 1.12, "E_a": 0.77, "F_r": 0.77, "dr_p": 46.09, "dr_rp": 135.61, "hole": 67.81, "F_rc": 33.90,
@@ -128,9 +130,6 @@ def backlash_arcmin(spec: ReducerSpec, errors: ErrorSpec, load_fraction: float =
     """Zero-load backlash (arcmin): input locked, output torque 0 → +T → 0 → −T with
     T = ``load_fraction``·T_r, backlash θ_out(+T) − θ_out(−T) (seed 002's locked-input test
     taken to a vanishing load; rigid bodies, Hertz line contacts)."""
-    from rvflex.model import build_reducer
-    from rvflex.solve import torque_stepping
-
     t = load_fraction * spec.rated_torque_Nm
     res = torque_stepping(build_reducer(spec, errors), np.array([0.0, t, 0.0, -t]))
     return float(res.theta_out[1] - res.theta_out[3]) * ARCMIN_PER_RAD
@@ -209,8 +208,6 @@ class SensitivityRow:
 
 def _evaluate(args: tuple[ReducerSpec, str, float, float]) -> float:
     spec, key, h, load_fraction = args
-    from rvflex.solve import SolveError
-
     try:
         return backlash_arcmin(*perturb(spec, key, h), load_fraction)
     except SolveError:  # recorded as NaN (a stalled Newton is a solver bug being fixed, not a result)
@@ -228,16 +225,14 @@ def run_sensitivity(spec: ReducerSpec, *, h_m: float = 2 * UM, keys: tuple[str, 
     for k in modelled:
         steps = (h_m, 2 * h_m) if ERRORS[k][2] else (-h_m, h_m)
         jobs += [(spec, k, s, load_fraction) for s in steps]
-    if workers > 1:
-        from concurrent.futures import ProcessPoolExecutor
-
-        from rvflex.sweep import _fork_context, warm_process
-
-        warm_process(spec, "lost-motion")  # imports once, before the workers fork
-        with ProcessPoolExecutor(max_workers=workers, mp_context=_fork_context()) as pool:
-            values = list(pool.map(_evaluate, jobs))
-    else:
-        values = [_evaluate(j) for j in jobs]
+    # workers fork from this process, warm: the model, solver and Exudyn are imported above
+    outcomes = map_warm(_evaluate, jobs, workers if workers > 1 else 0)
+    for out in outcomes:
+        if out.died:
+            raise RuntimeError(f"sensitivity job {jobs[out.index][1:3]}: its worker process died")
+        if out.error is not None:
+            raise out.error
+    values = [out.value for out in outcomes]
     b0, it = values[0], iter(values[1:])
     coupling = kinematic_coupling(spec)
     rows = []

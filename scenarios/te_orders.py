@@ -9,11 +9,12 @@ from __future__ import annotations
 import numpy as np
 
 from rvflex.metrics import order_spectrum
+from rvflex.scenarios.loaded_te import LoadedTE, run_loaded_te
 from rvflex.spec import ErrorSpec
+from rvflex.units import UM
 
 __all__ = ["SOURCES", "added_orders"]
 
-UM = 1e-6
 SOURCES = {
     "sun eccentricity 10 µm": ErrorSpec(sun_base_eccentricity_m=10 * UM),
     "planet eccentricity 10 µm (crank 1)": ErrorSpec(planet_base_eccentricity_m=(10 * UM, 0.0)),
@@ -27,8 +28,6 @@ SOURCES = {
 
 def added_orders(spec, errors: ErrorSpec, load_Nm: float, positions: int = 1024, top: int = 5):
     """The ``top`` orders whose amplitude (arcsec) ``errors`` adds most over the error-free unit."""
-    from rvflex.scenarios.loaded_te import LoadedTE, run_loaded_te
-
     base = run_loaded_te(LoadedTE(spec, ErrorSpec(), load_Nm, positions_per_rev=positions))[0]
     res = run_loaded_te(LoadedTE(spec, errors, load_Nm, positions_per_rev=positions))[0]
     orders, amp = order_spectrum(res.te_rad, 1.0)

@@ -232,7 +232,7 @@ def test_only_the_point_that_kills_its_worker_is_recorded_as_dead(tmp_path, monk
     per pool, so the others finish and only the culprit is recorded as 'worker died'."""
     import os
 
-    import rvflex.sweep as sw
+    import rvflex.sweep.executors as sw  # where the sweep looks both up
 
     def stand_in(args):  # a cheap evaluation; the +2 µm eccentricity point kills its process
         point = args[5]

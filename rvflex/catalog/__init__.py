@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import os
 from importlib import resources
+from pathlib import Path
 
-from rvflex.spec import ReducerSpec, SpecError, loads_spec
+from rvflex.spec import ErrorSpec, ReducerSpec, SpecError, load_errors, load_spec, loads_errors, loads_spec
 
-__all__ = ["names", "error_set_names", "load", "load_error_set", "text"]
+__all__ = ["names", "error_set_names", "load", "load_error_set", "resolve", "resolve_errors", "text"]
 
 ERRORS_SUFFIX = ".errors.toml"
 
@@ -25,8 +27,6 @@ def error_set_names() -> list[str]:
 
 def load_error_set(name: str, spec: ReducerSpec):
     """Load the built-in error set ``name``, checked against ``spec``."""
-    from rvflex.spec import loads_errors
-
     if name not in error_set_names():
         raise SpecError("--errors", name, f"neither a file nor a built-in error set ({', '.join(error_set_names())})")
     text = resources.files(__package__).joinpath(name + ERRORS_SUFFIX).read_text(encoding="utf-8")
@@ -43,3 +43,28 @@ def text(name: str) -> str:
 def load(name: str) -> ReducerSpec:
     """Load the built-in reducer ``name`` (e.g. ``"rv40e"``)."""
     return loads_spec(text(name), f"catalog/{name}.toml")
+
+
+def resolve(name_or_path: str) -> ReducerSpec:
+    """A built-in reducer name (``rv40e``) or the path of a reducer spec TOML file.
+
+    A value ending in ``.toml`` or containing a path separator is a path; anything else a
+    catalogue name. Both routes validate the spec, its profile geometry included."""
+    if name_or_path.endswith(".toml") or os.sep in name_or_path:
+        path = Path(name_or_path)
+        if not path.is_file():
+            raise SpecError("--reducer", name_or_path, "file not found")
+        return load_spec(path)
+    return load(name_or_path)
+
+
+def resolve_errors(name_or_path: str | None, spec: ReducerSpec) -> ErrorSpec | None:
+    """An ErrorSpec TOML file or a built-in error set name (``rv40e_seed001``), checked against
+    ``spec``; None gives None."""
+    if name_or_path is None:
+        return None
+    if Path(name_or_path).is_file():
+        return load_errors(name_or_path, spec)
+    if not name_or_path.endswith(".toml") and os.sep not in name_or_path:
+        return load_error_set(name_or_path, spec)
+    raise SpecError("--errors", name_or_path, "file not found")

@@ -17,7 +17,10 @@ import numpy as np
 
 from rvflex.contact.bearing import add_clearance_bearing
 from rvflex.contact.cycloid_pin import ContactLaw, CycloidPinContact, add_cycloid_pin_contact
-from rvflex.geometry.pins import nominal_disc_pose
+from rvflex.geometry.clearance import initial_clearance_numeric
+from rvflex.geometry.pins import nominal_disc_pose, pin_centres, pin_radii
+from rvflex.geometry.profile import build_profile
+from rvflex.numerics import generalized_alpha_settings
 from rvflex.spec import Bearing, CycloidStage, ErrorSpec
 
 __all__ = ["SingleDisc", "build_single_disc", "quasi_static_te", "DynamicDisc", "build_dynamic_disc", "run_dynamic",
@@ -131,8 +134,6 @@ def _first_contact_te(bench: SingleDisc, theta: float) -> float:
     torque = bench.mbs.GetLoad(bench.load)["load"]
     if torque == 0.0:
         return 0.0
-    from rvflex.geometry.clearance import initial_clearance_numeric
-
     cl = initial_clearance_numeric(bench.stage, bench.errors, bench.disc, theta, profile=bench.contact.profile)
     # a positive (resisting) torque turns the disc positive: TE = −turn
     turn = cl.turn_pos_rad + FIRST_CONTACT_BIAS_RAD if torque > 0 else cl.turn_neg_rad - FIRST_CONTACT_BIAS_RAD
@@ -163,8 +164,6 @@ def arc_length_segments(stage: CycloidStage, n_segments: int, disc: int = 0,
                         errors: ErrorSpec | None = None) -> np.ndarray:
     """The disc profile as ``n_segments`` chords of equal arc length, rows (x0, y0, x1, y1),
     counter-clockwise (exterior on the right), for ObjectContactCurveCircles (m)."""
-    from rvflex.geometry.profile import build_profile
-
     prof = build_profile(stage, errors, disc)
     t = np.linspace(0.0, 2 * np.pi, 64 * n_segments + 1)
     _, q1, _ = prof.evaluate(t)
@@ -192,8 +191,6 @@ def build_dynamic_disc(stage: CycloidStage, *, law: ContactLaw | None = None, cu
                                       NodeGenericData, NodePointGround, NodeRigidBody2D, ObjectConnectorCoordinate,
                                       ObjectContactCurveCircles, ObjectJointRevolute2D, ObjectRigidBody2D,
                                       SensorNode)
-
-    from rvflex.geometry.pins import pin_centres, pin_radii
 
     sc = exu.SystemContainer()
     mbs = sc.AddSystem()
@@ -251,8 +248,6 @@ def run_dynamic(bench: DynamicDisc, crank_revolutions: float, step_s: float,
     TE = disc angle − (−θ_crank/z_c), counted positive in the disc's direction of motion.
     """
     import time
-
-    from rvflex.solve import generalized_alpha_settings
 
     mbs = bench.mbs
     end = crank_revolutions * 2 * np.pi / bench.crank_speed_rad_s

@@ -51,7 +51,7 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
 
     from tqdm import tqdm
 
-    from rvflex.cli import _emit
+    from rvflex.io import emit
     from rvflex.diagnose.bench import read_bench
     from rvflex.diagnose.effects import EFFECTS
     from rvflex.diagnose.fit import diagnose
@@ -84,7 +84,7 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
         print(f"  {c.name:48s} score {c.score:10.1f}  shrink {c.gap_shrink_pct:5.0f} %  "
               f"{'accepted' if c.accepted else ''}")
     print(f"{diag.model_runs} model runs, {doc['wall_s']:.0f} s")
-    return _emit(args, doc, lambda out: write_report(diag, out, doc))
+    return emit(args, doc, lambda out: write_report(diag, out, doc))
 
 
 def _cmd_selfcheck(args: argparse.Namespace) -> int:
@@ -92,7 +92,7 @@ def _cmd_selfcheck(args: argparse.Namespace) -> int:
     import json
     import tempfile
 
-    from rvflex.cli import _write_atomic
+    from rvflex.io import write_atomic
     from rvflex.diagnose.replay import DiagnosisSettings
     from rvflex.diagnose.selfcheck import SelfCheckSettings, selfcheck
     from rvflex.spec import SpecError
@@ -115,8 +115,8 @@ def _cmd_selfcheck(args: argparse.Namespace) -> int:
                                        "wall_s")}
         print(json.dumps(summary, indent=2))
         if args.out:
-            _write_atomic(out / "selfcheck.json", json.dumps(doc, indent=2).encode())
+            write_atomic(out / "selfcheck.json", json.dumps(doc, indent=2).encode())
             print(f"wrote {out / 'selfcheck.json'}")
         if args.json:
-            _write_atomic(Path(args.json), json.dumps(doc, indent=2).encode())
+            write_atomic(Path(args.json), json.dumps(doc, indent=2).encode())
     return 0

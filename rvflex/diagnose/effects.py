@@ -43,12 +43,11 @@ from functools import partial
 import numpy as np
 
 from rvflex.spec import ErrorSpec, ReducerSpec
+from rvflex.units import ARCSEC, UM
 
 __all__ = ["EFFECTS", "REFERENCE_TEMPERATURE_C", "THERMAL_ALPHA_MISMATCH_PER_K", "Effect", "Param",
            "available_effects", "register"]
 
-UM = 1e-6
-ARCSEC = math.pi / 648000.0
 # housing-to-steel expansion mismatch: an aluminium-alloy housing (23e-6/K) around steel pins
 # and discs (11.5e-6/K); a nodular-iron housing (QT500-7, 10.5e-6/K) gives −1e-6/K.
 THERMAL_ALPHA_MISMATCH_PER_K = 11.5e-6

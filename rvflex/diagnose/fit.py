@@ -50,7 +50,7 @@ from rvflex.diagnose.linear import (
     prior_of,
     weights,
 )
-from rvflex.diagnose.nominal import REPLACES, nominal_parameters, stiffness_scale
+from rvflex.diagnose.nominal import REPLACES, describe_calibration, nominal_parameters
 from rvflex.diagnose.refine import refine
 from rvflex.diagnose.replay import (
     DiagnosisSettings,
@@ -339,27 +339,6 @@ def check_aliasing(settings: DiagnosisSettings, spec: ReducerSpec) -> None:
 
 def _shrink(rss: float, ref: float) -> float:
     return 100.0 * (1.0 - math.sqrt(rss / ref)) if ref > 0 else 0.0
-
-
-def describe_calibration(c: Candidate) -> list[dict]:
-    """The calibrated nominal parameters of ``c``: value, 95 % interval, nominal value, shift, and
-    for stiffnesses the stiffness scale s = 1/(1 + u) with its interval."""
-    out = []
-    for e, x, iv in c.calibrated:
-        for j, prm in enumerate(e.params):
-            row = {"name": e.name, "param": prm.name, "unit": prm.unit, "value": float(x[j]),
-                   "interval": [float(iv[j][0]), float(iv[j][1])], "nominal": float(e.center[j]),
-                   "shift": float(x[j] - e.center[j]), "prior_sigma": float(e.prior_sigma[j]),
-                   "prior_range": [prm.low, prm.high],
-                   "at_prior_bound": bool(min(x[j] - prm.low, prm.high - x[j]) < 1e-3 * (prm.high - prm.low)
-                                          and not (prm.low == e.center[j] == 0.0 and x[j] - prm.low < 1e-12)),
-                   "told_apart": None}
-            if prm.name == "compliance_change":
-                row["stiffness_scale"] = stiffness_scale(x[j])
-                row["stiffness_scale_interval"] = sorted(stiffness_scale(min(max(v, prm.low), prm.high))
-                                                         for v in iv[j])
-            out.append(row)
-    return out
 
 
 def _fmt_cal(row: dict) -> str:

@@ -36,7 +36,6 @@ __all__ = ["MAX_CONDITION", "MIN_COVERAGE", "MIN_SAMPLES_PER_ORDER", "TEFit", "T
 MIN_COVERAGE = 0.98  # share of an output revolution the analysed samples must cover
 MIN_SAMPLES_PER_ORDER = 4  # samples in the window per fitted order (2 coefficients each): twice Nyquist
 MAX_CONDITION = 1e3  # condition number of the column-normalised Fourier design (uniform sampling: ≈ 1.4)
-ARCSEC_PER_RAD = 648000.0 / math.pi
 
 
 @dataclass(frozen=True)

@@ -24,11 +24,11 @@ import dataclasses as dc
 
 from rvflex.diagnose.effects import Effect, Param
 from rvflex.spec import ErrorSpec, ReducerSpec
+from rvflex.units import UM
 
-__all__ = ["NOMINAL", "REPLACES", "max_pin_force", "nominal_parameters", "point_contact_law",
+__all__ = ["NOMINAL", "REPLACES", "describe_calibration", "max_pin_force", "nominal_parameters", "point_contact_law",
            "power_law_equivalent", "stiffness_scale"]
 
-UM = 1e-6
 COMPLIANCE_PRIOR = 0.35  # σ of the compliance change: a stiffness known to about ±30 %
 COMPLIANCE_LOW, COMPLIANCE_HIGH = -0.5, 1.5  # stiffness scale 2.0 … 0.4: beyond it the spec is wrong, not uncertain
 
@@ -150,6 +150,27 @@ NOMINAL: dict[str, Effect] = {e.name: e for e in _builtin()}
 
 REPLACES = {"disc_flexibility": "disc_carrier_flexibility"}
 """Candidate effects a nominal parameter stands for (not attributed separately when it is calibrated)."""
+
+
+def describe_calibration(c) -> list[dict]:
+    """The calibrated nominal parameters of ``c``: value, 95 % interval, nominal value, shift, and
+    for stiffnesses the stiffness scale s = 1/(1 + u) with its interval."""
+    out = []
+    for e, x, iv in c.calibrated:
+        for j, prm in enumerate(e.params):
+            row = {"name": e.name, "param": prm.name, "unit": prm.unit, "value": float(x[j]),
+                   "interval": [float(iv[j][0]), float(iv[j][1])], "nominal": float(e.center[j]),
+                   "shift": float(x[j] - e.center[j]), "prior_sigma": float(e.prior_sigma[j]),
+                   "prior_range": [prm.low, prm.high],
+                   "at_prior_bound": bool(min(x[j] - prm.low, prm.high - x[j]) < 1e-3 * (prm.high - prm.low)
+                                          and not (prm.low == e.center[j] == 0.0 and x[j] - prm.low < 1e-12)),
+                   "told_apart": None}
+            if prm.name == "compliance_change":
+                row["stiffness_scale"] = stiffness_scale(x[j])
+                row["stiffness_scale_interval"] = sorted(stiffness_scale(min(max(v, prm.low), prm.high))
+                                                         for v in iv[j])
+            out.append(row)
+    return out
 
 
 def nominal_parameters(names: tuple[str, ...] | None = None) -> tuple[Effect, ...]:

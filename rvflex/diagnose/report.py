@@ -8,21 +8,22 @@ from pathlib import Path
 
 import numpy as np
 
-from rvflex.diagnose.fit import Candidate, Diagnosis
+from rvflex.diagnose.linear import Candidate, nuisance_columns
+from rvflex.diagnose.nominal import describe_calibration
 from rvflex.diagnose.replay import HYST_FRACTIONS, shift_measured
 from rvflex.geometry.formulas import ARCSEC_PER_RAD
 
 __all__ = ["gap_table", "json_document", "where_list", "write_report"]
 
 
-def _run_meta(diag: Diagnosis, r: int) -> tuple[str, float]:
+def _run_meta(diag, r: int) -> tuple[str, float]:
     p = diag.plan[r]
     if p.kind == "te":
         return ("forward" if p.direction > 0 else "reverse"), p.load_Nm
     return "cycle", p.torque_max_Nm
 
 
-def _run_keys(diag: Diagnosis, r: int) -> dict:
+def _run_keys(diag, r: int) -> dict:
     """The keys that name run ``r`` in the JSON rows: its index, direction, load and temperature
     (°C, None when the bench did not record it); runs may share direction and load."""
     direction, load = _run_meta(diag, r)
@@ -35,21 +36,19 @@ def _run_text(row: dict) -> str:
     return f"{row['direction']} {row['load_Nm']:g} N·m{at}"
 
 
-def _residual(diag: Diagnosis, c: Candidate) -> np.ndarray:
+def _residual(diag, c: Candidate) -> np.ndarray:
     """Measured − model features (arcsec) with the candidate's origin and offsets applied."""
     y = shift_measured(diag.measured, diag.layout, c.delta)[:, 0]
     cols = diag.layout and _nuis(diag)
     return y - c.model_features - cols @ c.nuisance
 
 
-def _nuis(diag: Diagnosis) -> np.ndarray:
-    from rvflex.diagnose.fit import nuisance_columns
-
+def _nuis(diag) -> np.ndarray:
     cols = nuisance_columns(diag.layout)
     return cols[:, np.abs(cols).sum(0) > 0]
 
 
-def where_list(diag: Diagnosis, min_share: float = 0.01) -> list[dict]:
+def where_list(diag, min_share: float = 0.01) -> list[dict]:
     """The gap's location: weighted residual energy of the baseline per run and order, mean
     wind-up and hysteresis region, as shares of the total, largest first."""
     lay = diag.layout
@@ -70,7 +69,6 @@ def where_list(diag: Diagnosis, min_share: float = 0.01) -> list[dict]:
             out.append({"metric": "other orders", **keys, "share": float(rest / total)})
         else:
             sl = r[lay.hyst[run]]
-            m = len(HYST_FRACTIONS)
             frac = np.abs(np.tile(np.concatenate([-HYST_FRACTIONS[::-1], HYST_FRACTIONS]), 2))
             low = frac <= 0.05
             out.append({"metric": "lost motion (hysteresis loop, torque within ±5 %)", **keys,
@@ -81,7 +79,7 @@ def where_list(diag: Diagnosis, min_share: float = 0.01) -> list[dict]:
     return sorted((w for w in out if w["share"] > 0), key=lambda w: -w["share"])
 
 
-def _te_grid(diag: Diagnosis, feats: np.ndarray, run: int, n: int = 512) -> np.ndarray:
+def _te_grid(diag, feats: np.ndarray, run: int, n: int = 512) -> np.ndarray:
     lay = diag.layout
     p = 2 * np.pi * np.arange(n) / n
     k = np.arange(1, lay.max_order + 1)
@@ -98,7 +96,7 @@ def _hyst_metrics(torque, theta_rad, tmax):
     return m
 
 
-def gap_table(diag: Diagnosis, c: Candidate, n_orders: int = 8) -> dict:
+def gap_table(diag, c: Candidate, n_orders: int = 8) -> dict:
     """Gap between the bench and the model ``c`` (the baseline or a corrected one): per run and
     metric (TE peak-to-peak, mean wind-up, lost motion, hysteresis loss, torsional stiffness)
     and per order (the ``n_orders`` largest residual orders of each TE run)."""
@@ -163,7 +161,7 @@ def _after_with_shrink(before: dict, after: dict) -> dict:
     return out
 
 
-def _orders_of(diag: Diagnosis, c: Candidate, keys) -> list[dict]:
+def _orders_of(diag, c: Candidate, keys) -> list[dict]:
     lay = diag.layout
     y = shift_measured(diag.measured, lay, c.delta)[:, 0]
     out = []
@@ -174,7 +172,7 @@ def _orders_of(diag: Diagnosis, c: Candidate, keys) -> list[dict]:
     return out
 
 
-def json_document(diag: Diagnosis) -> dict:
+def json_document(diag) -> dict:
     """The JSON document of ``rvflex diagnose`` (keys of issue 6)."""
     before = gap_table(diag, diag.nominal_model or diag.baseline)
     chosen = diag.chosen
@@ -217,8 +215,6 @@ def json_document(diag: Diagnosis) -> dict:
                 "effect": ref.name if ref is not None else None}
     if not diag.withheld_runs:
         withheld["note"] = "no run usable for the withheld check"
-    from rvflex.diagnose.fit import describe_calibration
-
     return {"where": where_list(diag), "effects": effects, "gap_before": before, "gap_after": after,
             "gap_calibrated": calibrated, "calibration": describe_calibration(diag.baseline),
             "calibration_shrink_pct": float(diag.baseline.gap_shrink_pct),
@@ -233,7 +229,7 @@ def json_document(diag: Diagnosis) -> dict:
 
 # ----------------------------------------------------------------------------- plots and Markdown
 
-def _plots(diag: Diagnosis, out: Path) -> list[Path]:
+def _plots(diag, out: Path) -> list[Path]:
     from matplotlib.figure import Figure  # no pyplot: the caller's backend and figures stay untouched
 
     lay = diag.layout
@@ -345,12 +341,12 @@ def _mag_text(e, m, lo, hi) -> str:
     return f"{m * f:.3g} [{lo * f:.3g}, {hi * f:.3g}] {unit}"
 
 
-def write_report(diag: Diagnosis, out: str | Path, doc: dict | None = None) -> list[Path]:
+def write_report(diag, out: str | Path, doc: dict | None = None) -> list[Path]:
     """Write report.md with its plots (PNG) and diagnosis.json to ``out``; every file is
     computed first and written through a temporary name."""
     import json
 
-    from rvflex.cli import _write_atomic
+    from rvflex.io import write_atomic as _write_atomic
 
     out = Path(out)
     doc = doc or json_document(diag)
@@ -378,7 +374,7 @@ def _json_default(o):
     raise TypeError(type(o))
 
 
-def markdown(diag: Diagnosis, doc: dict, pngs: list[str]) -> str:
+def markdown(diag, doc: dict, pngs: list[str]) -> str:
     """The Markdown report."""
     ds = diag.dataset
     lines = [f"# Sim-to-real gap diagnosis — {ds.reducer.name}", "",

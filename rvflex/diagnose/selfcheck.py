@@ -36,6 +36,7 @@ from rvflex.diagnose.bench import BenchDataset, BenchRun, read_bench, write_benc
 from rvflex.diagnose.effects import Effect, available_effects
 from rvflex.diagnose.replay import DiagnosisSettings, PlanRun, evaluate
 from rvflex.spec import ErrorSpec, ReducerSpec
+from rvflex.units import ARCSEC
 
 __all__ = [
     "BenchRealism",
@@ -47,7 +48,6 @@ __all__ = [
     "selfcheck",
 ]
 
-ARCSEC = math.pi / 648000.0
 MISMATCH = ("none", "realistic")
 CALIBRATION_TOL = 0.25  # a calibrated stiffness scale within ±25 % of the drawn one counts as calibrated
 MIN_SIGNATURE = 10.0  # an effect whose model signature is smaller (in residual-floor units) is not hidden:
@@ -366,7 +366,7 @@ CALIBRATED_SCALES = {"contact_stiffness": "contact_scale", "needle_bearing_stiff
 
 def _score_calibration(truth: dict, cand) -> dict:
     """Calibrated stiffness scales against the generator's drawn ones (within ±CALIBRATION_TOL)."""
-    from rvflex.diagnose.fit import describe_calibration
+    from rvflex.diagnose.nominal import describe_calibration
 
     drawn = truth.get("nominal")
     if not drawn:

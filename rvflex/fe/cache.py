@@ -16,12 +16,14 @@ import hashlib
 import io
 import json
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 import scipy.sparse as sp
 
+from rvflex.fe import geometry
+from rvflex.fe.types import FlankRows, Interface, PartSettings, ReducedPart, StaticCheck
+from rvflex.io import write_atomic
 from rvflex.spec import ReducerSpec
 
 __all__ = ["FORMAT", "cache_root", "key_for", "load", "path_for", "store"]
@@ -57,8 +59,6 @@ def key_for(spec: ReducerSpec, part: str, settings, code_version: str) -> str:
     """Content hash (hex, 24 chars) of geometry, material, mesh/reduction settings and code version."""
     # versions from the metadata: importing exudyn/ngsolve here would slow every warm load
     from importlib.metadata import version
-
-    from rvflex.fe import geometry
 
     sett = dataclasses.asdict(settings)
     if part != "carrier":
@@ -110,14 +110,6 @@ def _to_arrays(rp) -> dict[str, np.ndarray]:
 def _from_arrays(a) -> object:
     from exudyn.FEM import FEMinterface
 
-    from rvflex.fe.reduce import (
-        FlankRows,
-        Interface,
-        PartSettings,
-        ReducedPart,
-        StaticCheck,
-    )
-
     meta = json.loads(bytes(a["meta_json"]).decode())
     nn = a["nodes"].shape[0]
     fem = FEMinterface()
@@ -153,21 +145,7 @@ def store(rp, cache_dir: str | os.PathLike | None = None) -> Path:
     payload = buf.getvalue()
     header = json.dumps({"format": FORMAT, "key": rp.key, "length": len(payload),
                          "sha256": hashlib.sha256(payload).hexdigest()}).encode() + b"\n"
-    path = path_for(rp.key, cache_dir)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(header)
-            fh.write(payload)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
+    return write_atomic(path_for(rp.key, cache_dir), header + payload, fsync=True)
 
 
 def _read_valid(path: Path, key: str) -> bytes | None:
@@ -191,7 +169,7 @@ def _read_valid(path: Path, key: str) -> bytes | None:
 
 
 def load(key: str, cache_dir: str | os.PathLike | None = None):
-    """The cached :class:`~rvflex.fe.reduce.ReducedPart` of ``key``, or None (missing, or
+    """The cached :class:`~rvflex.fe.types.ReducedPart` of ``key``, or None (missing, or
     corrupt/partial: then the bad file is removed so that it is rebuilt)."""
     path = path_for(key, cache_dir)
     if not path.exists():

@@ -7,44 +7,60 @@ import json
 import sys
 import time
 
+from rvflex import catalog
+from rvflex.fe.reduce import DEFAULTS, STEPS, reduce_part
+from rvflex.io import emit
+
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the FE sub-commands to the ``rvflex`` parser."""
-    from rvflex.fe.reduce import DEFAULTS
     from rvflex.options import CARRIER_FE, DISC_FE
+
+    disc, carrier = DEFAULTS["disc"], DEFAULTS["carrier"]
 
     def basis(s, part: str = "disc") -> str:
         attach = f", {s.attach_per_tooth} attachment patches/tooth" if part == "disc" else ""
         return f"{s.maxh_m * 1e3:g} mm order-{s.mesh_order} tets, {s.n_modes} modes{attach}"
 
     p = sub.add_parser("reduce", help="Craig–Bampton-reduce a flexible part (cached on disk)",
-                       description="Mesh a part with netgen, reduce it (Hurty–Craig–Bampton, RBE2 interfaces) and "
+                       description="Mesh a part with netgen, reduce it (Hurty–Craig–Bampton; disc: rigid RBE2 "
+                                   "bores; carrier: output face the reference, distributing RBE3 crank seats) and "
                                    "report its size, eigenfrequencies and the reduced-vs-full static error at "
                                    "rated load. JSON keys: n_nodes, n_modes, freqs_hz, static_error_pct "
                                    "({flank, interface, max}, %), wall_s, cached. Defaults (rvflex.fe.reduce.DEFAULTS): "
-                                   f"disc {basis(DEFAULTS['disc'])} (the reference basis of the flank check); carrier "
-                                   f"{basis(DEFAULTS['carrier'], 'carrier')}, {DEFAULTS['carrier'].seat_coupling} seats. The "
+                                   f"disc {_describe(disc)} (the reference basis of the flank check); carrier "
+                                   f"{_describe(carrier)}, {carrier.seat_coupling.upper()} seats. The "
                                    "models of --fidelity flexible / flexible-carrier use the ModelOptions presets "
                                    f"(rvflex.options): disc {basis(DISC_FE)} (global deformation only), carrier "
                                    f"{basis(CARRIER_FE, 'carrier')} — the same carrier reduction as this command's.")
     p.add_argument("--reducer", required=True, help="catalogue name (rv40e) or spec TOML path")
     p.add_argument("--part", required=True, choices=("disc", "carrier"))
     p.add_argument("--json", help="write the result document here")
-    p.add_argument("--maxh", type=float, help="largest element size (m); default: the part's default")
-    p.add_argument("--modes", type=int, help="fixed-interface eigenmodes; default: the part's default")
+    p.add_argument("--maxh", type=float, help=f"largest element size, m (default {disc.maxh_m:g} for the disc, "
+                                              f"{carrier.maxh_m:g} for the carrier)")
+    p.add_argument("--modes", type=int, help=f"fixed-interface eigenmodes (default {disc.n_modes} for the disc, "
+                                             f"{carrier.n_modes} for the carrier)")
     p.add_argument("--no-cache", action="store_true", help="compute afresh and do not write the cache")
     p.add_argument("--cache-dir", help="cache directory (default $RVFLEX_CACHE_DIR or ~/.cache/rvflex)")
     p.add_argument("--out", help=argparse.SUPPRESS)
     p.set_defaults(func=_cmd_reduce)
 
 
+def _describe(s) -> str:
+    """The settings of one part in words, for the help text."""
+    words = [f"maxh {s.maxh_m * 1e3:g} mm", f"{s.n_modes} eigenmodes", f"order-{s.mesh_order} tets",
+             f"curvature safety {s.curvature_safety:g}"]
+    if s.attach_per_tooth:
+        words.append(f"{s.attach_per_tooth} attachment modes per tooth"
+                     f"{' (normal and tangential)' if s.attach_tangential else ''}, {s.patch_shape} patches of "
+                     f"half-width {s.patch_half_width_m * 1e3:g} mm")
+    return ", ".join(words)
+
+
 def _cmd_reduce(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
-    from rvflex.cli import _emit, resolve_reducer
-    from rvflex.fe.reduce import STEPS, reduce_part
-
-    spec = resolve_reducer(args.reducer)
+    spec = catalog.resolve(args.reducer)
     t0 = time.perf_counter()
     with tqdm(total=len(STEPS), desc=f"reduce {args.part}", unit="step", file=sys.stderr, mininterval=0.2,
               bar_format="{desc}: {n}/{total} {postfix} [{elapsed}]") as bar:
@@ -69,4 +85,4 @@ def _cmd_reduce(args: argparse.Namespace) -> int:
           f"{rp.n_attach} attachment); static error flank {chk.flank_pct:.2f} %, interface "
           f"{chk.interface_pct:.2g} % ({chk.case}); {'cached' if doc['cached'] else 'computed'} in {wall:.1f} s",
           file=sys.stderr)
-    return _emit(args, doc, lambda out: [])
+    return emit(args, doc, lambda out: [])

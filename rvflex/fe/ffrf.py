@@ -10,11 +10,14 @@ workers never see a partial file; a file that does not load is rebuilt, never us
 
 from __future__ import annotations
 
+import io
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
+
+from rvflex.fe.cache import cache_root
+from rvflex.io import write_atomic
 
 __all__ = ["ffrf_interface", "with_virtual_nodes"]
 
@@ -23,8 +26,6 @@ _SCALARS = ("nModes", "nNodes", "dim3D", "nODE2rot", "nODE2rigid", "nODE2FFRFred
 
 
 def _path(reduced, cache_dir) -> Path:
-    from rvflex.fe.cache import cache_root
-
     return cache_root(cache_dir) / f"ffrf-{reduced.key}.npz"
 
 
@@ -39,15 +40,9 @@ def _save(obj, path: Path) -> None:
     arrays.update({f"scalar_{k}": np.asarray(getattr(obj, k)) for k in _SCALARS})
     arrays["trigList"] = np.asarray(obj.trigList, dtype=np.int64).reshape(-1, 3)
     arrays["format"] = np.asarray(_FORMAT)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            np.savez(fh, **arrays)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    buf = io.BytesIO()
+    np.savez(buf, **arrays)
+    write_atomic(path, buf.getvalue())
 
 
 def _load(path: Path, node_type):

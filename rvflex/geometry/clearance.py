@@ -14,7 +14,7 @@ from scipy.optimize import brentq
 
 from rvflex.geometry.pins import nominal_disc_pose, pin_angle_from_eccentric, pin_centres, pin_radii, to_disc_frame
 from rvflex.geometry.profile import CycloidProfile, build_profile
-from rvflex.spec import CycloidStage, ErrorSpec
+from rvflex.spec_types import CycloidStage, ErrorSpec
 
 __all__ = ["Clearance", "initial_clearance_numeric"]
 

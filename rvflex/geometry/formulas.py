@@ -11,7 +11,8 @@ import math
 
 import numpy as np
 
-from rvflex.spec import CycloidStage, ReducerSpec
+from rvflex.spec_types import CycloidStage, ReducerSpec
+from rvflex.units import ARCMIN_PER_RAD, ARCSEC_PER_RAD  # re-exported: older code imports them from here
 
 __all__ = [
     "ARCMIN_PER_RAD",
@@ -26,8 +27,6 @@ __all__ = [
     "hertz_line_deflection",
 ]
 
-ARCMIN_PER_RAD = 180.0 * 60.0 / math.pi
-ARCSEC_PER_RAD = 180.0 * 3600.0 / math.pi
 
 
 def _s(k1: float, phi: np.ndarray) -> np.ndarray:

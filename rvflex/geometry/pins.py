@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rvflex.spec import CycloidStage, ErrorSpec
+from rvflex.spec_types import CycloidStage, ErrorSpec
 
 __all__ = ["pin_centres", "pin_radii", "nominal_disc_pose", "to_disc_frame", "pin_angle_from_eccentric"]
 

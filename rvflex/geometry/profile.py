@@ -17,7 +17,7 @@ import numpy as np
 from scipy.optimize import brentq
 
 from rvflex.geometry import _kernels as K
-from rvflex.spec import CycloidStage, ErrorSpec, SpecError
+from rvflex.spec_types import CycloidStage, ErrorSpec, SpecError
 
 __all__ = ["CycloidProfile", "GapResult", "build_profile", "check_stage", "harmonics_from_teeth"]
 

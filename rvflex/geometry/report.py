@@ -14,7 +14,7 @@ from rvflex.geometry import formulas as F
 from rvflex.geometry.clearance import Clearance, initial_clearance_numeric
 from rvflex.geometry.pins import nominal_disc_pose, pin_centres, pin_radii, to_disc_frame
 from rvflex.geometry.profile import CycloidProfile, build_profile
-from rvflex.spec import ErrorSpec, ReducerSpec
+from rvflex.spec_types import ErrorSpec, ReducerSpec
 
 __all__ = ["GeometryReport", "geometry_report", "working_zone", "plot_profile", "ACCURACY_ECCENTRIC_ANGLE_RAD"]
 

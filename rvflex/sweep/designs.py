@@ -1,0 +1,228 @@
+"""Sweep designs: the :class:`Design` and its TOML file, and the points each kind of design samples.
+
+Kinds: single factor, orthogonal arrays (L9, L16(4^5), L27), Latin hypercube and Sobol
+(scipy.stats.qmc), Monte Carlo tolerance stacks (seeded normal or uniform), and two global
+sensitivity designs sampled with SALib: ``morris`` (elementary-effects trajectories) and
+``sobol-indices`` (Saltelli's scheme).
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+import hashlib
+import json
+import math
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from rvflex.spec import SpecError
+from rvflex.sweep import registry
+from rvflex.sweep.factors import FACTORS
+from rvflex.units import UM
+
+__all__ = ["DESIGN_KINDS", "SALIB_KINDS", "Design", "Factor", "design_points", "load_design", "monte_carlo_design",
+           "orthogonal_array", "salib_problem", "salib_samples"]
+
+DESIGN_KINDS = ("single-factor", "L9", "L16", "L27", "lhs", "sobol", "monte-carlo", "morris", "sobol-indices")
+SALIB_KINDS = ("morris", "sobol-indices")
+
+
+def orthogonal_array(name: str) -> np.ndarray:
+    """Standard orthogonal array as 0-based levels: L9(3^4), L16(4^5), L27(3^13)."""
+    if name == "L9":
+        a = np.array([[i, j, (i + j) % 3, (i + 2 * j) % 3] for i in range(3) for j in range(3)])
+        return a
+    if name == "L16":  # GF(4) construction: columns x, y, x+y, x+2y, x+3y
+        add = np.array([[0, 1, 2, 3], [1, 0, 3, 2], [2, 3, 0, 1], [3, 2, 1, 0]])
+        mul = np.array([[0, 0, 0, 0], [0, 1, 2, 3], [0, 2, 3, 1], [0, 3, 1, 2]])
+        return np.array([[x, y, add[x, y], add[x, mul[2, y]], add[x, mul[3, y]]] for x in range(4) for y in range(4)])
+    if name == "L27":  # GF(3): columns a, b, c and their combinations (13 columns)
+        rows = []
+        for a_ in range(3):
+            for b_ in range(3):
+                for c_ in range(3):
+                    v = (a_, b_, c_)
+                    cols = []
+                    for coeff in ((1, 0, 0), (0, 1, 0), (1, 1, 0), (1, 2, 0), (0, 0, 1), (1, 0, 1), (1, 0, 2),
+                                  (0, 1, 1), (1, 1, 1), (1, 2, 2), (0, 1, 2), (1, 2, 1), (1, 1, 2)):
+                        cols.append(sum(k * x for k, x in zip(coeff, v)) % 3)
+                    rows.append(cols)
+        return np.array(rows)
+    raise ValueError(f"orthogonal array {name!r}: available L9, L16, L27")
+
+
+@dataclass(frozen=True)
+class Factor:
+    """A design factor: registry name and its levels (deviations, SI) or range/tolerance."""
+
+    name: str
+    levels: tuple[float, ...] = ()
+    low: float = math.nan
+    high: float = math.nan
+    sigma: float = math.nan
+
+
+@dataclass(frozen=True)
+class Design:
+    """A sweep definition (see ``scenarios/designs/smoke.toml``)."""
+
+    name: str
+    reducer: str
+    scenario: str
+    kind: str
+    factors: tuple[Factor, ...]
+    load_Nm: float
+    positions_per_rev: int = 256
+    revolutions: float = 1.0
+    samples: int = 8
+    seed: int = 1
+    distribution: str = "uniform"
+    morris_levels: int = 4
+    source: str = "<design>"
+
+    @property
+    def digest(self) -> str:
+        """Content hash of everything that defines the points and their evaluation."""
+        d = dc.asdict(self)
+        d.pop("source")
+        if self.kind != "morris":  # only Morris uses it: older stores keep their digest
+            d.pop("morris_levels")
+        return hashlib.sha256(json.dumps(d, sort_keys=True, default=str).encode()).hexdigest()[:16]
+
+
+def load_design(path: str | Path) -> Design:
+    """Read and validate a design TOML file (one message naming the field and the rule)."""
+    path = Path(path)
+    src = str(path)
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (OSError, tomllib.TOMLDecodeError) as err:
+        raise SpecError("design", src, f"cannot be read as TOML: {err}") from None
+    sw = data.get("sweep", {})
+    for key in ("name", "reducer", "scenario", "kind", "load_Nm"):
+        if key not in sw:
+            raise SpecError(f"[sweep].{key}", None, "missing key", src)
+    if sw["scenario"] not in registry.names():
+        raise SpecError("[sweep].scenario", sw["scenario"], f"must be one of {', '.join(registry.names())} "
+                                                            f"(the registered sweep scenarios)", src)
+    if sw["kind"] not in DESIGN_KINDS:
+        raise SpecError("[sweep].kind", sw["kind"], f"must be one of {', '.join(DESIGN_KINDS)}", src)
+    factors = []
+    for k, f in enumerate(data.get("factor", [])):
+        name = f.get("name")
+        if name not in FACTORS:
+            raise SpecError(f"factor[{k}].name", name, f"unknown factor; valid: {', '.join(FACTORS)}", src)
+        fac = Factor(name, tuple(float(x) for x in f.get("levels", ())), float(f.get("low", math.nan)),
+                     float(f.get("high", math.nan)), float(f.get("sigma", math.nan)))
+        for v in fac.levels + tuple(x for x in (fac.low, fac.high) if not math.isnan(x)):
+            if abs(v) > 1e-3:
+                raise SpecError(f"factor[{k}]", v, "expected a deviation in metres, at most ±1 mm", src)
+            if name == "eccentric_bearing_clearance" and v < 0:
+                raise SpecError(f"factor[{k}]", v, "a clearance cannot be negative", src)
+        factors.append(fac)
+    if not factors:
+        raise SpecError("factor", None, "a design needs at least one [[factor]]", src)
+    known = {f.name for f in dc.fields(Design)} - {"factors", "source"}
+    extra = set(sw) - known
+    if extra:
+        raise SpecError(f"[sweep].{min(extra)}", sw[min(extra)], "unknown key", src)
+    design = Design(factors=tuple(factors), source=src, **sw)
+    if design.kind in SALIB_KINDS:
+        salib_problem(design)  # bounds and sample counts checked before anything runs
+    return design
+
+
+def salib_problem(design: Design) -> dict:
+    """SALib problem dict of a ``morris`` / ``sobol-indices`` design (bounds are the factors'
+    ``low``/``high`` deviations, m); refuses missing or empty ranges and too few samples."""
+    src = design.source
+    for k, f in enumerate(design.factors):
+        if not (math.isfinite(f.low) and math.isfinite(f.high) and f.low < f.high):
+            raise SpecError(f"factor[{k}] {f.name}", (f.low, f.high), f"{design.kind} needs low < high", src)
+    if design.samples < 2:
+        raise SpecError("[sweep].samples", design.samples,
+                        "at least 2 (Morris trajectories / Saltelli base samples)", src)
+    if design.kind == "morris" and not (design.morris_levels >= 2 and design.morris_levels % 2 == 0):
+        raise SpecError("[sweep].morris_levels", design.morris_levels, "an even number of grid levels, at least 2",
+                        src)
+    if design.kind == "sobol-indices" and design.samples & (design.samples - 1):
+        raise SpecError("[sweep].samples", design.samples,
+                        "a power of two (Saltelli's scheme keeps the Sobol sequence's balance)", src)
+    return {"num_vars": len(design.factors), "names": [f.name for f in design.factors],
+            "bounds": [[f.low, f.high] for f in design.factors]}
+
+
+def salib_samples(design: Design) -> np.ndarray:
+    """The SALib sample matrix (rows = points, SI deviations), seeded by ``design.seed``.
+
+    ``morris``: ``samples`` trajectories of D + 1 points on a ``morris_levels`` grid;
+    ``sobol-indices``: Saltelli's scheme, ``samples`` × (D + 2) points (first and total order).
+    """
+    problem = salib_problem(design)
+    if design.kind == "morris":
+        from SALib.sample import morris
+
+        return morris.sample(problem, design.samples, num_levels=design.morris_levels, seed=design.seed)
+    from SALib.sample import sobol
+
+    return sobol.sample(problem, design.samples, calc_second_order=False, scramble=True, seed=design.seed)
+
+
+def design_points(design: Design) -> list[dict[str, float]]:
+    """The design's points: one dict factor → deviation per point."""
+    names = [f.name for f in design.factors]
+    kind = design.kind
+    if kind == "single-factor":
+        pts = []
+        for f in design.factors:
+            for v in f.levels:
+                p = dict.fromkeys(names, 0.0)
+                p[f.name] = v
+                pts.append(p)
+        return pts
+    if kind in ("L9", "L16", "L27"):
+        oa = orthogonal_array(kind)
+        if len(names) > oa.shape[1]:
+            raise SpecError("factor", len(names), f"{kind} has {oa.shape[1]} columns")
+        for f in design.factors:
+            if len(f.levels) != oa.max() + 1:
+                raise SpecError(f"factor {f.name}.levels", f.levels, f"{kind} needs {oa.max() + 1} levels")
+        return [{f.name: f.levels[row[j]] for j, f in enumerate(design.factors)} for row in oa]
+    if kind in SALIB_KINDS:
+        return [dict(zip(names, map(float, row))) for row in salib_samples(design)]
+    rng = np.random.default_rng(design.seed)
+    if kind in ("lhs", "sobol"):
+        from scipy.stats import qmc
+
+        sampler = (qmc.LatinHypercube(d=len(names), seed=rng) if kind == "lhs"
+                   else qmc.Sobol(d=len(names), scramble=True, seed=rng))
+        u = sampler.random(design.samples)
+        lo = np.array([f.low for f in design.factors])
+        hi = np.array([f.high for f in design.factors])
+        return [dict(zip(names, map(float, lo + row * (hi - lo)))) for row in u]
+    # Monte Carlo tolerance stack
+    pts = []
+    for _ in range(design.samples):
+        p = {}
+        for f in design.factors:
+            if design.distribution == "normal":
+                p[f.name] = float(rng.normal(0.0, f.sigma))
+            else:
+                p[f.name] = float(rng.uniform(f.low, f.high))
+        pts.append(p)
+    return pts
+
+
+def monte_carlo_design(points: int, seed: int = 1, positions_per_rev: int = 2048) -> Design:
+    """Monte Carlo tolerance stack of seed 004's five sensitive characteristics on the rigid
+    RV-40E (uniform within their tolerance bands), quasi-static loaded TE at rated torque over
+    one output revolution: the benchmark design of ``rvflex bench sweep``."""
+    return Design(
+        name=f"mc{points}", reducer="rv40e", scenario="te", kind="monte-carlo", load_Nm=412.0,
+        positions_per_rev=positions_per_rev, samples=points, seed=seed, distribution="uniform",
+        factors=(Factor("eccentricity", low=-3 * UM, high=3 * UM), Factor("moved_modification", low=-1 * UM, high=1 * UM),
+                 Factor("equidistant_modification", low=-2 * UM, high=2 * UM),
+                 Factor("pin_circle_radius", low=-3 * UM, high=3 * UM), Factor("pin_radius", low=-1 * UM, high=1 * UM)))

@@ -1,0 +1,49 @@
+"""The scenarios a sweep point can run, registered with the sweep engine (:mod:`rvflex.sweep.registry`).
+
+``te``: quasi-static loaded TE (:mod:`rvflex.scenarios.loaded_te`), metric ``te_pp_arcsec``;
+``lost-motion``: the torsional hysteresis cycle (:mod:`rvflex.scenarios.lost_motion`, at
+least 40 torque steps), metric ``lost_motion_arcmin``. Importing :mod:`rvflex.scenarios`
+registers both. The scenario modules are imported when a point first runs (or a sweep warms
+its process), so registering costs no Exudyn import.
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+
+from rvflex.spec import ErrorSpec, ReducerSpec
+from rvflex.sweep.registry import SweepScenario, register
+
+__all__ = ["LOST_MOTION", "TE", "evaluate_lost_motion", "evaluate_te"]
+
+
+def evaluate_te(spec: ReducerSpec, errors: ErrorSpec, load_Nm: float, positions_per_rev: int,
+                revolutions: float) -> dict[str, float]:
+    """TE peak-to-peak and mean wind-up (arcsec) of one rigid quasi-static loaded-TE run."""
+    from rvflex.scenarios.loaded_te import LoadedTE, run_loaded_te
+
+    met = run_loaded_te(LoadedTE(spec, errors, load_Nm, revolutions, positions_per_rev))[1]
+    return {"te_pp_arcsec": met.te_pp_arcsec, "mean_windup_arcsec": met.mean_windup_arcsec}
+
+
+def evaluate_lost_motion(spec: ReducerSpec, errors: ErrorSpec, load_Nm: float, positions_per_rev: int,
+                         revolutions: float) -> dict[str, float]:
+    """Every lost-motion metric of one rigid hysteresis cycle at ±``load_Nm`` with
+    max(positions_per_rev, 40) torque steps (``revolutions`` does not apply)."""
+    from rvflex.scenarios.lost_motion import LostMotion, run_lost_motion
+
+    met = run_lost_motion(LostMotion(spec, errors, load_Nm, max(positions_per_rev, 40)))[1]
+    return dc.asdict(met)
+
+
+def _warm_te() -> None:
+    import rvflex.scenarios.loaded_te  # noqa: F401
+
+
+def _warm_lost_motion() -> None:
+    import rvflex.scenarios.lost_motion  # noqa: F401
+
+
+TE = register(SweepScenario("te", evaluate_te, "te_pp_arcsec", "arcsec", _warm_te))
+LOST_MOTION = register(SweepScenario("lost-motion", evaluate_lost_motion, "lost_motion_arcmin", "arcmin",
+                                     _warm_lost_motion))
