@@ -249,7 +249,7 @@ def _advance(model: ReducerModel, ss, q: np.ndarray, th0: float, th1: float, lev
 
 
 def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float = 0.0, *,
-                 progress=None, chord_newton: bool | None = None) -> QuasiStaticResult:
+                 progress=None, chord_newton: bool | None = None, fail_fast: bool = False) -> QuasiStaticResult:
     """Static equilibria at the input angles ``theta_in`` (rad; increasing runs forward,
     decreasing runs reverse) under the output torque ``torque_out_Nm`` (N·m, ≥ 0) resisting
     the motion. With ``chord_newton`` the steps are solved by :class:`_ChordNewton` from an
@@ -266,6 +266,8 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
     """
     mbs = model.mbs
     ss = static_settings()
+    if fail_fast:  # a step Exudyn's solver cannot take in load increments down to 1e-3 fails (and is bisected)
+        ss.staticSolver.minimumStepSize = CYCLE_MIN_LOAD_STEP
     car = model.output_index
     theta_in = np.asarray(theta_in, float)
     n, nd, npins = len(theta_in), len(model.discs.nodes), model.spec.cycloid.pin_count

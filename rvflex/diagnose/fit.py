@@ -298,9 +298,10 @@ def diagnose(dataset, *, settings: DiagnosisSettings | None = None, effects: tup
         final.append(c)
     # calibrate first: an effect that the nominal parameters reproduce within their prior ranges is not
     # needed — the nominal explanation is expected, the effect is extra; it is reported as a tie
-    cal_ties, runs_needed = (_calibration_ties(chosen, cal, sens, w) if chosen is not None else ((), ()))
+    cal_ties, runs_needed, tie_ratio = (_calibration_ties(chosen, cal, sens, w) if chosen is not None
+                                        else ((), (), math.inf))
     demoted = None
-    if cal_ties:
+    if cal_ties and tie_ratio <= CALIBRATION_PREFERRED:
         demoted = chosen
         final = [dc.replace(c, accepted=False, note=(c.note + "; " if c.note else "")
                             + "tied with the calibration of " + ", ".join(cal_ties)) if c is chosen else c
@@ -318,7 +319,9 @@ def diagnose(dataset, *, settings: DiagnosisSettings | None = None, effects: tup
                 f"(a tie); {'; '.join(runs_needed)} would separate them.")
     text = _calibration_sentence(none, nominal_model, chosen if demoted is None else demoted, settings) + " " + text
     if cal_ties and demoted is None:
-        text += (f" Tied with the calibration of {', '.join(cal_ties)}: {'; '.join(runs_needed)} would separate them.")
+        text += (f" Partly tied with the calibration of {', '.join(cal_ties)} (within their prior ranges they reproduce "
+                 f"{100 * (1 - tie_ratio):.0f} % of the effect's signature): {'; '.join(runs_needed)} would separate "
+                 "them.")
     return Diagnosis(dataset, settings, plan, lay, w, y, none, none.response or resp0, tuple(final), chosen,
                      folds, unavailable, failed, size, text, runner.model_runs,
                      time.perf_counter() - t0, tied, nominal_model, windows, cal_ties, runs_needed)
@@ -365,11 +368,15 @@ def _calibration_sentence(none: Candidate, nominal_model: Candidate, chosen, set
     return s
 
 
-def _calibration_ties(chosen: Candidate, cal, sens: Sensitivities, w) -> tuple[tuple[str, ...], tuple[str, ...]]:
-    """Nominal parameters whose columns, within their prior ranges, reproduce the accepted effect's
-    fitted change to within SIGNATURE_TIE (weighted), and the runs that would separate them."""
+CALIBRATION_PREFERRED = 0.10  # nominal parameters reproducing an effect's change to within this: no effect needed
+
+
+def _calibration_ties(chosen: Candidate, cal, sens: Sensitivities, w) -> tuple[tuple[str, ...], tuple[str, ...], float]:
+    """Nominal parameters whose columns, within their prior ranges (from their calibrated values),
+    reproduce the accepted effect's fitted change to within SIGNATURE_TIE (weighted), the runs that
+    would separate them, and the relative weighted residual of that reproduction."""
     if not cal or chosen.jacobian is None:
-        return (), ()
+        return (), (), math.inf
     sig, i = np.zeros(len(w)), 0
     for e, xe in chosen.split():
         if not e.nominal:
@@ -378,18 +385,19 @@ def _calibration_ties(chosen: Candidate, cal, sens: Sensitivities, w) -> tuple[t
     sig = sig * w
     norm = float(np.linalg.norm(sig))
     if norm <= 0:
-        return (), ()
+        return (), (), math.inf
     J = np.column_stack([sens.plus[c.name] for c in cal]) * w[:, None]
     now = {e.name: xe for e, xe in chosen.split() if e.nominal}  # room left from the calibrated values
     lo = np.concatenate([c.lower - now.get(c.name, c.center) for c in cal])
     hi = np.concatenate([c.upper - now.get(c.name, c.center) for c in cal])
     coef = lsq_linear(J, sig, bounds=(lo, hi), method="bvls").x
-    if np.linalg.norm(sig - J @ coef) > SIGNATURE_TIE * norm:
-        return (), ()
+    ratio = float(np.linalg.norm(sig - J @ coef)) / norm
+    if ratio > SIGNATURE_TIE:
+        return (), (), ratio
     share = np.abs(coef) * np.linalg.norm(J, axis=0)
     names = tuple(c.name for c, s in zip(cal, share) if s > 0.1 * share.max())
     runs = tuple(dict.fromkeys(c.separating_runs for c in cal if c.name in names and c.separating_runs))
-    return names, runs
+    return names, runs, ratio
 
 
 def available_candidates(effects, plan) -> tuple[tuple[Effect, ...], dict]:

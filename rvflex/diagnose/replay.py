@@ -234,7 +234,7 @@ def _run_model(variants: list[tuple[ReducerSpec, ErrorSpec]], plan: tuple[PlanRu
             model = build_reducer(spec, errors, fidelity, law=law(spec) if callable(law) else law)
             if p.kind == "te":
                 theta = p.direction * np.linspace(0.0, 2 * math.pi * model.ratio, n, endpoint=False)
-                res = quasi_static(model, theta, p.load_Nm, progress=budget)
+                res = quasi_static(model, theta, p.load_Nm, progress=budget, fail_fast=True)
                 grid = np.empty(n)
                 grid[(p.direction * np.arange(n)) % n] = res.te_rad
                 te.append(grid)
