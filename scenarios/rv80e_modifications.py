@@ -123,7 +123,8 @@ def plot_schemes(results: dict[str, dict], path: Path) -> Path:
             te = r[mode]["te_rad"] * ARCSEC_PER_RAD
             deg = np.arange(len(te)) / len(te) * 360.0 * r[mode]["revolutions"]
             a0.plot(deg, te - te.mean(), ls, color=f"C{k}", lw=0.9, label=f"{scheme}, {mode}")
-    a0.set_xlabel("output angle (°)")
+    a0.set_xlim(0.0, 10.0)  # the mesh orders (488, 976 per output revolution) need a close-up
+    a0.set_xlabel("output angle (°), first 10°")
     a0.set_ylabel("TE − mean (arcsec)")
     a0.set_title(f"RV-80E, {OUTPUT_RPM:g} rpm output, {LOAD_NM:g} N·m, no errors")
     a0.grid(alpha=0.3)
