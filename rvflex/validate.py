@@ -444,10 +444,10 @@ def plot_rows(rows: list[Row], out: Path) -> list[Path]:
         for y, r in enumerate(sel):
             p = r.published
             lo, hi = sorted((r.band_low / p, r.band_high / p))
-            ax.plot([max(lo, 1e-3), hi], [y, y], color="0.7", lw=6, solid_capstyle="butt")
+            ax.plot([max(lo, 1e-4), hi], [y, y], color="0.7", lw=6, solid_capstyle="butt")
             ax.plot(1.0, y, "k|", ms=14)
             if r.rvflex is not None:
-                ax.plot(max(r.rvflex / p, 1e-3), y, "o", color="C2" if r.inside else "C3")
+                ax.plot(max(r.rvflex / p, 1e-4), y, "o", color="C2" if r.inside else "C3")
         ax.set_yticks(range(len(sel)), [r.quantity[:60] for r in sel], fontsize=7)
         ax.set_xscale("log")
         ax.set_xlabel("value / published (grey: band; |: published; o: rvflex, green inside, red outside)")
