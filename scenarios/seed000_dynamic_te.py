@@ -157,17 +157,10 @@ def run_seed000(sc: Seed000) -> Seed000Result:
         ri = list(c.rigid_index)
         f = np.empty((len(idx), len(c.radii_m)))
         for j, k in enumerate(idx):
-            out = c.evaluate((c.reference + q_all[k])[ri], qd_all[k][ri])[3]
-            f[j] = out[:, _force_column()]
+            f[j] = c.pin_state_at((c.reference + q_all[k])[ri], qd_all[k][ri]).force_N
         forces.append(f)
     return Seed000Result(tt, te_u, dyn.time_s[idx], np.stack(forces, axis=1), te_metrics(te_u, sc.revolutions),
                          sc.revolutions, law.stiffness, sc.step_s, time.perf_counter() - t0)
-
-
-def _force_column() -> int:
-    from rvflex.contact import cycloid_pin
-
-    return cycloid_pin.K.O_FORCE
 
 
 def step_convergence(sc: Seed000) -> tuple[Seed000Result, Seed000Result, dict]:
