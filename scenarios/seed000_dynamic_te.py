@@ -8,8 +8,9 @@ nor k, c, the load or any error amount; ``scenarios/specs/shar110e.toml`` states
 assumed and why. Here:
 
 - contact law: the power law of seed 000 (e = 1.5) with k matched to seed 002's line-contact
-  law (materials, disc width, flank curvature at the most loaded pin) at that pin's rated-load
-  force, and c = 500 N·s/m (seed 003's cycloid–pin damping; seed 000 gives none);
+  law (materials, disc width, a flat flank bounded by the pin-circle radius) at an estimate of
+  the most loaded pin's rated-load force (k = 2.12e11 N/m^1.5 here), and c = 500 N·s/m (seed
+  003's cycloid–pin damping; seed 000 gives none);
 - load: the rated torque as a constant resisting torque (the mean of the paper's torsional
   spring-damper, whose stiffness and damping it does not give);
 - errors: none (modification only) and, as the clearance-driven case of the paper, seed 001's
