@@ -374,6 +374,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     fe_cli.register(sub)
     diagnose_cli.register(sub)
+    from rvflex import validate
+
+    validate.register(sub)
     return p
 
 

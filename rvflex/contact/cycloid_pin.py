@@ -230,6 +230,12 @@ class CycloidPinContact:
         if self.modal_node >= 0:
             eta = np.asarray(mbs.GetNodeOutput(self.modal_node, _exu().OutputVariableType.Coordinates))
             eta_d = np.asarray(mbs.GetNodeOutput(self.modal_node, _exu().OutputVariableType.Coordinates_t))
+        return self.pin_state_at(q, qd, eta, eta_d)
+
+    def pin_state_at(self, q: np.ndarray, qd: np.ndarray | None = None, eta: np.ndarray | None = None,
+                     eta_d: np.ndarray | None = None) -> PinState:
+        """Per-pin state at absolute rigid coordinates ``q = (x, y, θ)`` and rates ``qd`` (and
+        modal coordinates): e.g. replayed from a dynamic run's recorded disc states."""
         _, _, _, out, _ = self.evaluate(q, qd, eta, eta_d)
         return PinState(out[:, K.O_GAP].copy(), out[:, K.O_FORCE].copy(), out[:, K.O_FT].copy(),
                         out[:, [K.O_PX, K.O_PY]].copy(), out[:, K.O_T].copy())

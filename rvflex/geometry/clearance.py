@@ -57,13 +57,19 @@ class Clearance:
 
 def initial_clearance_numeric(stage: CycloidStage, errors: ErrorSpec | None = None, disc: int = 0,
                               eccentric_angle_rad: float = 0.0,
-                              profile: CycloidProfile | None = None) -> Clearance:
+                              profile: CycloidProfile | None = None, *,
+                              allow_interference: bool = False) -> Clearance:
     """Gaps of all pins at the nominal pose and after turning the disc to first contact.
+
+    With ``allow_interference`` a profile that overlaps a pin at the nominal pose (a preloaded
+    mesh, e.g. seed 003's negative moved + negative equidistant RV-80E) gives the nominal gaps,
+    no turn (free play 0) and the nominal gaps as the gaps "after" turning.
 
     Raises
     ------
     ValueError
-        If a pin interferes at the nominal pose (no clearance to close).
+        If a pin interferes at the nominal pose (no clearance to close) and
+        ``allow_interference`` is false.
     """
     prof = profile or build_profile(stage, errors, disc)
     pins, radii = pin_centres(stage, errors), pin_radii(stage, errors)
@@ -73,11 +79,13 @@ def initial_clearance_numeric(stage: CycloidStage, errors: ErrorSpec | None = No
         return prof.gap(to_disc_frame(pins, centre, angle + turn), radii).gap_m
 
     g0 = gaps(0.0)
+    phi = pin_angle_from_eccentric(stage, eccentric_angle_rad)
+    if g0.min() < 0.0 and allow_interference:
+        return Clearance(phi, g0, 0.0, 0.0, g0, g0, np.zeros(len(g0), bool), np.zeros(len(g0), bool))
     if g0.min() < 0.0:
         k = int(np.argmin(g0))
         raise ValueError(f"pin {k} interferes by {-g0[k] * 1e6:.3f} µm at the nominal pose: no clearance")
     slope = (gaps(1e-7) - gaps(-1e-7)) / 2e-7
     turn_pos = brentq(lambda b: gaps(b).min(), 0.0, BRACKET_RAD, xtol=1e-15, rtol=1e-14)
     turn_neg = brentq(lambda b: gaps(b).min(), -BRACKET_RAD, 0.0, xtol=1e-15, rtol=1e-14)
-    phi = pin_angle_from_eccentric(stage, eccentric_angle_rad)
     return Clearance(phi, g0, turn_pos, turn_neg, gaps(turn_pos), gaps(turn_neg), slope < 0, slope > 0)

@@ -74,7 +74,8 @@ class GeometryReport:
             f"K1 = e·zb/r_p               {self.k1:.6f}",
             f"teeth zc / zb               {self.zc} / {self.zb}",
             f"modification                {kinds}",
-            f"min initial clearance       {self.min_initial_clearance_um:.3f} µm (nominal pose, all pins)",
+            f"min initial clearance       {self.min_initial_clearance_um:.3f} µm (nominal pose, all pins"
+            + ("; negative: the profile overlaps a pin, a preloaded mesh)" if self.min_initial_clearance_um < 0 else ")"),
             f"max pressure angle          {self.max_pressure_angle_deg:.2f}° over the working zone "
             f"φ = {self.working_zone_deg[0]:.1f}°…{self.working_zone_deg[1]:.1f}°",
             f"backlash formula (seed 002) {b['total']:.4f}′ = first stage {b['first_stage']:.4f}′ + crank bearings "
@@ -122,7 +123,7 @@ def geometry_report(spec: ReducerSpec, errors: ErrorSpec | None = None, *, brute
     us = _best_us(lambda: prof.gap(x80, r80))
     us_warm = _best_us(lambda: prof.gap(x80_next, r80, t_prev))
     # clearance and free play from the exact geometry
-    cl = initial_clearance_numeric(c, errors, 0, profile=profiles[0])
+    cl = initial_clearance_numeric(c, errors, 0, profile=profiles[0], allow_interference=True)
     zone = working_zone(spec)
     u = np.linspace(zone[0], zone[1], 2001)
     alpha = profiles[0].pressure_angle(u / c.disc_teeth)
@@ -168,7 +169,7 @@ def plot_profile(spec: ReducerSpec, path: str | Path, errors: ErrorSpec | None =
     c = spec.cycloid
     theo = build_profile(c, modified=False)
     mod = build_profile(c, errors, 0)
-    cl: Clearance = initial_clearance_numeric(c, errors, 0, profile=mod)
+    cl: Clearance = initial_clearance_numeric(c, errors, 0, profile=mod, allow_interference=True)
     n = c.disc_teeth * 256
     t = np.linspace(0, 2 * np.pi, n + 1)
     qt, _, _ = theo.evaluate(t)
