@@ -321,7 +321,8 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--load", type=float, help="output torque resisting the motion, N·m (default: rated)")
     t.add_argument("--revs", type=float, default=1.0, help="output revolutions (default 1)")
     t.add_argument("--positions", type=int, default=2048, help="positions per output revolution (default 2048)")
-    t.add_argument("--direction", choices=("forward", "reverse"), default="forward")
+    t.add_argument("--direction", choices=("forward", "reverse"), default="forward",
+                   help="direction of the input rotation (default forward)")
     _output_arguments(t, "te.csv, te.png, load_sharing.png and te.nc (the labelled result, netCDF)")
     t.set_defaults(func=_cmd_te)
     lm = sub.add_parser("lost-motion", help="torsional hysteresis: lost motion, stiffness, backlash")

@@ -75,7 +75,6 @@ def where_list(diag, min_share: float = 0.01) -> list[dict]:
                         "share": float(np.sum(sl[low] ** 2) / total)})
             out.append({"metric": "torsional stiffness (hysteresis loop, torque beyond ±5 %)", **keys,
                         "share": float(np.sum(sl[~low] ** 2) / total)})
-            del m
     return sorted((w for w in out if w["share"] > 0), key=lambda w: -w["share"])
 
 
