@@ -400,8 +400,8 @@ def test_replay_and_lost_motion_share_one_torque_stepping_engine():
 # ----------------------------------------------------------------------------- calibrate, then attribute
 
 CAL = ("contact_stiffness", "contact_law_form", "needle_bearing_stiffness", "mesh_stiffness", "crank_bearing_clearance")
-# coarse for CI time: orders 1…63 (the pin-mesh orders 39/40 in, 2·z_b out and not folded in), 24-step cycle
-CI_SETTINGS = DiagnosisSettings(positions_per_rev=192, max_order=63, hysteresis_steps=24, refine_top=3,
+# coarse for CI time: orders 1…95 (z_b and 2·z_b in, 3·z_b neither in nor folded in), 24-step cycle
+CI_SETTINGS = DiagnosisSettings(positions_per_rev=224, max_order=95, hysteresis_steps=24, refine_top=3,
                                 refine_iterations=3, workers=2)
 
 
