@@ -10,8 +10,8 @@ pool ``retries`` times; the items still left then run one per pool, so only the 
 kills its worker every time is reported as dead. ``workers=0`` evaluates in the calling
 process (serial; same outcomes, no pool).
 
-Used by the sweep's process executor and the sensitivity scenario; results never depend on
-the number of workers, since every evaluation builds its own model.
+Used by the sweep's process executor, the sensitivity scenario and the diagnosis's model runs;
+results never depend on the number of workers, since every evaluation builds its own model.
 """
 
 from __future__ import annotations

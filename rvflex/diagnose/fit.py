@@ -36,21 +36,17 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from scipy.optimize import lsq_linear
 
-from rvflex.diagnose.effects import Effect, available_effects
 from rvflex.diagnose.linear import (
     Candidate,
-    denoise_orders,
     Problem,
-    Sensitivities,
     lin_fit,
     make_candidate,
     nuisance_columns,
     prior_of,
     weights,
 )
-from rvflex.diagnose.nominal import REPLACES, describe_calibration, nominal_parameters
+from rvflex.diagnose.nominal import REPLACES, nominal_parameters
 from rvflex.diagnose.refine import refine
 from rvflex.diagnose.replay import (
     DiagnosisSettings,
@@ -58,15 +54,23 @@ from rvflex.diagnose.replay import (
     Layout,
     PlanRun,
     Response,
-    features,
     measured_runs,
     plan_from_dataset,
 )
 from rvflex.diagnose.runs import ModelRunner
-from rvflex.diagnose.verdict import SIGNATURE_TIE, equivalent, verdict, withheld_check
+from rvflex.diagnose.calibration import CALIBRATION_PREFERRED, calibration_sentence, calibration_ties
+from rvflex.diagnose.sensitivity import (
+    available_candidates,
+    second_effect_adds,
+    sensitivities,
+    signature_size,
+    signature_sizes,
+)
+from rvflex.diagnose.verdict import equivalent, verdict, withheld_check
 from rvflex.spec import ErrorSpec, ReducerSpec
 
-__all__ = ["Candidate", "Diagnosis", "diagnose", "signature_sizes", "withheld_folds", "withheld_split"]
+__all__ = ["Candidate", "Diagnosis", "available_candidates", "check_aliasing", "diagnose", "second_effect_adds",
+           "signature_sizes", "withheld_folds", "withheld_split"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -298,7 +302,7 @@ def diagnose(dataset, *, settings: DiagnosisSettings | None = None, effects: tup
         final.append(c)
     # calibrate first: an effect that the nominal parameters reproduce within their prior ranges is not
     # needed — the nominal explanation is expected, the effect is extra; it is reported as a tie
-    cal_ties, runs_needed, tie_ratio = (_calibration_ties(chosen, cal, sens, w) if chosen is not None
+    cal_ties, runs_needed, tie_ratio = (calibration_ties(chosen, cal, sens, w) if chosen is not None
                                         else ((), (), math.inf))
     demoted = None
     if cal_ties and tie_ratio <= CALIBRATION_PREFERRED:
@@ -317,7 +321,7 @@ def diagnose(dataset, *, settings: DiagnosisSettings | None = None, effects: tup
                 f"{demoted.gap_shrink_pct:.0f} % of what calibration leaves, but within their prior ranges the nominal "
                 f"parameters {', '.join(cal_ties)} reproduce its signature, so these runs cannot tell it from them "
                 f"(a tie); {'; '.join(runs_needed)} would separate them.")
-    text = _calibration_sentence(none, nominal_model, chosen if demoted is None else demoted, settings) + " " + text
+    text = calibration_sentence(none, nominal_model, chosen if demoted is None else demoted, settings) + " " + text
     if cal_ties and demoted is None:
         text += (f" Partly tied with the calibration of {', '.join(cal_ties)} (within their prior ranges they reproduce "
                  f"{100 * (1 - tie_ratio):.0f} % of the effect's signature): {'; '.join(runs_needed)} would separate "
@@ -342,169 +346,3 @@ def check_aliasing(settings: DiagnosisSettings, spec: ReducerSpec) -> None:
 
 def _shrink(rss: float, ref: float) -> float:
     return 100.0 * (1.0 - math.sqrt(rss / ref)) if ref > 0 else 0.0
-
-
-def _fmt_cal(row: dict) -> str:
-    if "stiffness_scale" in row:
-        return f"{row['name'].replace('_', ' ')} ×{row['stiffness_scale']:.2f}"
-    if row["unit"] == "m":
-        return f"{row['name'].replace('_', ' ')} {row['value'] * 1e6:.1f} µm"
-    return f"{row['name'].replace('_', ' ')} {row['value']:.2f}"
-
-
-def _calibration_sentence(none: Candidate, nominal_model: Candidate, chosen, settings) -> str:
-    rows = describe_calibration(none)
-    if not rows:
-        return "No nominal parameter calibrated."
-    moved = [r for r in rows if abs(r["shift"]) > 0.5 * r["prior_sigma"]]
-    bound = [r["name"] for r in rows if r["at_prior_bound"]]
-    shrink = none.gap_shrink_pct
-    s = (f"Calibration ({', '.join(_fmt_cal(r) for r in rows)}) closes {max(shrink, 0):.0f} % of the nominal "
-         f"model's weighted gap.")
-    if bound:
-        s += f" {', '.join(bound)} ran into the bound of its prior range: the nominal parameter is off by more than assumed."
-    if chosen is None and moved and shrink >= settings.min_shrink_pct:
-        s += " Nominal parameters off; no unmodelled effect."
-    return s
-
-
-CALIBRATION_PREFERRED = 0.10  # nominal parameters reproducing an effect's change to within this: no effect needed
-
-
-def _calibration_ties(chosen: Candidate, cal, sens: Sensitivities, w) -> tuple[tuple[str, ...], tuple[str, ...], float]:
-    """Nominal parameters whose columns, within their prior ranges (from their calibrated values),
-    reproduce the accepted effect's fitted change to within SIGNATURE_TIE (weighted), the runs that
-    would separate them, and the relative weighted residual of that reproduction."""
-    if not cal or chosen.jacobian is None:
-        return (), (), math.inf
-    sig, i = np.zeros(len(w)), 0
-    for e, xe in chosen.split():
-        if not e.nominal:
-            sig += chosen.jacobian[:, i:i + e.n] @ xe
-        i += e.n
-    sig = sig * w
-    norm = float(np.linalg.norm(sig))
-    if norm <= 0:
-        return (), (), math.inf
-    J = np.column_stack([sens.plus[c.name] for c in cal]) * w[:, None]
-    now = {e.name: xe for e, xe in chosen.split() if e.nominal}  # room left from the calibrated values
-    lo = np.concatenate([c.lower - now.get(c.name, c.center) for c in cal])
-    hi = np.concatenate([c.upper - now.get(c.name, c.center) for c in cal])
-    coef = lsq_linear(J, sig, bounds=(lo, hi), method="bvls").x
-    ratio = float(np.linalg.norm(sig - J @ coef)) / norm
-    if ratio > SIGNATURE_TIE:
-        return (), (), ratio
-    share = np.abs(coef) * np.linalg.norm(J, axis=0)
-    names = tuple(c.name for c, s in zip(cal, share) if s > 0.1 * share.max())
-    runs = tuple(dict.fromkeys(c.separating_runs for c in cal if c.name in names and c.separating_runs))
-    return names, runs, ratio
-
-
-def available_candidates(effects, plan) -> tuple[tuple[Effect, ...], dict]:
-    """The candidate effects the model can evaluate for ``plan``, and the reasons of the others."""
-    cands, unavailable = available_effects(effects)
-    ok = []
-    for e in cands:
-        avail, why = e.available_for(plan)
-        if avail:
-            ok.append(e)
-        else:
-            unavailable[e.name] = why
-    return tuple(ok), unavailable
-
-
-def signature_size(e: Effect, sens: Sensitivities, w: np.ndarray) -> float:
-    """||w·ΔF||/√(parameters) at the typical step (rms of the two sides for two-sided effects)."""
-    size2 = float(np.sum(((sens.plus[e.name] * e.steps[None, :]) * w[:, None]) ** 2))
-    if e.name in sens.minus:
-        size2 = 0.5 * (size2 + float(np.sum(((sens.minus[e.name] * e.steps[None, :]) * w[:, None]) ** 2)))
-    return math.sqrt(size2 / e.n)
-
-
-def second_effect_adds(pair: Candidate, singles: dict, settings: DiagnosisSettings) -> bool:
-    """Whether the pair's second effect earns its place: against the better of its two single
-    effects (by residual) the pair removes ≥ ``min_shrink_pct`` of the remaining weighted gap and
-    improves the BIC by ≥ ``bic_threshold``."""
-    subs = [singles[e.name] for e in pair.attributed if e.name in singles]
-    if not subs:
-        return False
-    sub = min(subs, key=lambda c: c.rss)
-    if sub.rss <= 0:
-        return False
-    shrink = 100.0 * (1.0 - math.sqrt(pair.rss / sub.rss))
-    return shrink >= settings.min_shrink_pct and sub.bic - pair.bic >= settings.bic_threshold
-
-
-def sensitivities(runner, cands, f0, resp0, plan, settings, n) -> tuple[Sensitivities, dict]:
-    """Secant sensitivities (features per unit parameter) of every candidate, and the failures."""
-    # --- sensitivities: one run per parameter (measurement effects need no model run)
-    jobs, owners = [], []
-    for e in cands:
-        if e.kind == "measurement":
-            continue
-        for j, prm in enumerate(e.params):
-            for sign in ((1.0, -1.0) if e.central or e.two_sided else (1.0,)):
-                x = np.zeros(e.n)
-                x[j] = sign * prm.step
-                jobs.append(((e, x),))
-                owners.append((e.name, j, sign))
-    # other-fidelity (slow) jobs first, so that they run alongside the rigid ones
-    order = sorted(range(len(jobs)), key=lambda i: next(c for c in cands if c.name == owners[i][0]).kind != "fidelity")
-    outs: list = [None] * len(jobs)
-    for i, o in zip(order, runner.run([jobs[i] for i in order])):
-        outs[i] = o
-    sens: dict[str, np.ndarray] = {}
-    minus: dict[str, np.ndarray] = {}
-    failed: dict[str, str] = {}
-    pos = 2 * np.pi * np.arange(settings.positions_per_rev) / settings.positions_per_rev
-    for e in cands:
-        if e.kind == "measurement":
-            cols = []
-            for j, prm in enumerate(e.params):
-                x = np.zeros(e.n)
-                x[j] = prm.step
-                te = tuple(None if a is None else e.measure(pos, a, x) for a in resp0.te)
-                fj, _ = features(dc.replace(resp0, te=te), plan, settings)
-                cols.append((fj - f0) / prm.step)
-            sens[e.name] = np.column_stack(cols)
-    responses = {}
-    for (name, j, sign), (fj, rj, msg) in zip(owners, outs):
-        if fj is not None and next(c for c in cands if c.name == name).kind == "fidelity":
-            responses[name] = rj
-        if name in failed:
-            continue
-        if fj is None:
-            failed[name] = f"model evaluation failed at the sensitivity step: {msg}"
-            sens.pop(name, None)
-            minus.pop(name, None)
-            continue
-        e = next(c for c in cands if c.name == name)
-        if e.two_sided and sign < 0:  # the −step secant (f0 − f−)/h, kept apart
-            minus.setdefault(name, np.zeros((n, e.n)))[:, j] = (f0 - fj) / e.params[j].step
-            continue
-        # one-sided: the secant (f+ − f0)/h; central: (f+ − f0)/(2h) + (f0 − f−)/(2h)
-        scale = e.params[j].step * (2.0 if e.central else 1.0)
-        sens.setdefault(name, np.zeros((n, e.n)))[:, j] += sign * (fj - f0) / scale
-    _, lay = features(resp0, plan, settings)
-    sens = {k: denoise_orders(v, lay) for k, v in sens.items()}
-    minus = {k: denoise_orders(v, lay) for k, v in minus.items()}
-    return Sensitivities(sens, minus, responses), failed
-
-
-def signature_sizes(spec: ReducerSpec, plan, settings: DiagnosisSettings, effects: tuple[str, ...] | None = None,
-                    *, law=None, cache_dir: str | Path | None = None, errors: ErrorSpec | None = None) -> dict:
-    """Size of each effect's model signature at its typical magnitude, in units of the
-    residual floors (measurement noise not included): ||w·ΔF||/√(parameters). Below ~3 an
-    effect is not observable with these runs; NaN when its model evaluation failed."""
-    cands, _ = available_candidates(effects, plan)
-    runner = ModelRunner(spec, errors or ErrorSpec(), plan, settings, law, Path(cache_dir) if cache_dir else None)
-    f0, resp0, msg = runner.run([()])[0]
-    if f0 is None:
-        raise EvaluationFailed(f"the baseline model does not converge: {msg}")
-    _, lay = features(resp0, plan, settings)
-    y0 = f0.copy()
-    for r in lay.te_runs:  # no measurement: the floors alone
-        y0[lay.cos[r]] = y0[lay.sin[r]] = 0.0
-    w = weights(f0, y0, lay, settings)
-    sens, _ = sensitivities(runner, cands, f0, resp0, plan, settings, lay.n)
-    return {e.name: (signature_size(e, sens, w) if e.name in sens else math.nan) for e in cands}

@@ -1,16 +1,17 @@
-"""Model runs of a diagnosis: evaluated serially or in a process pool, cached on disk by a content
+"""Model runs of a diagnosis: evaluated serially or in the warm process pool of
+:func:`rvflex.parallel.map_warm` (a dead worker is a failed evaluation), cached on disk by a content
 hash of everything that determines them (spec, errors, plan, resolution, law, active effects)."""
 
 from __future__ import annotations
 
 import hashlib
 import pickle
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
 
 from rvflex.diagnose.replay import EvaluationFailed, evaluate, features
+from rvflex.parallel import Outcome, map_warm
 
 __all__ = ["CACHE_VERSION", "ModelRunner"]
 
@@ -18,6 +19,10 @@ CACHE_VERSION = "diag-7"
 
 
 # ----------------------------------------------------------------------------- workers (module level: picklable)
+
+def _eval_item(item):
+    return _eval_job(*item)
+
 
 def _eval_job(spec, errors, plan, settings, law, active):
     """Features and response of one model evaluation, or the failure message. Exudyn's console
@@ -87,19 +92,15 @@ class ModelRunner:
         if self.progress:
             self.progress(self.done, self.total)
         args = (self.spec, self.errors, self.plan, self.settings, self.law)
-        if len(todo) > 1 and self.settings.workers > 1:
-            with ProcessPoolExecutor(max_workers=min(self.settings.workers, len(todo))) as pool:
-                futs = {i: pool.submit(_eval_job, *args, actives[i]) for i in todo}
-                for i, fut in futs.items():
-                    try:
-                        out[i] = fut.result()
-                    except Exception as err:  # noqa: BLE001 - a dying worker is a failed evaluation, not a crash
-                        out[i] = (None, None, f"{type(err).__name__}: {err}")
-                    self._finish(keys[i], out[i])
-        else:
-            for i in todo:
-                out[i] = _eval_job(*args, actives[i])
-                self._finish(keys[i], out[i])
+        workers = min(self.settings.workers, len(todo)) if len(todo) > 1 and self.settings.workers > 1 else 0
+
+        def done(o: Outcome) -> None:  # a dying worker or an exception is a failed evaluation, not a crash
+            i = todo[o.index]
+            out[i] = o.value if o.ok else (None, None, "worker died" if o.died else
+                                           f"{type(o.error).__name__}: {o.error}")
+            self._finish(keys[i], out[i])
+
+        map_warm(_eval_item, [(*args, actives[i]) for i in todo], workers, on_outcome=done)
         return out
 
     def _finish(self, key, value) -> None:

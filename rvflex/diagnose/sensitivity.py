@@ -1,0 +1,129 @@
+"""Secant sensitivities of the candidate effects and nominal parameters (one model run per parameter
+at its typical step, cleared of the model's numerical noise), the size of each signature, and which
+candidates a dataset can evaluate."""
+
+from __future__ import annotations
+
+import dataclasses as dc
+import math
+from pathlib import Path
+
+import numpy as np
+
+from rvflex.diagnose.effects import Effect, available_effects
+from rvflex.diagnose.linear import Candidate, Sensitivities, denoise_orders, weights
+from rvflex.diagnose.replay import DiagnosisSettings, EvaluationFailed, features
+from rvflex.diagnose.runs import ModelRunner
+from rvflex.spec import ErrorSpec, ReducerSpec
+
+__all__ = ["available_candidates", "second_effect_adds", "sensitivities", "signature_size", "signature_sizes"]
+
+
+def available_candidates(effects, plan) -> tuple[tuple[Effect, ...], dict]:
+    """The candidate effects the model can evaluate for ``plan``, and the reasons of the others."""
+    cands, unavailable = available_effects(effects)
+    ok = []
+    for e in cands:
+        avail, why = e.available_for(plan)
+        if avail:
+            ok.append(e)
+        else:
+            unavailable[e.name] = why
+    return tuple(ok), unavailable
+
+
+def signature_size(e: Effect, sens: Sensitivities, w: np.ndarray) -> float:
+    """||w·ΔF||/√(parameters) at the typical step (rms of the two sides for two-sided effects)."""
+    size2 = float(np.sum(((sens.plus[e.name] * e.steps[None, :]) * w[:, None]) ** 2))
+    if e.name in sens.minus:
+        size2 = 0.5 * (size2 + float(np.sum(((sens.minus[e.name] * e.steps[None, :]) * w[:, None]) ** 2)))
+    return math.sqrt(size2 / e.n)
+
+
+def second_effect_adds(pair: Candidate, singles: dict, settings: DiagnosisSettings) -> bool:
+    """Whether the pair's second effect earns its place: against the better of its two single
+    effects (by residual) the pair removes ≥ ``min_shrink_pct`` of the remaining weighted gap and
+    improves the BIC by ≥ ``bic_threshold``."""
+    subs = [singles[e.name] for e in pair.attributed if e.name in singles]
+    if not subs:
+        return False
+    sub = min(subs, key=lambda c: c.rss)
+    if sub.rss <= 0:
+        return False
+    shrink = 100.0 * (1.0 - math.sqrt(pair.rss / sub.rss))
+    return shrink >= settings.min_shrink_pct and sub.bic - pair.bic >= settings.bic_threshold
+
+
+def sensitivities(runner, cands, f0, resp0, plan, settings, n) -> tuple[Sensitivities, dict]:
+    """Secant sensitivities (features per unit parameter) of every candidate, and the failures."""
+    # --- sensitivities: one run per parameter (measurement effects need no model run)
+    jobs, owners = [], []
+    for e in cands:
+        if e.kind == "measurement":
+            continue
+        for j, prm in enumerate(e.params):
+            for sign in ((1.0, -1.0) if e.central or e.two_sided else (1.0,)):
+                x = np.zeros(e.n)
+                x[j] = sign * prm.step
+                jobs.append(((e, x),))
+                owners.append((e.name, j, sign))
+    # other-fidelity (slow) jobs first, so that they run alongside the rigid ones
+    order = sorted(range(len(jobs)), key=lambda i: next(c for c in cands if c.name == owners[i][0]).kind != "fidelity")
+    outs: list = [None] * len(jobs)
+    for i, o in zip(order, runner.run([jobs[i] for i in order])):
+        outs[i] = o
+    sens: dict[str, np.ndarray] = {}
+    minus: dict[str, np.ndarray] = {}
+    failed: dict[str, str] = {}
+    pos = 2 * np.pi * np.arange(settings.positions_per_rev) / settings.positions_per_rev
+    for e in cands:
+        if e.kind == "measurement":
+            cols = []
+            for j, prm in enumerate(e.params):
+                x = np.zeros(e.n)
+                x[j] = prm.step
+                te = tuple(None if a is None else e.measure(pos, a, x) for a in resp0.te)
+                fj, _ = features(dc.replace(resp0, te=te), plan, settings)
+                cols.append((fj - f0) / prm.step)
+            sens[e.name] = np.column_stack(cols)
+    responses = {}
+    for (name, j, sign), (fj, rj, msg) in zip(owners, outs):
+        if fj is not None and next(c for c in cands if c.name == name).kind == "fidelity":
+            responses[name] = rj
+        if name in failed:
+            continue
+        if fj is None:
+            failed[name] = f"model evaluation failed at the sensitivity step: {msg}"
+            sens.pop(name, None)
+            minus.pop(name, None)
+            continue
+        e = next(c for c in cands if c.name == name)
+        if e.two_sided and sign < 0:  # the −step secant (f0 − f−)/h, kept apart
+            minus.setdefault(name, np.zeros((n, e.n)))[:, j] = (f0 - fj) / e.params[j].step
+            continue
+        # one-sided: the secant (f+ − f0)/h; central: (f+ − f0)/(2h) + (f0 − f−)/(2h)
+        scale = e.params[j].step * (2.0 if e.central else 1.0)
+        sens.setdefault(name, np.zeros((n, e.n)))[:, j] += sign * (fj - f0) / scale
+    _, lay = features(resp0, plan, settings)
+    sens = {k: denoise_orders(v, lay) for k, v in sens.items()}
+    minus = {k: denoise_orders(v, lay) for k, v in minus.items()}
+    return Sensitivities(sens, minus, responses), failed
+
+
+def signature_sizes(spec: ReducerSpec, plan, settings: DiagnosisSettings, effects: tuple[str, ...] | None = None,
+                    *, law=None, cache_dir: str | Path | None = None, errors: ErrorSpec | None = None) -> dict:
+    """Size of each effect's model signature at its typical magnitude, in units of the
+    residual floors (measurement noise not included): ||w·ΔF||/√(parameters). Below ~3 an
+    effect is not observable with these runs; NaN when its model evaluation failed."""
+    cands, _ = available_candidates(effects, plan)
+    runner = ModelRunner(spec, errors or ErrorSpec(), plan, settings, law, Path(cache_dir) if cache_dir else None)
+    f0, resp0, msg = runner.run([()])[0]
+    if f0 is None:
+        raise EvaluationFailed(f"the baseline model does not converge: {msg}")
+    _, lay = features(resp0, plan, settings)
+    y0 = f0.copy()
+    for r in lay.te_runs:  # no measurement: the floors alone
+        y0[lay.cos[r]] = y0[lay.sin[r]] = 0.0
+    w = weights(f0, y0, lay, settings)
+    sens, _ = sensitivities(runner, cands, f0, resp0, plan, settings, lay.n)
+    return {e.name: (signature_size(e, sens, w) if e.name in sens else math.nan) for e in cands}
