@@ -405,12 +405,12 @@ CI_SETTINGS = DiagnosisSettings(positions_per_rev=224, max_order=95, hysteresis_
                                 refine_iterations=3, workers=2)
 
 
-def _mismatched_bench(tmp_path, hidden, **drawn):
+def _mismatched_bench(tmp_path, hidden, samples_per_rev=512, **drawn):
     """A bench from another model family (power-law contact, scaled needle-bearing and mesh
     stiffness, a nominal crank-bearing clearance; TE sampled over [0, 2π)), rigid for CI time."""
     from rvflex.diagnose.selfcheck import GeneratorModel, RealisticMismatch, generate_case
 
-    gen = RealisticMismatch(fidelity="rigid", samples_per_rev=512, fixed=tuple(drawn.items()))
+    gen = RealisticMismatch(fidelity="rigid", samples_per_rev=samples_per_rev, fixed=tuple(drawn.items()))
     truth = generate_case(tmp_path / "bench", tmp_path / "truth.json", SPEC, hidden, np.random.default_rng(7),
                           gen=GeneratorModel(positions_per_rev=256, hysteresis_steps=48), realistic=gen)
     assert truth["nominal"] == drawn
@@ -442,13 +442,15 @@ def test_a_control_with_30pct_stiffness_mismatch_is_nominal_parameters_off(tmp_p
 def test_a_hidden_clearance_is_found_through_a_30pct_contact_stiffness_mismatch(tmp_path):
     """A hidden 10 µm eccentric-bearing clearance, the generator's contact 30 % softer than the
     diagnosing model's: the clearance is accepted and its size (nominal + excess, the observable
-    total) is within ±25 %."""
+    total) is within ±25 %. At the diagnosis's default resolution: with orders only up to 95 and a
+    24-step torque cycle a −10 µm pin-radius error (its torque-cycle signature is the clearance's)
+    wins instead, tied with the clearance — measured."""
     from rvflex.diagnose.fit import diagnose
 
     hidden = [(EFFECTS["eccentric_bearing_clearance"], np.array([10e-6]))]
-    ds = _mismatched_bench(tmp_path, hidden, contact_scale=0.7, needle_bearing_scale=1.0, mesh_scale=1.0,
-                           clearance_m=0.0)
-    diag = diagnose(ds, settings=CI_SETTINGS, nominal=CAL, cache_dir=tmp_path / "cache",
+    ds = _mismatched_bench(tmp_path, hidden, samples_per_rev=1024, contact_scale=0.7, needle_bearing_scale=1.0,
+                           mesh_scale=1.0, clearance_m=0.0)
+    diag = diagnose(ds, settings=DiagnosisSettings(workers=2), nominal=CAL, cache_dir=tmp_path / "cache",
                     effects=("eccentric_bearing_clearance", "pin_ring_runout", "pin_radius_error"))
     assert diag.chosen is not None and diag.chosen.name == "eccentric_bearing_clearance", diag.verdict
     total = diag.chosen.magnitude_of("eccentric_bearing_clearance") + diag.chosen.magnitude_of("crank_bearing_clearance")

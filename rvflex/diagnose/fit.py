@@ -39,6 +39,7 @@ import numpy as np
 
 from rvflex.diagnose.linear import (
     Candidate,
+    bounds,
     Problem,
     lin_fit,
     make_candidate,
@@ -233,19 +234,44 @@ def diagnose(dataset, *, settings: DiagnosisSettings | None = None, effects: tup
     x, nu, d, rss, A = lin_fit(prob, f0, np.zeros((n, 0)), np.zeros(0), np.zeros(0), np.zeros(0))
     nominal_model = make_candidate((), x, nu, d, rss, A, n, n_nuis, f0, refined=True, response=resp0)
 
-    def lin(effs):
-        effs = cal + tuple(effs)  # every candidate carries the nominal parameters
-        prior = prior_of(effs)
-        best = None
-        for J, lo, hi in sens.orthants(effs):  # two-sided parameters: each sign with its own secant
-            fit_ = lin_fit(prob, f0, J, np.zeros(J.shape[1]), lo, hi, prior=prior)
-            if best is None or fit_[3] < best[0][3]:
-                best = (fit_, J, lo, hi)
-        (x, nu, d, rss, A), J, lo, hi = best
-        return make_candidate(effs, x, nu, d, rss, A, n, n_nuis, f0 + J @ x, refined=False, note="linearised",
-                              jacobian=J, box=(lo, hi))
+    # --- stage 1, calibration: the nominal parameters alone, from what separates them — the wind-ups
+    # (their load and direction dependence; the common TE offset is a nuisance) and the torque cycles
+    # (slope beyond ±50 % T_r, the free-play region) — with their priors, refined with the model in the loop
+    cal_rows = np.r_[[lay.dc[r] for r in lay.te_runs], *[np.arange(sl.start, sl.stop) for sl in lay.hyst.values()]]
+    cal_rows = np.asarray(cal_rows, int)
+    calib = _calibrate(prob, f0, sens, cal, None, n, n_nuis)
+    cal_ref = refine([calib], prob, runner, sens, f0, resp0, settings, failed, n_nuis)
+    calib = cal_ref[0] if cal_ref else calib
+    x_cal = calib.x
+    f_cal = calib.model_features
+    J_cal = calib.jacobian
+    # stage 2 prior: what calibration found, as tight as the calibration determined it (never tighter than a
+    # fifth of the prior: another program's model form is not resolved by these rows)
+    cal2 = _posterior(cal, calib, prob, cal_rows)
+    x, nu, d, rss, A = lin_fit(prob, f_cal, np.zeros((n, 0)), np.zeros(0), np.zeros(0), np.zeros(0))
+    cols = prob.nuis[:, np.abs(prob.nuis).sum(0) > 0]
+    A_cal = np.column_stack([J_cal * prob.w[:, None], cols * prob.w[:, None]])
+    none = make_candidate(cal2, x_cal, nu, d, rss, A_cal, n, n_nuis, f_cal, refined=calib.refined,
+                          response=calib.response or resp0, note="calibrated nominal model", jacobian=J_cal)
 
-    calib = lin(())
+    # --- stage 2, attribution: each candidate effect (and pair) with the nominal parameters, linearised
+    # about the calibrated model (its model run and Broyden Jacobian), on all features
+    def lin(effs):
+        effs = tuple(effs)
+        prior = prior_of(cal2 + effs)
+        x_ref = np.r_[x_cal, np.zeros(sum(e.n for e in effs))]
+        lo_c, hi_c = bounds(cal2)
+        best = None
+        for Je, lo, hi in sens.orthants(effs):  # two-sided parameters: each sign with its own secant
+            J = np.column_stack([J_cal, Je])
+            lo_, hi_ = np.r_[lo_c, lo], np.r_[hi_c, hi]
+            fit_ = lin_fit(prob, f_cal, J, x_ref, lo_, hi_, prior=prior)
+            if best is None or fit_[3] < best[0][3]:
+                best = (fit_, J, lo_, hi_)
+        (x, nu, d, rss, A), J, lo, hi = best
+        return make_candidate(cal2 + effs, x, nu, d, rss, A, n, n_nuis, f_cal + J @ (x - x_ref), refined=False,
+                              note="linearised", jacobian=J, box=(lo, hi), base=(x_ref, f_cal))
+
     singles = sorted((lin((e,)) for e in usable), key=lambda c: c.bic)
     # pairs: every pair of effects (or those with one of the best pair_top singles) — a weak second
     # effect need not rank high alone while a strong one dominates the gap, and two effects can act
@@ -261,13 +287,11 @@ def diagnose(dataset, *, settings: DiagnosisSettings | None = None, effects: tup
             pairs.append(c)
     ranked = sorted(singles + pairs, key=lambda c: c.bic)
 
-    # --- model in the loop: the calibration and the best candidates (always including the best single)
+    # --- model in the loop: the best candidates (always including the best single)
     to_refine = ranked[: settings.refine_top]
     if singles and singles[0] not in to_refine:
         to_refine = to_refine[:-1] + [singles[0]]
-    refined = refine([calib] + to_refine, prob, runner, sens, f0, resp0, settings, failed, n_nuis)
-    none = next((c for c in refined if not c.attributed), calib)
-    refined = [c for c in refined if c.attributed]
+    refined = refine(to_refine, prob, runner, sens, f0, resp0, settings, failed, n_nuis)
     refined_names = {c.name for c in refined}
     allc = refined + [c for c in ranked if c.name not in refined_names]
     # the pair rule again with the model-in-the-loop residuals where there are some
@@ -329,6 +353,40 @@ def diagnose(dataset, *, settings: DiagnosisSettings | None = None, effects: tup
     return Diagnosis(dataset, settings, plan, lay, w, y, none, none.response or resp0, tuple(final), chosen,
                      folds, unavailable, failed, size, text, runner.model_runs,
                      time.perf_counter() - t0, tied, nominal_model, windows, cal_ties, runs_needed)
+
+
+def _calibrate(prob: Problem, f0, sens, cal, rows, n, n_nuis) -> Candidate:
+    """Stage 1: the nominal parameters alone, linearised about the nominal model, on ``rows``."""
+    if not cal:
+        m = n if rows is None else len(rows)
+        return make_candidate((), np.zeros(0), np.zeros(0), 0.0, 0.0, np.zeros((m, 0)), m, n_nuis, f0,
+                              refined=True, jacobian=np.zeros((n, 0)))
+    best = None
+    for J, lo, hi in sens.orthants(cal):
+        fit_ = lin_fit(prob, f0, J, np.zeros(J.shape[1]), lo, hi, rows=rows, delta=None if rows is None else 0.0,
+                       prior=prior_of(cal))
+        if best is None or fit_[3] < best[0][3]:
+            best = (fit_, J, lo, hi)
+    (x, nu, d, rss, A), J, lo, hi = best
+    return make_candidate(cal, x, nu, d, rss, A, n if rows is None else len(rows), n_nuis, f0 + J @ x, refined=False,
+                          note="calibration",
+                          jacobian=J, box=(lo, hi))
+
+
+POSTERIOR_FLOOR = 0.2  # the stage-2 prior is never tighter than this share of the stage-1 prior
+
+
+def _posterior(cal, calib: Candidate, prob: Problem, rows) -> tuple:
+    """The nominal parameters with their prior moved to the calibrated values and narrowed to the
+    calibration's 95 % interval (σ = half-width/1.96, within [POSTERIOR_FLOOR·σ_prior, σ_prior])."""
+    out, i = [], 0
+    for e in cal:
+        xe, iv = calib.x[i:i + e.n], calib.interval[i:i + e.n]
+        sd = np.clip((iv[:, 1] - iv[:, 0]) / (2 * 1.959964), POSTERIOR_FLOOR * np.asarray(e.prior_sigma),
+                     np.asarray(e.prior_sigma))
+        out.append(dc.replace(e, prior_center=tuple(float(v) for v in xe), prior_sigma=tuple(float(v) for v in sd)))
+        i += e.n
+    return tuple(out)
 
 
 def check_aliasing(settings: DiagnosisSettings, spec: ReducerSpec) -> None:

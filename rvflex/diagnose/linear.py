@@ -55,6 +55,8 @@ class Candidate:
     jacobian: np.ndarray | None = None
     lower: np.ndarray | None = None
     upper: np.ndarray | None = None
+    base_features: np.ndarray | None = None  # the linearisation point of an unrefined fit (None: the nominal model)
+    base_x: np.ndarray | None = None  # its parameters (None: zeros)
 
     @property
     def name(self) -> str:
@@ -211,7 +213,7 @@ def bounds(effects) -> tuple[np.ndarray, np.ndarray]:
 
 
 def make_candidate(effects, x, nu, d, rss, A, n, n_nuis, model_features, *, refined, response=None, note="",
-                   jacobian=None, box=None):
+                   jacobian=None, box=None, base=None):
     """A :class:`Candidate` from a fit (intervals from the linearised covariance, the nominal
     parameters' regulariser included)."""
     p = len(x)
@@ -236,7 +238,8 @@ def make_candidate(effects, x, nu, d, rss, A, n, n_nuis, model_features, *, refi
     lo, hi = box if box is not None else bounds(effects)
     return Candidate(tuple(effects), x, interval, tuple(mags), tuple(mag_iv), d, nu, rss, k, bic(rss, n, k), refined,
                      tuple(names_at_bound), model_features, response, note=note, jacobian=jacobian, lower=lo,
-                     upper=hi)
+                     upper=hi, base_features=None if base is None else base[1],
+                     base_x=None if base is None else base[0])
 
 
 @dataclass(frozen=True, eq=False)
@@ -280,8 +283,8 @@ def weights(f0: np.ndarray, y: np.ndarray, lay: Layout, s: DiagnosisSettings) ->
         a, b = y[lay.cos[r]], y[lay.sin[r]]
         half = slice(len(a) // 2, None)
         noise = float(np.median(np.hypot(a[half], b[half]))) / 1.18  # Rayleigh median → σ
-        # model form: another program (contact law, stiffnesses) puts an order's amplitude tens of per cent
-        # elsewhere; that share of the larger of the measured and the nominal amplitude is no signal
+        # optional model-form share of an order's amplitude (the larger of measured and nominal; default 0:
+        # measured on the self-checks, any share lost more effects than it saved)
         amp = np.maximum(np.hypot(a, b), np.hypot(f0[lay.cos[r]], f0[lay.sin[r]]))
         floor = np.sqrt(s.order_floor_arcsec**2 + noise**2 + (s.order_floor_rel * amp) ** 2)
         w[lay.cos[r]] = w[lay.sin[r]] = 1.0 / floor
@@ -294,7 +297,7 @@ def weights(f0: np.ndarray, y: np.ndarray, lay: Layout, s: DiagnosisSettings) ->
 MODEL_NOISE_K = 3.0  # an order's model change below this many times the run's numerical noise is not signature
 
 
-def denoise_orders(df: np.ndarray, lay: Layout) -> np.ndarray:
+def denoise_orders(df: np.ndarray, lay: Layout, k: float = MODEL_NOISE_K) -> np.ndarray:
     """A model feature change (or columns of changes) with its TE order coefficients below
     MODEL_NOISE_K times the model's own numerical noise set to zero. The noise of each TE run is
     estimated like the measurement's (median over the upper half of the orders): a clearance that lets
@@ -308,7 +311,7 @@ def denoise_orders(df: np.ndarray, lay: Layout) -> np.ndarray:
         amp = np.hypot(a, b)
         half = amp[amp.shape[0] // 2:]
         noise = np.median(half, axis=0) / 1.18
-        small = amp < MODEL_NOISE_K * noise[None, :]
+        small = amp < k * noise[None, :]
         a[small] = 0.0
         b[small] = 0.0
         cols[lay.cos[r]], cols[lay.sin[r]] = a, b

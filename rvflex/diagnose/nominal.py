@@ -157,14 +157,14 @@ def describe_calibration(c) -> list[dict]:
     for stiffnesses the stiffness scale s = 1/(1 + u) with its interval."""
     out = []
     for e, x, iv in c.calibrated:
+        e = NOMINAL.get(e.name, e)  # the stated prior, not the one the attribution stage was given
         for j, prm in enumerate(e.params):
             row = {"name": e.name, "param": prm.name, "unit": prm.unit, "value": float(x[j]),
                    "interval": [float(iv[j][0]), float(iv[j][1])], "nominal": float(e.center[j]),
                    "shift": float(x[j] - e.center[j]), "prior_sigma": float(e.prior_sigma[j]),
                    "prior_range": [prm.low, prm.high],
                    "at_prior_bound": bool(min(x[j] - prm.low, prm.high - x[j]) < 1e-3 * (prm.high - prm.low)
-                                          and not (prm.low == e.center[j] == 0.0 and x[j] - prm.low < 1e-12)),
-                   "told_apart": None}
+                                          and not (prm.low == e.center[j] == 0.0 and x[j] - prm.low < 1e-12))}
             if prm.name == "compliance_change":
                 row["stiffness_scale"] = stiffness_scale(x[j])
                 row["stiffness_scale_interval"] = sorted(stiffness_scale(min(max(v, prm.low), prm.high))

@@ -103,7 +103,7 @@ class DiagnosisSettings:
     min_withheld_pct: float = 10.0
     eval_timeout_s: float = 30.0
     order_floor_arcsec: float = 0.03
-    order_floor_rel: float = 0.2
+    order_floor_rel: float = 0.0
     windup_floor_arcsec: float = 0.5
     windup_floor_rel: float = 0.02
 

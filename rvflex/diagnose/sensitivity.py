@@ -105,8 +105,8 @@ def sensitivities(runner, cands, f0, resp0, plan, settings, n) -> tuple[Sensitiv
         scale = e.params[j].step * (2.0 if e.central else 1.0)
         sens.setdefault(name, np.zeros((n, e.n)))[:, j] += sign * (fj - f0) / scale
     _, lay = features(resp0, plan, settings)
-    sens = {k: denoise_orders(v, lay) for k, v in sens.items()}
-    minus = {k: denoise_orders(v, lay) for k, v in minus.items()}
+    sens = {name: denoise_orders(v, lay) for name, v in sens.items()}
+    minus = {name: denoise_orders(v, lay) for name, v in minus.items()}
     return Sensitivities(sens, minus, responses), failed
 
 

@@ -21,6 +21,8 @@ def _linearisation(c: Candidate, f0: np.ndarray):
         base, x_ref = c.model_features, c.x
     elif c.refined:
         base, x_ref = c.model_features, np.zeros(0)
+    elif c.base_features is not None:
+        base, x_ref = c.base_features, c.base_x
     else:
         base, x_ref = f0, np.zeros(len(c.x))
     lo, hi = (c.lower, c.upper) if c.lower is not None else bounds(c.effects)
