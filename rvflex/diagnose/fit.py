@@ -234,20 +234,19 @@ def diagnose(dataset, *, settings: DiagnosisSettings | None = None, effects: tup
     x, nu, d, rss, A = lin_fit(prob, f0, np.zeros((n, 0)), np.zeros(0), np.zeros(0), np.zeros(0))
     nominal_model = make_candidate((), x, nu, d, rss, A, n, n_nuis, f0, refined=True, response=resp0)
 
-    # --- stage 1, calibration: the nominal parameters alone, from what separates them — the wind-ups
-    # (their load and direction dependence; the common TE offset is a nuisance) and the torque cycles
-    # (slope beyond ±50 % T_r, the free-play region) — with their priors, refined with the model in the loop
-    cal_rows = np.r_[[lay.dc[r] for r in lay.te_runs], *[np.arange(sl.start, sl.stop) for sl in lay.hyst.values()]]
-    cal_rows = np.asarray(cal_rows, int)
+    # --- stage 1, calibration: the nominal parameters alone (on every feature: the wind-ups' load and direction
+    # dependence, the torque cycles' slope and free play, and the orders the contact-law form and the disc
+    # flexibility shape), with their priors, refined with the model in the loop
     calib = _calibrate(prob, f0, sens, cal, None, n, n_nuis)
     cal_ref = refine([calib], prob, runner, sens, f0, resp0, settings, failed, n_nuis)
     calib = cal_ref[0] if cal_ref else calib
     x_cal = calib.x
     f_cal = calib.model_features
     J_cal = calib.jacobian
-    # stage 2 prior: what calibration found, as tight as the calibration determined it (never tighter than a
-    # fifth of the prior: another program's model form is not resolved by these rows)
-    cal2 = _posterior(cal, calib, prob, cal_rows)
+    # stage 2 keeps the stated priors: an effect competes with the nominal parameters on equal terms (narrowing
+    # them to the calibrated values let calibration keep what an effect explains: measured, a hidden thermal
+    # mismatch was absorbed by the stiffnesses and the clearance)
+    cal2 = cal
     x, nu, d, rss, A = lin_fit(prob, f_cal, np.zeros((n, 0)), np.zeros(0), np.zeros(0), np.zeros(0))
     cols = prob.nuis[:, np.abs(prob.nuis).sum(0) > 0]
     A_cal = np.column_stack([J_cal * prob.w[:, None], cols * prob.w[:, None]])
@@ -371,22 +370,6 @@ def _calibrate(prob: Problem, f0, sens, cal, rows, n, n_nuis) -> Candidate:
     return make_candidate(cal, x, nu, d, rss, A, n if rows is None else len(rows), n_nuis, f0 + J @ x, refined=False,
                           note="calibration",
                           jacobian=J, box=(lo, hi))
-
-
-POSTERIOR_FLOOR = 0.2  # the stage-2 prior is never tighter than this share of the stage-1 prior
-
-
-def _posterior(cal, calib: Candidate, prob: Problem, rows) -> tuple:
-    """The nominal parameters with their prior moved to the calibrated values and narrowed to the
-    calibration's 95 % interval (σ = half-width/1.96, within [POSTERIOR_FLOOR·σ_prior, σ_prior])."""
-    out, i = [], 0
-    for e in cal:
-        xe, iv = calib.x[i:i + e.n], calib.interval[i:i + e.n]
-        sd = np.clip((iv[:, 1] - iv[:, 0]) / (2 * 1.959964), POSTERIOR_FLOOR * np.asarray(e.prior_sigma),
-                     np.asarray(e.prior_sigma))
-        out.append(dc.replace(e, prior_center=tuple(float(v) for v in xe), prior_sigma=tuple(float(v) for v in sd)))
-        i += e.n
-    return tuple(out)
 
 
 def check_aliasing(settings: DiagnosisSettings, spec: ReducerSpec) -> None:
