@@ -136,13 +136,16 @@ S001_CMD = "rvflex te --reducer rv40e --errors rv40e_seed001 --fidelity flexible
 
 def _seed001(quick: bool, out: Path | None) -> dict:
     from rvflex import catalog
+    from rvflex.options import ModelOptions
     from rvflex.scenarios.loaded_te import LoadedTE, run_loaded_te
 
     spec = catalog.load("rv40e")
     errors = catalog.load_error_set("rv40e_seed001", spec)
     positions = 128 if quick else 2048
-    fe = (("maxh_m", 0.010),) if quick else ()  # quick: a coarser disc mesh (a cold reduction in ~30 s, not ~60 s)
-    res, met = run_loaded_te(LoadedTE(spec, errors, spec.rated_torque_Nm, 1.0, positions, fidelity="flexible", fe=fe))
+    options = ModelOptions.flexible_discs()
+    if quick:  # a coarser disc mesh (a cold reduction in ~30 s, not ~60 s)
+        options = options.with_fe("discs", maxh_m=0.010)
+    res, met = run_loaded_te(LoadedTE(spec, errors, spec.rated_torque_Nm, 1.0, positions, options=options))
     if out is not None:
         _plot_te(out / "seed001" / "te.png", res.te_rad, 1.0,
                  f"RV-40E flexible discs, seed 001 Table 2 errors, 412 N·m: pp {met.te_pp_arcsec:.1f}″ "

@@ -142,7 +142,6 @@ def run_seed000(sc: Seed000) -> Seed000Result:
     speed_out = sc.input_rpm / model.ratio
     settle_revs = sc.settle_s * speed_out / 60.0
     dyn = dynamic(model, speed_out, sc.revolutions + settle_revs, load, step_s=sc.step_s, ramp_s=sc.ramp_s)
-    n = len(dyn.time_s)
     keep = dyn.time_s >= sc.ramp_s + sc.settle_s - 1e-12
     t, te = dyn.time_s[keep], dyn.te_rad[keep]
     # whole output revolutions at constant speed, resampled on the input angle
@@ -153,12 +152,13 @@ def run_seed000(sc: Seed000) -> Seed000Result:
     idx = np.nonzero(keep)[0][:: sc.record_every]
     forces = []
     for c, (s_q, s_qd) in zip(model.discs.contacts, sensors):
-        q_all = np.asarray(mbs.GetSensorStoredData(s_q))[-n:, 1:]
-        qd_all = np.asarray(mbs.GetSensorStoredData(s_qd))[-n:, 1:]
+        d_q, d_qd = np.asarray(mbs.GetSensorStoredData(s_q)), np.asarray(mbs.GetSensorStoredData(s_qd))
+        # the sensors' rows matched to the recorded steps by time (the two records need not have equal length)
+        rows = np.clip(np.searchsorted(d_q[:, 0], dyn.time_s[idx] - 0.5 * sc.step_s), 0, len(d_q) - 1)
         ri = list(c.rigid_index)
         f = np.empty((len(idx), len(c.radii_m)))
-        for j, k in enumerate(idx):
-            f[j] = c.pin_state_at((c.reference + q_all[k])[ri], qd_all[k][ri]).force_N
+        for j, k in enumerate(rows):
+            f[j] = c.pin_state_at((c.reference + d_q[k, 1:])[ri], d_qd[k, 1:][ri]).force_N
         forces.append(f)
     return Seed000Result(tt, te_u, dyn.time_s[idx], np.stack(forces, axis=1), te_metrics(te_u, sc.revolutions),
                          sc.revolutions, law.stiffness, sc.step_s, time.perf_counter() - t0)
