@@ -219,3 +219,22 @@ def test_the_issue_case_one_revolution_at_n_samples_is_not_misread(tmp_path):
     assert info[0]["samples"] == 4096
     assert abs(info[0]["te_pp_fit_arcsec"] - info[0]["te_pp_measured_arcsec"]) < 1.0
     np.testing.assert_allclose(f, _truth(), atol=TOL_ARCSEC)
+
+
+def test_writer_round_trips_the_angle_form_with_both_directions(tmp_path):
+    """write_bench writes a forward and a reverse angle-form run on the same angles into one file
+    (``direction = "both"``) and read_bench gives them back."""
+    from rvflex.diagnose.bench import BenchDataset, BenchRun, write_bench
+
+    p = 2 * np.pi * np.arange(720) / 720
+    runs = tuple(BenchRun("te.csv", "te", np.empty(0), np.empty(0), np.empty(0), np.empty(0), direction=d,
+                          load_Nm=412.0, speed_out_rpm=15.0, form="angle", position_rad=p,
+                          te_rad=1e-5 * np.sin(3 * p) + (1e-6 if d == "reverse" else 0.0))
+                 for d in ("forward", "reverse"))
+    write_bench(tmp_path, BenchDataset(SPEC, "rv40e", runs))
+    assert 'direction = "both"' in (tmp_path / "bench.toml").read_text()
+    ds = read_bench(tmp_path)
+    assert [r.direction for r in ds.runs] == ["forward", "reverse"]
+    for got, want in zip(ds.runs, runs):
+        np.testing.assert_allclose(got.te_rad, want.te_rad, atol=1e-12)  # 12 significant digits of arcsec
+        assert got.window.samples == 720 and got.window.coverage == pytest.approx(1.0)
