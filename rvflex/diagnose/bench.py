@@ -271,7 +271,7 @@ def _te_run(rt: dict, rwhere: str, folder: Path, spec: ReducerSpec, temp: float,
                              f"must be 'forward', 'reverse' or 'both', found {direction!r}")
         runs = []
         for d, (pos, te, unit) in _angle_form(path, table, direction, rwhere).items():
-            win = _checked_window(pos, fname, ratio, len(table[1]))
+            win = _checked_window(pos, fname, len(table[1]))
             if unit == "deg":
                 w = te[win.index]
                 pp = float(np.degrees(w.max() - w.min()))
@@ -295,13 +295,13 @@ def _te_run(rt: dict, rwhere: str, folder: Path, spec: ReducerSpec, temp: float,
         raise BenchError(f"{fname}, column 'theta_in_rad'",
                          f"the input does not turn {direction} (net {th_in[-1] - th_in[0]:+.4g} rad)")
     pos = th_in / ratio
-    win = _checked_window(pos, fname, ratio, len(th_in))
+    win = _checked_window(pos, fname, len(th_in))
     return [BenchRun(fname, "te", data["time_s"], th_in, data["theta_out_rad"], data.get("torque_Nm", np.empty(0)),
                      direction=direction, load_Nm=load, speed_out_rpm=speed, temperature_C=temp, extra=extra,
                      form="encoder", position_rad=pos, te_rad=data["theta_out_rad"] - pos, window=win)]
 
 
-def _checked_window(pos: np.ndarray, fname: str, ratio: float, n: int) -> TEWindow:
+def _checked_window(pos: np.ndarray, fname: str, n: int) -> TEWindow:
     """The analysed window of a TE run, refused with fewer than MIN_SAMPLES_PER_REV per revolution."""
     revs = abs(pos[-1] - pos[0]) / (2 * math.pi) if len(pos) else 0.0
     if len(pos) < MIN_SAMPLES_PER_REV:

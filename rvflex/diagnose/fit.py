@@ -222,7 +222,7 @@ def diagnose(dataset, *, settings: DiagnosisSettings | None = None, effects: tup
     prob = Problem.build(y, lay, w, nuis)
     n, n_nuis = lay.n, nuis.shape[1]
 
-    sens, failed = sensitivities(runner, cands + cal, f0, resp0, plan, settings, n)
+    sens, failed = sensitivities(runner, cands + cal, f0, resp0, plan, settings, lay)
     for c in cal:
         if c.name in failed:
             unavailable[c.name] = f"not calibrated: {failed.pop(c.name)}"
@@ -237,7 +237,7 @@ def diagnose(dataset, *, settings: DiagnosisSettings | None = None, effects: tup
     # --- stage 1, calibration: the nominal parameters alone (on every feature: the wind-ups' load and direction
     # dependence, the torque cycles' slope and free play, and the orders the contact-law form and the disc
     # flexibility shape), with their priors, refined with the model in the loop
-    calib = _calibrate(prob, f0, sens, cal, None, n, n_nuis)
+    calib = _calibrate(prob, f0, sens, cal, n, n_nuis)
     cal_ref = refine([calib], prob, runner, sens, f0, resp0, settings, failed, n_nuis)
     calib = cal_ref[0] if cal_ref else calib
     x_cal = calib.x
@@ -246,20 +246,19 @@ def diagnose(dataset, *, settings: DiagnosisSettings | None = None, effects: tup
     # stage 2 keeps the stated priors: an effect competes with the nominal parameters on equal terms (narrowing
     # them to the calibrated values let calibration keep what an effect explains: measured, a hidden thermal
     # mismatch was absorbed by the stiffnesses and the clearance)
-    cal2 = cal
     x, nu, d, rss, A = lin_fit(prob, f_cal, np.zeros((n, 0)), np.zeros(0), np.zeros(0), np.zeros(0))
     cols = prob.nuis[:, np.abs(prob.nuis).sum(0) > 0]
     A_cal = np.column_stack([J_cal * prob.w[:, None], cols * prob.w[:, None]])
-    none = make_candidate(cal2, x_cal, nu, d, rss, A_cal, n, n_nuis, f_cal, refined=calib.refined,
+    none = make_candidate(cal, x_cal, nu, d, rss, A_cal, n, n_nuis, f_cal, refined=calib.refined,
                           response=calib.response or resp0, note="calibrated nominal model", jacobian=J_cal)
 
     # --- stage 2, attribution: each candidate effect (and pair) with the nominal parameters, linearised
     # about the calibrated model (its model run and Broyden Jacobian), on all features
     def lin(effs):
         effs = tuple(effs)
-        prior = prior_of(cal2 + effs)
+        prior = prior_of(cal + effs)
         x_ref = np.r_[x_cal, np.zeros(sum(e.n for e in effs))]
-        lo_c, hi_c = bounds(cal2)
+        lo_c, hi_c = bounds(cal)
         best = None
         for Je, lo, hi in sens.orthants(effs):  # two-sided parameters: each sign with its own secant
             J = np.column_stack([J_cal, Je])
@@ -268,7 +267,7 @@ def diagnose(dataset, *, settings: DiagnosisSettings | None = None, effects: tup
             if best is None or fit_[3] < best[0][3]:
                 best = (fit_, J, lo_, hi_)
         (x, nu, d, rss, A), J, lo, hi = best
-        return make_candidate(cal2 + effs, x, nu, d, rss, A, n, n_nuis, f_cal + J @ (x - x_ref), refined=False,
+        return make_candidate(cal + effs, x, nu, d, rss, A, n, n_nuis, f_cal + J @ (x - x_ref), refined=False,
                               note="linearised", jacobian=J, box=(lo, hi), base=(x_ref, f_cal))
 
     singles = sorted((lin((e,)) for e in usable), key=lambda c: c.bic)
@@ -354,21 +353,18 @@ def diagnose(dataset, *, settings: DiagnosisSettings | None = None, effects: tup
                      time.perf_counter() - t0, tied, nominal_model, windows, cal_ties, runs_needed)
 
 
-def _calibrate(prob: Problem, f0, sens, cal, rows, n, n_nuis) -> Candidate:
-    """Stage 1: the nominal parameters alone, linearised about the nominal model, on ``rows``."""
+def _calibrate(prob: Problem, f0, sens, cal, n, n_nuis) -> Candidate:
+    """Stage 1: the nominal parameters alone, linearised about the nominal model."""
     if not cal:
-        m = n if rows is None else len(rows)
-        return make_candidate((), np.zeros(0), np.zeros(0), 0.0, 0.0, np.zeros((m, 0)), m, n_nuis, f0,
+        return make_candidate((), np.zeros(0), np.zeros(0), 0.0, 0.0, np.zeros((n, 0)), n, n_nuis, f0,
                               refined=True, jacobian=np.zeros((n, 0)))
     best = None
     for J, lo, hi in sens.orthants(cal):
-        fit_ = lin_fit(prob, f0, J, np.zeros(J.shape[1]), lo, hi, rows=rows, delta=None if rows is None else 0.0,
-                       prior=prior_of(cal))
+        fit_ = lin_fit(prob, f0, J, np.zeros(J.shape[1]), lo, hi, prior=prior_of(cal))
         if best is None or fit_[3] < best[0][3]:
             best = (fit_, J, lo, hi)
     (x, nu, d, rss, A), J, lo, hi = best
-    return make_candidate(cal, x, nu, d, rss, A, n if rows is None else len(rows), n_nuis, f0 + J @ x, refined=False,
-                          note="calibration",
+    return make_candidate(cal, x, nu, d, rss, A, n, n_nuis, f0 + J @ x, refined=False, note="calibration",
                           jacobian=J, box=(lo, hi))
 
 

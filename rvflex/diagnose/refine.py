@@ -74,15 +74,14 @@ def evaluate_sets(runner, sens: Sensitivities, resp0: Response, actives: list[tu
 
 
 def refine(cands: list[Candidate], prob: Problem, runner, sens: Sensitivities, f0: np.ndarray, resp0: Response,
-           settings: DiagnosisSettings, failed: dict, n_nuis: int, rows: np.ndarray | None = None) -> list[Candidate]:
+           settings: DiagnosisSettings, failed: dict, n_nuis: int) -> list[Candidate]:
     """Refine ``cands`` with the model in the loop (each from its linearisation point, the nominal
     model unless the candidate says otherwise); returns the refined candidates (those with at least
     one successful evaluation). A candidate whose first evaluation fails is entered in ``failed`` (by
-    name). ``rows``: the features the fit uses (all by default)."""
+    name)."""
     n = prob.lay.n
     st = {id(c): RefineState(c, c.jacobian.copy(), np.zeros(len(c.x)) if c.base_x is None else c.base_x.copy(),
                              f0 if c.base_features is None else c.base_features, c.x.copy()) for c in cands}
-    delta = 0.0 if rows is not None else None  # the calibration rows (wind-ups, torque cycles) carry no origin
     for it in range(settings.refine_iterations):
         live = [k for k, s in st.items() if s.cand.name not in failed and s.x_next is not None]
         if not live:
@@ -112,14 +111,12 @@ def refine(cands: list[Candidate], prob: Problem, runner, sens: Sensitivities, f
             dx = x_eval - s.x_prev
             if dx @ dx > 0:
                 s.J = s.J + np.outer((fx - s.f_prev) - s.J @ dx, dx) / (dx @ dx)
-            _, _, _, rss_data, _ = lin_fit(prob, fx, np.zeros((n, 0)), np.zeros(0), np.zeros(0), np.zeros(0),
-                                           rows=rows, delta=delta)
+            _, _, _, rss_data, _ = lin_fit(prob, fx, np.zeros((n, 0)), np.zeros(0), np.zeros(0), np.zeros(0))
             rss_real = rss_data + prior_penalty(s.cand.effects, x_eval)
             prev_best = s.best[0] if s.best is not None else math.inf
             if rss_real < prev_best:
                 s.best = (rss_real, x_eval.copy(), fx, rx, s.J.copy())
-            x_new, *_ = lin_fit(prob, fx, s.J, x_eval, *bounds(s.cand.effects), rows=rows, delta=delta,
-                                prior=prior_of(s.cand.effects))
+            x_new, *_ = lin_fit(prob, fx, s.J, x_eval, *bounds(s.cand.effects), prior=prior_of(s.cand.effects))
             s.x_prev, s.f_prev = x_eval, fx
             converged = np.allclose(x_new, x_eval, rtol=1e-3, atol=1e-12)
             # after two evaluations, go on only while each one still pays (a curved valley, as the
@@ -131,11 +128,9 @@ def refine(cands: list[Candidate], prob: Problem, runner, sens: Sensitivities, f
         if s.best is None:
             continue
         rss, x_r, fx, rx, J = s.best
-        _, nu, d, _, _ = lin_fit(prob, fx, np.zeros((n, 0)), np.zeros(0), np.zeros(0), np.zeros(0), rows=rows,
-                                 delta=delta)
-        r_ = np.arange(n) if rows is None else rows
-        cols = prob.nuis[r_][:, np.abs(prob.nuis[r_]).sum(0) > 0]
-        A_full = np.column_stack([J[r_] * prob.w[r_, None], cols * prob.w[r_, None]])
-        refined.append(make_candidate(s.cand.effects, x_r, nu, d, rss, A_full, len(r_), n_nuis, fx, refined=True,
+        _, nu, d, _, _ = lin_fit(prob, fx, np.zeros((n, 0)), np.zeros(0), np.zeros(0), np.zeros(0))
+        cols = prob.nuis[:, np.abs(prob.nuis).sum(0) > 0]
+        A_full = np.column_stack([J * prob.w[:, None], cols * prob.w[:, None]])
+        refined.append(make_candidate(s.cand.effects, x_r, nu, d, rss, A_full, n, n_nuis, fx, refined=True,
                                       response=rx, note="model in the loop", jacobian=J))
     return refined

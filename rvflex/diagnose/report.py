@@ -345,7 +345,7 @@ def write_report(diag, out: str | Path, doc: dict | None = None) -> list[Path]:
     computed first and written through a temporary name."""
     import json
 
-    from rvflex.io import write_atomic as _write_atomic
+    from rvflex.io import write_atomic
 
     out = Path(out)
     doc = doc or json_document(diag)
@@ -362,8 +362,8 @@ def write_report(diag, out: str | Path, doc: dict | None = None) -> list[Path]:
         for p in tmpdir.glob("*"):
             p.unlink()
         tmpdir.rmdir()
-    _write_atomic(out / "report.md", md.encode())
-    _write_atomic(out / "diagnosis.json", json.dumps(doc, indent=2, default=_json_default).encode())
+    write_atomic(out / "report.md", md.encode())
+    write_atomic(out / "diagnosis.json", json.dumps(doc, indent=2, default=_json_default).encode())
     return [out / "report.md", out / "diagnosis.json", *final]
 
 

@@ -117,16 +117,10 @@ class RealisticMismatch:
         return {"contact_scale": float(rng.uniform(a, b)), "needle_bearing_scale": float(rng.uniform(a, b)),
                 "mesh_scale": float(rng.uniform(a, b)), "clearance_m": float(rng.uniform(0.0, self.clearance_max_m))}
 
-    def power_law_stiffness(self, spec: ReducerSpec) -> float:
-        """k (N/m^1.5) of F = k·x^1.5 equivalent to ``spec``'s line contact
-        (:func:`rvflex.diagnose.nominal.power_law_equivalent`): ``contact_scale`` multiplies it."""
-        from rvflex.diagnose.nominal import power_law_equivalent
-
-        return power_law_equivalent(spec)
-
     def model(self, spec: ReducerSpec, drawn: dict):
         """(spec, errors, law) of the generator for the drawn parameters."""
         from rvflex.contact.cycloid_pin import ContactLaw
+        from rvflex.diagnose.nominal import power_law_equivalent
 
         b, st = spec.bearings, spec.input_stage
         spec_g = dc.replace(spec, bearings=dc.replace(b, eccentric=dc.replace(
@@ -135,7 +129,7 @@ class RealisticMismatch:
                                    mesh_stiffness_amplitude_N_m=st.mesh_stiffness_amplitude_N_m * drawn["mesh_scale"]))
         n = spec.cranks.count * spec.cycloid.disc_count
         errors = ErrorSpec(eccentric_bearing_clearance_m=(drawn["clearance_m"],) * n)
-        law = ContactLaw.hertz(self.power_law_stiffness(spec) * drawn["contact_scale"], 1.5, damping_Ns_m=500.0)
+        law = ContactLaw.hertz(power_law_equivalent(spec) * drawn["contact_scale"], 1.5, damping_Ns_m=500.0)
         return spec_g, errors, law
 
 

@@ -54,8 +54,9 @@ def second_effect_adds(pair: Candidate, singles: dict, settings: DiagnosisSettin
     return shrink >= settings.min_shrink_pct and sub.bic - pair.bic >= settings.bic_threshold
 
 
-def sensitivities(runner, cands, f0, resp0, plan, settings, n) -> tuple[Sensitivities, dict]:
+def sensitivities(runner, cands, f0, resp0, plan, settings, lay) -> tuple[Sensitivities, dict]:
     """Secant sensitivities (features per unit parameter) of every candidate, and the failures."""
+    n = lay.n
     # --- sensitivities: one run per parameter (measurement effects need no model run)
     jobs, owners = [], []
     for e in cands:
@@ -104,7 +105,6 @@ def sensitivities(runner, cands, f0, resp0, plan, settings, n) -> tuple[Sensitiv
         # one-sided: the secant (f+ − f0)/h; central: (f+ − f0)/(2h) + (f0 − f−)/(2h)
         scale = e.params[j].step * (2.0 if e.central else 1.0)
         sens.setdefault(name, np.zeros((n, e.n)))[:, j] += sign * (fj - f0) / scale
-    _, lay = features(resp0, plan, settings)
     sens = {name: denoise_orders(v, lay) for name, v in sens.items()}
     minus = {name: denoise_orders(v, lay) for name, v in minus.items()}
     return Sensitivities(sens, minus, responses), failed
@@ -125,5 +125,5 @@ def signature_sizes(spec: ReducerSpec, plan, settings: DiagnosisSettings, effect
     for r in lay.te_runs:  # no measurement: the floors alone
         y0[lay.cos[r]] = y0[lay.sin[r]] = 0.0
     w = weights(f0, y0, lay, settings)
-    sens, _ = sensitivities(runner, cands, f0, resp0, plan, settings, lay.n)
+    sens, _ = sensitivities(runner, cands, f0, resp0, plan, settings, lay)
     return {e.name: (signature_size(e, sens, w) if e.name in sens else math.nan) for e in cands}
