@@ -45,6 +45,7 @@ from rvflex.diagnose.linear import (
     make_candidate,
     nuisance_columns,
     prior_of,
+    prior_penalty,
     weights,
 )
 from rvflex.diagnose.nominal import REPLACES, nominal_parameters
@@ -203,7 +204,7 @@ def diagnose(dataset, *, settings: DiagnosisSettings | None = None, effects: tup
     t0 = time.perf_counter()
     settings = settings or DiagnosisSettings()
     spec: ReducerSpec = dataset.reducer
-    check_aliasing(settings, spec)
+    settings = check_aliasing(settings, spec)
     errors = errors or ErrorSpec()
     plan = plan_from_dataset(dataset, settings)
     y, lay, windows = measured_runs(dataset, plan, settings)
@@ -217,7 +218,7 @@ def diagnose(dataset, *, settings: DiagnosisSettings | None = None, effects: tup
     if base_out[0] is None:
         raise EvaluationFailed(f"the baseline model does not converge under the bench conditions: {base_out[2]}")
     f0, resp0, _ = base_out
-    w = weights(f0, y, lay, settings)
+    w = weights(f0, y, lay, settings, spec.cycloid.pin_count)
     nuis = nuisance_columns(lay)
     prob = Problem.build(y, lay, w, nuis)
     n, n_nuis = lay.n, nuis.shape[1]
@@ -247,6 +248,7 @@ def diagnose(dataset, *, settings: DiagnosisSettings | None = None, effects: tup
     # them to the calibrated values let calibration keep what an effect explains: measured, a hidden thermal
     # mismatch was absorbed by the stiffnesses and the clearance)
     x, nu, d, rss, A = lin_fit(prob, f_cal, np.zeros((n, 0)), np.zeros(0), np.zeros(0), np.zeros(0))
+    rss += prior_penalty(cal, x_cal)  # as every candidate's RSS, which fits the same nominal parameters
     cols = prob.nuis[:, np.abs(prob.nuis).sum(0) > 0]
     A_cal = np.column_stack([J_cal * prob.w[:, None], cols * prob.w[:, None]])
     none = make_candidate(cal, x_cal, nu, d, rss, A_cal, n, n_nuis, f_cal, refined=calib.refined,
@@ -305,7 +307,7 @@ def diagnose(dataset, *, settings: DiagnosisSettings | None = None, effects: tup
                       withheld=withheld_check(prob, plan, none, nominal_model, f0, folds))
     out = []
     for c in allc:
-        wh = withheld_check(prob, plan, c, none, f0, folds)
+        wh = withheld_check(prob, plan, c, none, f0, folds, settings.withheld_hold_nominal)
         out.append(dc.replace(c, score=none.bic - c.bic, gap_shrink_pct=_shrink(c.rss, none.rss), withheld=wh))
     out.sort(key=lambda c: -c.score)
     chosen = None
@@ -368,17 +370,13 @@ def _calibrate(prob: Problem, f0, sens, cal, n, n_nuis) -> Candidate:
                           jacobian=J, box=(lo, hi))
 
 
-def check_aliasing(settings: DiagnosisSettings, spec: ReducerSpec) -> None:
-    """Refuse a model position grid that folds the pin-mesh orders z_b and 2·z_b into the analysed
-    orders: the model's TE is sampled at ``positions_per_rev`` points per revolution, so order k
-    appears at positions_per_rev − k; the bench fit (many samples per revolution) does not alias,
-    and an aliased model order would be a signature the data can never show (measured: a 2.5 µm
-    crank-bearing clearance's order 80 folded to 48 at 128 positions, 1.6″)."""
-    top = 2 * spec.cycloid.pin_count
-    if settings.positions_per_rev - top <= settings.max_order:
-        raise ValueError(f"positions_per_rev = {settings.positions_per_rev}: order 2·z_b = {top} folds to "
-                         f"{settings.positions_per_rev - top} ≤ max_order = {settings.max_order}; use at least "
-                         f"{settings.max_order + top + 1} positions per revolution or fewer orders")
+def check_aliasing(settings: DiagnosisSettings, spec: ReducerSpec) -> DiagnosisSettings:
+    """``settings`` with the model position grid for ``spec``: chosen so that the pin-mesh
+    harmonics do not fold into the analysed orders when None, else checked (ValueError naming the
+    folded harmonic; see :func:`rvflex.diagnose.replay.aliasing_problem`). The bench fit (many
+    samples per revolution) does not alias: an aliased model order would be a signature the data
+    can never show."""
+    return settings.for_spec(spec)
 
 
 def _shrink(rss: float, ref: float) -> float:

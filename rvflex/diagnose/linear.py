@@ -276,8 +276,12 @@ class Sensitivities:
 
 
 # ----------------------------------------------------------------------------- the diagnosis
-def weights(f0: np.ndarray, y: np.ndarray, lay: Layout, s: DiagnosisSettings) -> np.ndarray:
+def weights(f0: np.ndarray, y: np.ndarray, lay: Layout, s: DiagnosisSettings, pin_count: int = 0) -> np.ndarray:
+    """1/floor per feature: TE orders by the measurement's noise, ``order_floor_arcsec`` and
+    ``order_floor_rel`` of the amplitude, the pin-mesh orders (multiples of ``pin_count``) also by
+    ``mesh_order_floor_rel`` of theirs; wind-ups and torque-cycle angles by the wind-up floors."""
     w = np.empty(lay.n)
+    mesh = (np.arange(1, lay.max_order + 1) % pin_count == 0) if pin_count else np.zeros(lay.max_order, bool)
     for r in lay.te_runs:
         # the measurement's noise floor: median coefficient size over the upper half of the orders
         a, b = y[lay.cos[r]], y[lay.sin[r]]
@@ -286,7 +290,8 @@ def weights(f0: np.ndarray, y: np.ndarray, lay: Layout, s: DiagnosisSettings) ->
         # optional model-form share of an order's amplitude (the larger of measured and nominal; default 0:
         # measured on the self-checks, any share lost more effects than it saved)
         amp = np.maximum(np.hypot(a, b), np.hypot(f0[lay.cos[r]], f0[lay.sin[r]]))
-        floor = np.sqrt(s.order_floor_arcsec**2 + noise**2 + (s.order_floor_rel * amp) ** 2)
+        rel = np.where(mesh, np.hypot(s.order_floor_rel, s.mesh_order_floor_rel), s.order_floor_rel)
+        floor = np.sqrt(s.order_floor_arcsec**2 + noise**2 + (rel * amp) ** 2)
         w[lay.cos[r]] = w[lay.sin[r]] = 1.0 / floor
         w[lay.dc[r]] = 1.0 / (s.windup_floor_arcsec + s.windup_floor_rel * abs(f0[lay.dc[r]]))
     for r, sl in lay.hyst.items():

@@ -36,6 +36,8 @@ __all__ = [
     "Layout",
     "PlanRun",
     "Response",
+    "alias_free_positions",
+    "aliasing_problem",
     "branch_angles",
     "evaluate",
     "features",
@@ -54,8 +56,10 @@ class DiagnosisSettings:
 
     Attributes
     ----------
-    positions_per_rev : int
-        Model positions per output revolution (≥ 2·max_order + 2).
+    positions_per_rev : int or None
+        Model positions per output revolution (≥ 2·max_order + 2). None (default): the smallest
+        grid that keeps the pin-mesh harmonics out of the analysed orders
+        (:func:`alias_free_positions`, 320 for the RV-40E at 127 orders), set by :meth:`for_spec`.
     max_order : int
         Highest order analysed (per output revolution); ≥ 3·z_b.
     hysteresis_steps : int
@@ -83,6 +87,9 @@ class DiagnosisSettings:
     order_floor_rel : float
         Model-form floor of an order relative to its amplitude (the larger of measured and nominal):
         another program's contact law and stiffnesses move an order's amplitude by tens of per cent.
+    mesh_order_floor_rel : float
+        The same for the pin-mesh orders (multiples of z_b) alone, where the contact-law form and the
+        disc flexibility put several arcseconds of TE.
     eval_timeout_s : float
         Wall-time budget of one run of a model evaluation before the evaluation counts as failed (s).
     windup_floor_arcsec, windup_floor_rel : float
@@ -90,7 +97,7 @@ class DiagnosisSettings:
         the modelled value (model-form mismatch of the contact stiffness).
     """
 
-    positions_per_rev: int = 256
+    positions_per_rev: int | None = None
     max_order: int = 127
     hysteresis_steps: int = 40
     workers: int = 2
@@ -104,15 +111,62 @@ class DiagnosisSettings:
     eval_timeout_s: float = 30.0
     order_floor_arcsec: float = 0.03
     order_floor_rel: float = 0.0
+    mesh_order_floor_rel: float = 0.0
+    withheld_hold_nominal: bool = False
     windup_floor_arcsec: float = 0.5
     windup_floor_rel: float = 0.02
 
     def __post_init__(self) -> None:
-        if self.positions_per_rev < 2 * self.max_order + 2:
+        if self.positions_per_rev is not None and self.positions_per_rev < 2 * self.max_order + 2:
             raise ValueError(f"positions_per_rev = {self.positions_per_rev}: needs ≥ 2·max_order + 2 "
                              f"= {2 * self.max_order + 2}")
         if self.max_order < 1 or self.hysteresis_steps < 8 or self.workers < 1:
             raise ValueError("max_order ≥ 1, hysteresis_steps ≥ 8 and workers ≥ 1 are required")
+
+
+    def for_spec(self, spec) -> DiagnosisSettings:
+        """These settings for ``spec``: the position grid chosen by :func:`alias_free_positions` when
+        None, else checked by :func:`aliasing_problem` (ValueError naming the folded harmonic)."""
+        z_b = spec.cycloid.pin_count
+        if self.positions_per_rev is None:
+            return dc.replace(self, positions_per_rev=alias_free_positions(z_b, self.max_order))
+        why = aliasing_problem(self.positions_per_rev, z_b, self.max_order)
+        if why:
+            raise ValueError(f"positions_per_rev = {self.positions_per_rev}: {why}; use "
+                             f"{alias_free_positions(z_b, self.max_order)} (or None to choose it)")
+        return self
+
+
+# The model's TE is sampled at N positions per revolution, so its order k > N/2 folds to |k − jN|. The
+# pin-mesh harmonics m·z_b are large (flexible RV-40E discs at 412 N·m, measured at 1024 positions:
+# 5.7″ at 2·z_b, 0.93″ at 4·z_b, 0.22″ at 6·z_b, 0.11″ at 8·z_b): at 256 positions 4·z_b = 160 folded to
+# order 96 and 6·z_b to 16, ~1″ of model-only signature on orders no bench shows, half of the
+# calibrated model's weighted gap on the realistic self-check.
+ALIAS_STRICT = 4  # harmonics m·z_b, m ≤ this, must not fold into the analysed orders 0…max_order
+ALIAS_CHECKED = 8  # m ≤ this may fold only onto multiples of z_b (which carry mesh content anyway)
+
+
+def aliasing_problem(n: int, pin_count: int, max_order: int) -> str | None:
+    """Why an N-position model grid folds a pin-mesh harmonic into the analysed orders (None: it
+    does not). Harmonics m·z_b with m ≤ ALIAS_STRICT must be resolved (below N/2) or fold beyond
+    ``max_order``; those up to ALIAS_CHECKED may fold only onto multiples of z_b."""
+    for m in range(1, ALIAS_CHECKED + 1):
+        k = m * pin_count
+        folded = abs(k - n * round(k / n))
+        if folded == k or folded > max_order:
+            continue
+        if m <= ALIAS_STRICT or folded % pin_count:
+            return (f"the pin-mesh harmonic {m}·z_b = {k} folds to order {folded} of the analysed 0…{max_order}")
+    return None
+
+
+def alias_free_positions(pin_count: int, max_order: int) -> int:
+    """The smallest model grid (positions per revolution, ≥ 2·max_order + 2) that
+    :func:`aliasing_problem` accepts."""
+    n = 2 * max_order + 2
+    while aliasing_problem(n, pin_count, max_order):
+        n += 1
+    return n
 
 
 @dataclass(frozen=True)
@@ -234,9 +288,13 @@ def _run_model(variants: list[tuple[ReducerSpec, ErrorSpec]], plan: tuple[PlanRu
             model = build_reducer(spec, errors, fidelity, law=law(spec) if callable(law) else law)
             if p.kind == "te":
                 theta = p.direction * np.linspace(0.0, 2 * math.pi * model.ratio, n, endpoint=False)
-                res = quasi_static(model, theta, p.load_Nm, progress=budget, fail_fast=True)
+                res = quasi_static(model, theta, p.load_Nm, progress=budget, fail_fast=True, skip_unsolved=True)
                 grid = np.empty(n)
                 grid[(p.direction * np.arange(n)) % n] = res.te_rad
+                bad = np.isnan(grid)
+                if bad.any():  # positions the solver left out (isolated): periodic interpolation
+                    k = np.arange(n)
+                    grid[bad] = np.interp(k[bad], k[~bad], grid[~bad], period=n)
                 te.append(grid)
                 tq.append(None)
                 th.append(None)
@@ -249,13 +307,24 @@ def _run_model(variants: list[tuple[ReducerSpec, ErrorSpec]], plan: tuple[PlanRu
                 def count(done: int, total: int) -> None:
                     steps[0] = done
 
-                th.append(torque_stepping(model, path, progress=count,
-                                          before_solve=lambda: budget(steps[0], len(path))).theta_out)
+                th.append(_over_skipped(path, torque_stepping(model, path, progress=count, skip_unsolved=True,
+                                                              before_solve=lambda: budget(steps[0], len(path))
+                                                              ).theta_out))
         except EvaluationFailed as err:
             raise EvaluationFailed(f"{p.label}: {err}") from None
         except (SolveError, RuntimeError, ValueError, ArithmeticError) as err:
             raise EvaluationFailed(f"{p.label}: {type(err).__name__}: {str(err)[:300]}") from None
     return Response(tuple(te), tuple(tq), tuple(th))
+
+
+def _over_skipped(torque: np.ndarray, theta: np.ndarray) -> np.ndarray:
+    """``theta`` with the steps the solver left out (NaN; isolated, never the first or the last, see
+    :func:`rvflex.solve.torque_stepping`) interpolated in torque between their neighbours."""
+    a = np.array(theta, float)
+    for j in np.nonzero(np.isnan(a))[0]:
+        span = torque[j + 1] - torque[j - 1]
+        a[j] = a[j - 1] + ((torque[j] - torque[j - 1]) / span if span else 0.5) * (a[j + 1] - a[j - 1])
+    return a
 
 
 def evaluate(spec: ReducerSpec, errors: ErrorSpec, plan: tuple[PlanRun, ...], settings: DiagnosisSettings,
@@ -275,6 +344,8 @@ def evaluate(spec: ReducerSpec, errors: ErrorSpec, plan: tuple[PlanRun, ...], se
     """
     from rvflex.spec import SpecError
 
+    if settings.positions_per_rev is None:
+        settings = settings.for_spec(spec)
     variants = [(spec, errors)] * len(plan)
     blends = []
     try:
@@ -316,7 +387,8 @@ def evaluate(spec: ReducerSpec, errors: ErrorSpec, plan: tuple[PlanRun, ...], se
 
 def branch_angles(torque: np.ndarray, theta: np.ndarray, torque_max: float) -> np.ndarray:
     """Output angle (same unit as ``theta``) on the descending (+T → −T) and then the ascending
-    branch, each at the torques ±HYST_FRACTIONS·torque_max in increasing order (4·12 values)."""
+    branch, each at the torques ±HYST_FRACTIONS·torque_max in increasing order (4·12 values).
+    """
     t = np.asarray(torque, float)
     a = np.asarray(theta, float)
     k_max, k_min = int(np.argmax(t)), int(np.argmin(t))

@@ -35,6 +35,7 @@ import numpy as np
 from rvflex.diagnose.bench import BenchDataset, BenchRun, read_bench, write_bench
 from rvflex.diagnose.effects import Effect, available_effects
 from rvflex.diagnose.replay import DiagnosisSettings, PlanRun, evaluate
+from rvflex.parallel import map_warm
 from rvflex.spec import ErrorSpec, ReducerSpec
 from rvflex.units import ARCSEC
 
@@ -388,6 +389,24 @@ def _generate_job(args):
         return None, str(err)
 
 
+def _case_job(args):
+    """One self-check bench: its truth drawn (redrawn up to twice when the generator model cannot
+    solve it) and generated. Returns (truth document or None, the generator's failure messages)."""
+    (folder, truth_path, spec, hideable, n_eff, first, case_seed, sizes, realism, gen, reducer, realistic) = args
+    from rvflex.diagnose.effects import EFFECTS
+
+    effects = tuple(EFFECTS[n] for n in hideable)
+    msgs = []
+    for attempt in range(3):
+        truth = (draw_truth(np.random.default_rng(case_seed + attempt), effects, n_eff,
+                            EFFECTS[first] if first else None, sizes) if n_eff else [])
+        doc, msg = _generate_job((folder, truth_path, spec, truth, case_seed, realism, gen, reducer, realistic))
+        if doc is not None:
+            return doc, msgs
+        msgs.append(msg)
+    return None, msgs
+
+
 def selfcheck(out_dir: str | Path, settings: SelfCheckSettings = SelfCheckSettings(), *, progress=None,
               cache_dir: str | Path | None = None, log=print) -> dict:
     """Generate ``settings.cases`` datasets under ``out_dir``, diagnose each blind, score them.
@@ -403,6 +422,7 @@ def selfcheck(out_dir: str | Path, settings: SelfCheckSettings = SelfCheckSettin
     t0 = time.perf_counter()
     out = Path(out_dir)
     spec = catalog.load(settings.reducer)
+    settings = dc.replace(settings, diagnosis=settings.diagnosis.for_spec(spec))  # the model grid it will use
     effects, _ = available_effects(settings.effects)
     rng = np.random.default_rng(settings.seed)
     cache = Path(cache_dir) if cache_dir else out / "cache"
@@ -426,23 +446,26 @@ def selfcheck(out_dir: str | Path, settings: SelfCheckSettings = SelfCheckSettin
     # of them is hidden (once the cases outnumber them) rather than left to chance
     order = [hideable[int(i)] for i in rng.permutation(len(hideable))]
     n_drawn = 0
+    jobs = []
     for k in range(settings.cases):
         control = settings.control_every > 0 and k % settings.control_every == settings.control_every - 1
         n_eff = 0 if control or not order else (2 if rng.uniform() < settings.two_effect_share else 1)
         case_seed = int(rng.integers(2**31))
-        first = order[n_drawn % len(order)] if n_eff else None
+        first = order[n_drawn % len(order)].name if n_eff else None
         n_drawn += bool(n_eff)
-        folder = out / "datasets" / f"case_{k:02d}"
-        truth_path = out / "truth" / f"case_{k:02d}.json"
-        truth_doc = None
-        for attempt in range(3):  # a draw the generator model cannot solve is redrawn
-            truth = (draw_truth(np.random.default_rng(case_seed + attempt), hideable, n_eff, first, sizes)
-                     if n_eff else [])
-            truth_doc, msg = _generate_job((folder, truth_path, spec, truth, case_seed, settings.realism,
-                                            settings.generator, settings.reducer,
-                                            settings.realistic if settings.mismatch == "realistic" else None))
-            if truth_doc is not None:
-                break
+        jobs.append((out / "datasets" / f"case_{k:02d}", out / "truth" / f"case_{k:02d}.json", spec,
+                     tuple(e.name for e in hideable), n_eff, first, case_seed, sizes, settings.realism,
+                     settings.generator, settings.reducer,
+                     settings.realistic if settings.mismatch == "realistic" else None))
+    # the benches are independent of each other and of the diagnoses: generated in the pool first
+    # (each generator run is serial), then diagnosed one by one (each diagnosis uses the pool)
+    generated = map_warm(_case_job, jobs, settings.diagnosis.workers if len(jobs) > 1 else 0,
+                         on_outcome=lambda o: log(f"bench {o.index:2d} generated" if o.ok and o.value[0] is not None
+                                                  else f"bench {o.index:2d}: the generator failed"))
+    for k, (job, got) in enumerate(zip(jobs, generated)):
+        folder, truth_path = job[0], job[1]
+        truth_doc, msgs = got.value if got.ok else (None, [f"generator process: {got.error or 'died'}"])
+        for msg in msgs:
             log(f"case {k}: generator failed ({msg[:120]}); redrawing")
         if truth_doc is None:
             rows.append({"case": k, "error": "generator did not converge"})

@@ -115,6 +115,7 @@ def signature_sizes(spec: ReducerSpec, plan, settings: DiagnosisSettings, effect
     """Size of each effect's model signature at its typical magnitude, in units of the
     residual floors (measurement noise not included): ||w·ΔF||/√(parameters). Below ~3 an
     effect is not observable with these runs; NaN when its model evaluation failed."""
+    settings = settings.for_spec(spec)
     cands, _ = available_candidates(effects, plan)
     runner = ModelRunner(spec, errors or ErrorSpec(), plan, settings, law, Path(cache_dir) if cache_dir else None)
     f0, resp0, msg = runner.run([()])[0]
@@ -124,6 +125,6 @@ def signature_sizes(spec: ReducerSpec, plan, settings: DiagnosisSettings, effect
     y0 = f0.copy()
     for r in lay.te_runs:  # no measurement: the floors alone
         y0[lay.cos[r]] = y0[lay.sin[r]] = 0.0
-    w = weights(f0, y0, lay, settings)
+    w = weights(f0, y0, lay, settings, spec.cycloid.pin_count)
     sens, _ = sensitivities(runner, cands, f0, resp0, plan, settings, lay)
     return {e.name: (signature_size(e, sens, w) if e.name in sens else math.nan) for e in cands}

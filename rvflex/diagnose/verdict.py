@@ -29,7 +29,16 @@ def _linearisation(c: Candidate, f0: np.ndarray):
     return base, J, x_ref, lo, hi, prior_of(c.effects)
 
 
-def withheld_check(prob: Problem, plan, c: Candidate, ref: Candidate, f0, folds) -> dict:
+def _nominal_held(lin, c: Candidate):
+    """``lin`` (see :func:`_linearisation`) with the nominal parameters of ``c`` held at its values."""
+    base, J, x_ref, lo, hi, (pw, pc) = lin
+    held = np.concatenate([np.full(e.n, e.nominal) for e in c.effects]) if c.effects else np.zeros(0, bool)
+    free = ~held
+    base = base + J[:, held] @ (c.x[held] - x_ref[held])
+    return base, J[:, free], x_ref[free], lo[free], hi[free], (pw[free], pc[free])
+
+
+def withheld_check(prob: Problem, plan, c: Candidate, ref: Candidate, f0, folds, hold_nominal: bool = False) -> dict:
     """Refit ``c`` on each fold's fitted runs only and predict its other runs (linearised about
     the candidate's point with its Jacobian; origin δ as fitted on all runs), and the same for the
     reference ``ref`` (the calibrated model for an effect, the nominal model for the calibration).
@@ -63,6 +72,8 @@ def withheld_check(prob: Problem, plan, c: Candidate, ref: Candidate, f0, folds)
         return float(rw @ rw), x
 
     lin_c, lin_ref = _linearisation(c, f0), _linearisation(ref, f0)
+    if hold_nominal:
+        lin_c, lin_ref = _nominal_held(lin_c, c), _nominal_held(lin_ref, ref)
     total_before = total_after = 0.0
     for fitted_runs, predicted_runs in folds:
         rss_before, _ = predict(lin_ref, fitted_runs, predicted_runs)
