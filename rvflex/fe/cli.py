@@ -8,6 +8,7 @@ import sys
 import time
 
 from rvflex import catalog
+from rvflex.choices import FEPart
 from rvflex.fe.reduce import DEFAULTS, STEPS, reduce_part
 from rvflex.io import emit
 
@@ -18,7 +19,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
     disc, carrier = DEFAULTS["disc"], DEFAULTS["carrier"]
 
-    def basis(s, part: str = "disc") -> str:
+    def basis(s, part: FEPart = "disc") -> str:
         attach = f", {s.attach_per_tooth} attachment patches/tooth" if part == "disc" else ""
         return f"{s.maxh_m * 1e3:g} mm order-{s.mesh_order} tets, {s.n_modes} modes{attach}"
 

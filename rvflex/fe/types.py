@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from rvflex.choices import FEPart, PatchShape, SeatCoupling, check_choice
 from rvflex.spec import SpecError
 
 __all__ = ["CHECK_ANGLES_PITCH", "CODE_VERSION", "DEFAULTS", "FEError", "FlankRows", "Interface", "PartSettings", "ReducedPart", "StaticCheck", "VirtualNodes", "settings_for"]
@@ -40,9 +41,9 @@ class PartSettings:
     patch_half_width_m: float = 2.5e-3
     attach_per_tooth: int = 0
     curvature_safety: float = 2.0
-    patch_shape: str = "hat"
+    patch_shape: PatchShape = "hat"
     attach_tangential: bool = False
-    seat_coupling: str = "rbe3"  # carrier crank seats: "rbe3" distributing coupling (default) or "rbe2" rigid rings
+    seat_coupling: SeatCoupling = "rbe3"  # carrier crank seats: "rbe3" distributing coupling (default) or "rbe2" rigid rings
 
     def __post_init__(self) -> None:
         if not (isinstance(self.maxh_m, (int, float)) and 0.3e-3 <= self.maxh_m <= 0.05):
@@ -53,14 +54,12 @@ class PartSettings:
             raise SpecError("mesh_order", self.mesh_order, "must be 1 (linear tets) or 2 (quadratic tets)")
         if not 0.2e-3 <= self.patch_half_width_m <= 20e-3:
             raise SpecError("patch_half_width_m", self.patch_half_width_m, "expected metres, 0.2 mm to 20 mm")
-        if self.patch_shape not in ("hat", "cos2"):
-            raise SpecError("patch_shape", self.patch_shape, "must be 'hat' or 'cos2'")
+        check_choice("patch_shape", self.patch_shape, PatchShape)
         if not 0.5 <= self.curvature_safety <= 5.0:
             raise SpecError("curvature_safety", self.curvature_safety, "netgen's curvaturesafety, 0.5 to 5 (2 is its default)")
         if not (isinstance(self.attach_per_tooth, int) and 0 <= self.attach_per_tooth <= 16):
             raise SpecError("attach_per_tooth", self.attach_per_tooth, "must be an integer from 0 to 16")
-        if self.seat_coupling not in ("rbe2", "rbe3"):
-            raise SpecError("seat_coupling", self.seat_coupling, "must be 'rbe3' (distributing) or 'rbe2' (rigid)")
+        check_choice("seat_coupling", self.seat_coupling, SeatCoupling)
 
 
 # Chosen by the convergence study of docs/fe.md (static flank/seat response vs maxh and modes).
@@ -71,10 +70,9 @@ DEFAULTS = {
 }
 
 
-def settings_for(part: str, *, maxh_m: float | None = None, n_modes: int | None = None, **over) -> PartSettings:
+def settings_for(part: FEPart, *, maxh_m: float | None = None, n_modes: int | None = None, **over) -> PartSettings:
     """The default settings of ``part`` with the given overrides."""
-    if part not in DEFAULTS:
-        raise SpecError("part", part, "must be 'disc' or 'carrier'")
+    check_choice("part", part, FEPart)
     base = DEFAULTS[part]
     kw = dict(over)
     if maxh_m is not None:
@@ -155,7 +153,7 @@ class ReducedPart:
 
     Attributes
     ----------
-    part : str
+    part : FEPart
         ``"disc"`` or ``"carrier"``.
     settings : PartSettings
     key : str
@@ -182,7 +180,7 @@ class ReducedPart:
         Wall time of the cold reduction (s).
     """
 
-    part: str
+    part: FEPart
     settings: PartSettings
     key: str
     fem: object
