@@ -295,7 +295,8 @@ def _options(args: argparse.Namespace):
 
 def _output_arguments(p: argparse.ArgumentParser, files: str) -> None:
     """--errors, --perfect, --json and --out of the model commands."""
-    p.add_argument("--errors", help="ErrorSpec TOML file (omitted keys are zero) or a built-in set (rv40e_seed001)")
+    p.add_argument("--errors", help="ErrorSpec TOML file (omitted keys are zero) or a built-in set (rv40e_seed001); "
+                                    "default: no errors")
     p.add_argument("--perfect", action="store_true",
                    help="theoretical geometry: no modification, backlash, clearances or errors")
     p.add_argument("--json", help="write the results as JSON to this path")

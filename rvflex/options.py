@@ -27,7 +27,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal
 
 from rvflex.choices import Fidelity, SeatCoupling, SeatMarker, check_choice, choices
-from rvflex.fe.reduce import PartSettings
+from rvflex.fe.reduce import DEFAULTS, PartSettings
 from rvflex.spec import SpecError
 
 if TYPE_CHECKING:
@@ -42,21 +42,22 @@ FIDELITIES: tuple[str, ...] = choices(Fidelity)
 PartFidelity = Literal["rigid"]
 """A part that is not FE-reduced (the alternative to a :class:`PartSettings`)."""
 
-DISC_FE = PartSettings(maxh_m=6e-3, n_modes=12, mesh_order=2, patch_half_width_m=3e-3, attach_per_tooth=0,
-                       curvature_safety=1.0, attach_tangential=True)
-"""Disc reduction of the flexible presets: global deformation only — 6 bore (RBE2) modes and
-12 fixed-interface modes on 6 mm quadratic tets, no flank attachment modes, whose
-patch-local compliance the line-contact law already carries (docs/fe.md: convergence
-study). ``rvflex reduce --part disc`` instead defaults to the reference basis with flank
-attachment modes (``rvflex.fe.reduce.DEFAULTS``: 10 modes, 2 attachment patches per tooth),
-the basis its static flank check is about; the model reaches it with ``--fe-modes 10
---fe-attach 2``."""
+DISC_FE: PartSettings = DEFAULTS["disc"]
+"""Disc reduction of the flexible presets, the one default disc reduction
+(:data:`rvflex.fe.reduce.DEFAULTS` ``["disc"]``, also ``rvflex reduce --part disc``'s default):
+global deformation only — 6 bore (RBE2) modes and 12 fixed-interface modes on 6 mm
+quadratic tets, no flank attachment modes, whose patch-local compliance the line-contact law
+already carries (docs/flexible.md: convergence study). The basis with flank attachment modes
+that the static flank check is about (:data:`rvflex.fe.reduce.DISC_FLANK_BASIS`: 10 modes, 2
+attachment patches per tooth) is ``with_fe("discs", n_modes=10, attach_per_tooth=2)``, on the
+command line ``--fe-modes 10 --fe-attach 2``."""
 
-CARRIER_FE = PartSettings(maxh_m=6e-3, n_modes=10, mesh_order=2, curvature_safety=1.0, seat_coupling="rbe3")
-"""Carrier reduction of :meth:`ModelOptions.flexible_discs_and_carrier`: output face the
-reference, 4 distributing (RBE3) seats with 6 attachment modes each, 10 fixed-interface
-modes, 6 mm quadratic tets (static check 3.3 % at the seats, 0.1 % at the pillars:
-docs/fe.md) — the same settings as ``rvflex reduce --part carrier``."""
+CARRIER_FE: PartSettings = DEFAULTS["carrier"]
+"""Carrier reduction of :meth:`ModelOptions.flexible_discs_and_carrier`, the one default carrier
+reduction (:data:`rvflex.fe.reduce.DEFAULTS` ``["carrier"]``, also ``rvflex reduce --part
+carrier``'s default): output face the reference, 4 distributing (RBE3) seats with 6 attachment
+modes each, 10 fixed-interface modes, 6 mm quadratic tets (static check 3.3 % at the seats,
+0.1 % at the pillars: docs/fe.md)."""
 
 MODEL_TABLE_KEYS = ("fidelity", "discs", "carrier", "carrier_seat_marker")
 """Keys of a TOML ``[model]`` table (:meth:`ModelOptions.from_table`)."""

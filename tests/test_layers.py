@@ -146,6 +146,7 @@ FORBIDDEN = [
     (("rvflex.model", "rvflex.solve"), ("rvflex.scenarios", "rvflex.sweep", "rvflex.diagnose"), (), ()),
     (("rvflex.solve",), ("rvflex.parts",), (), ()),  # solvers talk to the model; shared numbers: rvflex.numerics
     (PLUMBING + ("rvflex.spec_types",), ("rvflex",), (), PLUMBING),  # plumbing and the spec types at the bottom
+    (("rvflex.choices",), ("rvflex",), (), PLUMBING + ("rvflex.spec_types",)),  # the option types, just above them
 ]
 
 

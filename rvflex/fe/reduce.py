@@ -50,6 +50,7 @@ from rvflex.fe.types import (
     CHECK_ANGLES_PITCH,
     CODE_VERSION,
     DEFAULTS,
+    DISC_FLANK_BASIS,
     FEError,
     FlankRows,
     Interface,
@@ -65,6 +66,7 @@ __all__ = [
     "CHECK_ANGLES_PITCH",
     "CODE_VERSION",
     "DEFAULTS",
+    "DISC_FLANK_BASIS",
     "STEPS",
     "FEError",
     "FlankRows",
@@ -98,7 +100,8 @@ def reduce_part(spec: ReducerSpec, part: FEPart, *, maxh_m: float | None = None,
     spec : ReducerSpec
     part : {"disc", "carrier"}
     maxh_m : float, optional
-        Largest element size (m); default :data:`DEFAULTS`.
+        Largest element size (m); default :data:`DEFAULTS` (the flexible presets' reduction of
+        ``part``).
     n_modes : int, optional
         Fixed-interface eigenmodes; default :data:`DEFAULTS`.
     cache_dir : path, optional

@@ -12,7 +12,7 @@ import numpy as np
 from rvflex.choices import FEPart, PatchShape, SeatCoupling, check_choice
 from rvflex.spec import SpecError
 
-__all__ = ["CHECK_ANGLES_PITCH", "CODE_VERSION", "DEFAULTS", "FEError", "FlankRows", "Interface", "PartSettings", "ReducedPart", "StaticCheck", "VirtualNodes", "settings_for"]
+__all__ = ["CHECK_ANGLES_PITCH", "CODE_VERSION", "DEFAULTS", "DISC_FLANK_BASIS", "FEError", "FlankRows", "Interface", "PartSettings", "ReducedPart", "StaticCheck", "VirtualNodes", "settings_for"]
 
 
 CODE_VERSION = "fe-2"  # bump when the reduction's numbers change for the same inputs (part of the cache key)
@@ -62,16 +62,31 @@ class PartSettings:
         check_choice("seat_coupling", self.seat_coupling, SeatCoupling)
 
 
-# Chosen by the convergence study of docs/fe.md (static flank/seat response vs maxh and modes).
-DEFAULTS = {
-    "disc": PartSettings(maxh_m=6e-3, n_modes=10, mesh_order=2, patch_half_width_m=3e-3, attach_per_tooth=2,
+DEFAULTS: dict[str, PartSettings] = {
+    "disc": PartSettings(maxh_m=6e-3, n_modes=12, mesh_order=2, patch_half_width_m=3e-3, attach_per_tooth=0,
                          curvature_safety=1.0, attach_tangential=True),
-    "carrier": PartSettings(maxh_m=6e-3, n_modes=10, mesh_order=2, curvature_safety=1.0),
+    "carrier": PartSettings(maxh_m=6e-3, n_modes=10, mesh_order=2, curvature_safety=1.0, seat_coupling="rbe3"),
 }
+"""The one default reduction of each part: what :func:`rvflex.fe.reduce.reduce_part` and ``rvflex
+reduce`` use when no setting is given, and what the flexible presets of
+:class:`rvflex.options.ModelOptions` hold (``DISC_FE``, ``CARRIER_FE`` are these objects).
+
+Disc: global deformation only — 6 bore (RBE2) static modes and 12 fixed-interface modes on 6 mm
+quadratic tets, no flank attachment modes (the line-contact law carries the patch-local
+compliance; docs/flexible.md). Carrier: output face the reference, 4 distributing (RBE3) seats
+with 6 attachment modes each, 10 fixed-interface modes, 6 mm quadratic tets. Both chosen by the
+convergence studies of docs/fe.md and docs/flexible.md."""
+
+DISC_FLANK_BASIS = dataclasses.replace(DEFAULTS["disc"], n_modes=10, attach_per_tooth=2)
+"""The disc basis the static flank check is about: :data:`DEFAULTS` with 10 fixed-interface modes
+and 2 flank attachment patches per tooth (normal and tangential; 172 modes on the RV-40E, flank
+error 4.4 %: docs/fe.md). ``rvflex reduce --part disc --modes 10 --attach 2``; in a model,
+``ModelOptions.flexible_discs().with_fe("discs", n_modes=10, attach_per_tooth=2)`` (``--fe-modes
+10 --fe-attach 2``)."""
 
 
 def settings_for(part: FEPart, *, maxh_m: float | None = None, n_modes: int | None = None, **over) -> PartSettings:
-    """The default settings of ``part`` with the given overrides."""
+    """The default settings of ``part`` (:data:`DEFAULTS`) with the given overrides."""
     check_choice("part", part, FEPart)
     base = DEFAULTS[part]
     kw = dict(over)
