@@ -18,21 +18,7 @@ from rvflex.choices import Executor, Fidelity, TEMode, choices
 from rvflex.io import emit, write_json, write_text
 from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
 
-__all__ = ["main", "resolve_reducer"]
-
-
-def resolve_reducer(name: str) -> ReducerSpec:
-    """A built-in catalogue name (``rv40e``) or the path of a reducer spec TOML file."""
-    from rvflex.api import load_reducer
-
-    return load_reducer(name, field="--reducer")
-
-
-def _errors(path: str | None, spec: ReducerSpec) -> ErrorSpec | None:
-    """An ErrorSpec TOML file, or a built-in error set name (``rv40e_seed001``)."""
-    from rvflex.api import load_errors
-
-    return None if path is None else load_errors(path, spec, field="--errors")
+__all__ = ["main"]
 
 
 def _with_progress(total: int, desc: str, run):
