@@ -23,6 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rvflex.choices import BodyFidelity, SeatMarker, check_choice, choices
 from rvflex.fe import ffrf as ffrf_module
 from rvflex.fe.couplings import rbe3_virtual_nodes
 from rvflex.numerics import OUTPUT_REGULARISER_NM_RAD  # re-exported: the regulariser this builder installs
@@ -32,7 +33,7 @@ from rvflex.parts import bearings
 __all__ = ["CarrierHandles", "build", "crank_axis_positions", "OUTPUT_REGULARISER_NM_RAD", "add_input_seat_bearings",
            "split_support_bearing", "SEAT_MARKERS"]
 
-SEAT_MARKERS = ("virtual", "all_nodes")  # flexible carrier: seat markers on 4 virtual RBE3 nodes | on all seat nodes
+SEAT_MARKERS = choices(SeatMarker)  # flexible carrier: seat markers on 4 virtual RBE3 nodes | on all seat nodes
 
 
 @dataclass(frozen=True)
@@ -101,7 +102,7 @@ def add_input_seat_bearings(mbs, spec: ReducerSpec, errors: ErrorSpec, carrier: 
 
 
 def build(mbs, spec: ReducerSpec, errors: ErrorSpec, ground_body: int, ground_coordinate: int, *,
-          fidelity: str = "rigid", reduced=None, seat_marker: str = "virtual") -> CarrierHandles:
+          fidelity: BodyFidelity = "rigid", reduced=None, seat_marker: SeatMarker = "virtual") -> CarrierHandles:
     """Add the carrier, its main bearing to the housing (with the carrier runout as an
     offset of the bearing seat) and the output load.
 
@@ -116,10 +117,9 @@ def build(mbs, spec: ReducerSpec, errors: ErrorSpec, ground_body: int, ground_co
     from exudyn.itemInterface import (LoadCoordinate, MarkerBodyRigid, MarkerNodeCoordinate, NodeRigidBody2D,
                                       ObjectConnectorCoordinateSpringDamper, ObjectRigidBody2D)
 
+    check_choice("fidelity", fidelity, BodyFidelity)
     if fidelity == "flexible":
         return _build_flexible(mbs, spec, errors, ground_body, ground_coordinate, reduced, seat_marker)
-    if fidelity != "rigid":
-        raise ValueError(f"fidelity = {fidelity!r}: 'rigid' or 'flexible'")
     ca = spec.carrier
     rho = spec.materials.carriers.density_kg_m3
     mass = rho * math.pi * ca.outer_radius_m**2 * 2 * ca.plate_thickness_m
@@ -139,14 +139,14 @@ def build(mbs, spec: ReducerSpec, errors: ErrorSpec, ground_body: int, ground_co
     return CarrierHandles(int(node), int(body), bores, int(load), int(reg), main)
 
 
-def _build_flexible(mbs, spec, errors, ground_body, ground_coordinate, reduced, seat_marker="virtual") -> CarrierHandles:
+def _build_flexible(mbs, spec, errors, ground_body, ground_coordinate, reduced,
+                    seat_marker: SeatMarker = "virtual") -> CarrierHandles:
     """The FFRF carrier: reference frame = output face (clamped in all modes), planar-held."""
     from exudyn.itemInterface import (CoordinateConstraint, LoadCoordinate, MarkerBodyRigid, MarkerNodeCoordinate,
                                       MarkerNodeRigid, MarkerSuperElementRigid,
                                       ObjectConnectorCoordinateSpringDamper)
 
-    if seat_marker not in SEAT_MARKERS:
-        raise ValueError(f"seat_marker = {seat_marker!r}: one of {SEAT_MARKERS}")
+    check_choice("seat_marker", seat_marker, SeatMarker)
     if reduced is None or reduced.part != "carrier" or int(ground_coordinate) < 0:
         raise ValueError("flexible carrier: needs the reduced carrier (reduce_part(spec, 'carrier')) and a ground "
                          "coordinate marker")

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rvflex.choices import BodyFidelity, check_choice
 from rvflex.contact.gear_mesh import GearMeshHandles, add_gear_mesh
 from rvflex.parts import bearings
 from rvflex.spec import ErrorSpec, ReducerSpec
@@ -41,8 +42,12 @@ def eccentric_offsets(spec: ReducerSpec, errors: ErrorSpec) -> np.ndarray:
 
 
 def build(mbs, spec: ReducerSpec, errors: ErrorSpec, carrier, sun_node: int, axes: np.ndarray, *,
-          fidelity: str = "rigid") -> CrankHandles:
-    """Add the cranks at ``axes`` (carrier frame, = reference positions at output angle 0)."""
+          fidelity: BodyFidelity = "rigid") -> CrankHandles:
+    """Add the cranks at ``axes`` (carrier frame, = reference positions at output angle 0).
+    The cranks are rigid in every model: ``fidelity="flexible"`` is refused."""
+    check_choice("fidelity", fidelity, BodyFidelity)
+    if fidelity != "rigid":
+        raise NotImplementedError(f"fidelity = {fidelity!r}: the cranks are rigid bodies (no FE crank yet)")
     from exudyn.itemInterface import MarkerBodyRigid, NodeRigidBody2D, ObjectRigidBody2D
 
     st = spec.input_stage

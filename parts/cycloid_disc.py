@@ -8,6 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rvflex.choices import BodyFidelity, check_choice
 from rvflex.contact.cycloid_pin import ContactLaw, CycloidPinContact, add_cycloid_pin_contact
 from rvflex.fe import ffrf as ffrf_module  # called through the module: tests stand in for ffrf_interface
 from rvflex.fe.geometry import pillar_angles
@@ -58,7 +59,7 @@ def bore_positions(spec: ReducerSpec, errors: ErrorSpec, disc: int) -> np.ndarra
 
 
 def build(mbs, spec: ReducerSpec, errors: ErrorSpec, cranks, law: ContactLaw, eccentric_offsets: np.ndarray,
-          axes: np.ndarray, *, fidelity: str = "rigid", reduced=None, ground_coordinate: int = -1) -> DiscHandles:
+          axes: np.ndarray, *, fidelity: BodyFidelity = "rigid", reduced=None, ground_coordinate: int = -1) -> DiscHandles:
     """Add the discs at their reference poses (output angle 0): disc d's centre is where its
     eccentrics put it, crank axis + eccentric − bore (averaged over the cranks).
 
@@ -68,12 +69,11 @@ def build(mbs, spec: ReducerSpec, errors: ErrorSpec, cranks, law: ContactLaw, ec
     ``ground_coordinate``, a ground coordinate marker that holds each disc's out-of-plane
     coordinates (z, ψx, ψy).
     """
+    check_choice("fidelity", fidelity, BodyFidelity)
     if fidelity == "flexible":
         return _build_flexible(mbs, spec, errors, cranks, law, eccentric_offsets, axes, reduced, ground_coordinate)
     from exudyn.itemInterface import MarkerBodyRigid, NodeRigidBody2D, ObjectRigidBody2D
 
-    if fidelity != "rigid":
-        raise ValueError(f"fidelity = {fidelity!r}: 'rigid' or 'flexible'")
     cy = spec.cycloid
     rho = spec.materials.gears_cranks_discs.density_kg_m3
     r_out = cy.pin_circle_radius_m - cy.pin_radius_m

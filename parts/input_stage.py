@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from rvflex.choices import BodyFidelity, check_choice
 from rvflex.spec import ReducerSpec
 
 __all__ = ["InputHandles", "build"]
@@ -20,8 +21,12 @@ class InputHandles:
     drive: int
 
 
-def build(mbs, spec: ReducerSpec, ground_coordinate: int, *, fidelity: str = "rigid") -> InputHandles:
-    """Add the input shaft; mass and inertia of a steel shaft of the sun's pitch diameter."""
+def build(mbs, spec: ReducerSpec, ground_coordinate: int, *, fidelity: BodyFidelity = "rigid") -> InputHandles:
+    """Add the input shaft; mass and inertia of a steel shaft of the sun's pitch diameter. The
+    shaft is rigid in every model: ``fidelity="flexible"`` is refused."""
+    check_choice("fidelity", fidelity, BodyFidelity)
+    if fidelity != "rigid":
+        raise NotImplementedError(f"fidelity = {fidelity!r}: the input shaft is a rigid body (no FE shaft yet)")
     from exudyn.itemInterface import MarkerNodeCoordinate, NodeRigidBody2D, ObjectConnectorCoordinate, ObjectRigidBody2D
 
     st = spec.input_stage

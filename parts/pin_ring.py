@@ -10,6 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rvflex.choices import BodyFidelity, check_choice
 from rvflex.geometry.pins import pin_centres, pin_radii
 from rvflex.spec import ErrorSpec, ReducerSpec
 
@@ -24,8 +25,9 @@ class PinRingHandles:
     radii_m: np.ndarray
 
 
-def build(mbs, spec: ReducerSpec, errors: ErrorSpec, *, fidelity: str = "rigid") -> PinRingHandles:
+def build(mbs, spec: ReducerSpec, errors: ErrorSpec, *, fidelity: BodyFidelity = "rigid") -> PinRingHandles:
     """The pin ring of ``spec`` (ground in the rigid fidelity; nothing is added to ``mbs``)."""
+    check_choice("fidelity", fidelity, BodyFidelity)
     if fidelity != "rigid":
         raise NotImplementedError(f"fidelity = {fidelity!r}: the flexible housing comes with the FE issue")
     return PinRingHandles(pin_centres(spec.cycloid, errors), pin_radii(spec.cycloid, errors))

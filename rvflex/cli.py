@@ -14,24 +14,11 @@ from pathlib import Path
 
 import rvflex.scenarios  # noqa: F401 -- registers the scenarios sweeps run (rvflex.scenarios.sweepable)
 from rvflex import catalog
+from rvflex.choices import Executor, Fidelity, TEMode, choices
 from rvflex.io import emit, write_json, write_text
 from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
 
-__all__ = ["main", "resolve_reducer"]
-
-
-def resolve_reducer(name: str) -> ReducerSpec:
-    """A built-in catalogue name (``rv40e``) or the path of a reducer spec TOML file."""
-    from rvflex.api import load_reducer
-
-    return load_reducer(name, field="--reducer")
-
-
-def _errors(path: str | None, spec: ReducerSpec) -> ErrorSpec | None:
-    """An ErrorSpec TOML file, or a built-in error set name (``rv40e_seed001``)."""
-    from rvflex.api import load_errors
-
-    return None if path is None else load_errors(path, spec, field="--errors")
+__all__ = ["main"]
 
 
 def _with_progress(total: int, desc: str, run):
@@ -167,8 +154,10 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     write_text(out / "table.csv", fh.getvalue())
     print(f"{res.finished} of {n} points finished, {res.failed} failed, {res.wall_s:.1f} s "
           f"(+ {res.startup_s:.1f} s start-up; {res.executor}, {res.workers} workers); table in {out / 'table.csv'}")
+    print(f"model ({design.options.fidelity}): {design.options.describe()}")
     doc = {"points": n, "finished": res.finished, "failed": res.failed, "wall_s": res.wall_s,
-           "startup_s": res.startup_s, "executor": res.executor, "workers": res.workers, "ranking": []}
+           "startup_s": res.startup_s, "executor": res.executor, "workers": res.workers,
+           "model": design.options.as_dict(), "ranking": []}
     if design.kind in SALIB_KINDS:
         try:
             indices = sensitivity_indices(design, res.rows, metric)
@@ -254,7 +243,7 @@ def _model_arguments(p: argparse.ArgumentParser) -> None:
     from rvflex.options import CARRIER_FE, DISC_FE
 
     p.add_argument("--reducer", required=True, help=f"built-in reducer ({', '.join(catalog.names())}) or a spec TOML path")
-    p.add_argument("--fidelity", default="rigid", choices=("rigid", "flexible", "flexible-carrier"),
+    p.add_argument("--fidelity", default="rigid", choices=choices(Fidelity),
                    help="rigid bodies (ModelOptions.rigid()); flexible: FE-reduced (Craig–Bampton, FFRF) cycloid "
                         "discs (ModelOptions.flexible_discs()); flexible-carrier: FE discs and carrier "
                         "(ModelOptions.flexible_discs_and_carrier(): output face = output frame, RBE3 seats, two "
@@ -292,7 +281,8 @@ def _options(args: argparse.Namespace):
 
 def _output_arguments(p: argparse.ArgumentParser, files: str) -> None:
     """--errors, --perfect, --json and --out of the model commands."""
-    p.add_argument("--errors", help="ErrorSpec TOML file (omitted keys are zero) or a built-in set (rv40e_seed001)")
+    p.add_argument("--errors", help="ErrorSpec TOML file (omitted keys are zero) or a built-in set (rv40e_seed001); "
+                                    "default: no errors")
     p.add_argument("--perfect", action="store_true",
                    help="theoretical geometry: no modification, backlash, clearances or errors")
     p.add_argument("--json", help="write the results as JSON to this path")
@@ -315,7 +305,7 @@ def build_parser() -> argparse.ArgumentParser:
     g.set_defaults(func=_cmd_geometry)
     t = sub.add_parser("te", help="loaded transmission error (quasi-static)")
     _model_arguments(t)
-    t.add_argument("--mode", default="quasi-static", choices=("quasi-static", "dynamic"),
+    t.add_argument("--mode", default="quasi-static", choices=choices(TEMode),
                    help="quasi-static stepping or a generalized-α run (default quasi-static)")
     t.add_argument("--speed-out", type=float, help="output speed in dynamic mode, rpm (default: rated)")
     t.add_argument("--load", type=float, help="output torque resisting the motion, N·m (default: rated)")
@@ -336,9 +326,14 @@ def build_parser() -> argparse.ArgumentParser:
     bl.add_argument("--load", type=float, help="load resisting the motion, N·m (default: 3 %% of rated)")
     _output_arguments(bl, "backlash.csv, backlash.png and backlash.nc")
     bl.set_defaults(func=_cmd_backlash)
-    sw = sub.add_parser("sweep", help="parameter sweep / tolerance design from a design TOML")
-    sw.add_argument("design", help="design TOML (see scenarios/designs/smoke.toml)")
-    sw.add_argument("--executor", default="process", choices=("serial", "process", "dask"),
+    sw = sub.add_parser("sweep", help="parameter sweep / tolerance design from a design TOML",
+                        description="Evaluate every point of a design TOML: [sweep] (reducer, scenario, kind, load, "
+                                    "resolution), [[factor]] tables, and an optional [model] table with the model "
+                                    "options of every point: fidelity = \"rigid\" (default) | \"flexible\" | "
+                                    "\"flexible-carrier\" (the ModelOptions presets), [model.discs] / [model.carrier] "
+                                    "overriding fields of that preset's reduction (e.g. n_modes = 24).")
+    sw.add_argument("design", help="design TOML (see scenarios/designs/smoke.toml, smoke_flexible.toml)")
+    sw.add_argument("--executor", default="process", choices=choices(Executor),
                     help="serial: this process; process: a local pool of workers forked warm from this process "
                          "(a killed worker's points are retried); dask: a Dask cluster (default process)")
     sw.add_argument("--scheduler", help="with --executor dask: scheduler address tcp://HOST:PORT (default: a "

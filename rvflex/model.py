@@ -18,20 +18,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rvflex.choices import Fidelity
 from rvflex.contact.cycloid_pin import ContactLaw
-from rvflex.options import ModelOptions, as_options
+from rvflex.options import FIDELITIES, ModelOptions, as_options
 from rvflex.parts import carrier as carrier_part
 from rvflex.parts import crankshaft, cycloid_disc, input_stage, pin_ring
 from rvflex.spec import ErrorSpec, ReducerSpec, check_geometry
 
 __all__ = ["ReducerModel", "build_reducer", "check_fidelity", "default_contact_law", "FIDELITIES"]
-
-FIDELITIES = ("rigid", "flexible")
-"""Fidelity names :func:`build_reducer` maps to presets besides :class:`ModelOptions` (see
-:func:`rvflex.options.as_options`; ``"flexible-carrier"`` too)."""
+# FIDELITIES (rvflex.options): the preset names build_reducer maps to ModelOptions, re-exported here
 
 
-def check_fidelity(fidelity: str, field: str = "--fidelity") -> None:
+def check_fidelity(fidelity: Fidelity, field: str = "--fidelity") -> None:
     """Refuse a fidelity name that is not a preset (SpecError naming ``field``)."""
     as_options(fidelity, field)
 

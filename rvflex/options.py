@@ -22,10 +22,12 @@ Variants by :func:`dataclasses.replace` (e.g. more disc modes:
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Literal, get_args
+from typing import TYPE_CHECKING, Literal
 
-from rvflex.fe.reduce import PartSettings
+from rvflex.choices import Fidelity, SeatCoupling, SeatMarker, check_choice, choices
+from rvflex.fe.reduce import DEFAULTS, PartSettings
 from rvflex.spec import SpecError
 
 if TYPE_CHECKING:
@@ -34,36 +36,31 @@ if TYPE_CHECKING:
 __all__ = ["CARRIER_FE", "DISC_FE", "FIDELITIES", "Fidelity", "ModelOptions", "PartFidelity", "SeatCoupling",
            "SeatMarker", "as_options"]
 
-Fidelity = Literal["rigid", "flexible", "flexible-carrier"]
-"""Names of the presets (the CLI's ``--fidelity``): rigid parts, FE discs, FE discs and carrier."""
-FIDELITIES: tuple[str, ...] = get_args(Fidelity)
-
-SeatMarker = Literal["virtual", "all_nodes"]
-"""Flexible carrier seat markers: on four massless nodes carrying each seat's RBE3 motion
-(``"virtual"``) or on all seat nodes (``"all_nodes"``: the same coupling, slow — for comparison)."""
-
-SeatCoupling = Literal["rbe3", "rbe2"]
-"""Carrier crank-seat coupling of the reduction (:attr:`PartSettings.seat_coupling`):
-distributing (RBE3) or rigid rings (RBE2)."""
+FIDELITIES: tuple[str, ...] = choices(Fidelity)
+"""The preset names: ``"rigid"``, ``"flexible"`` (FE discs), ``"flexible-carrier"`` (FE discs and carrier)."""
 
 PartFidelity = Literal["rigid"]
 """A part that is not FE-reduced (the alternative to a :class:`PartSettings`)."""
 
-DISC_FE = PartSettings(maxh_m=6e-3, n_modes=12, mesh_order=2, patch_half_width_m=3e-3, attach_per_tooth=0,
-                       curvature_safety=1.0, attach_tangential=True)
-"""Disc reduction of the flexible presets: global deformation only — 6 bore (RBE2) modes and
-12 fixed-interface modes on 6 mm quadratic tets, no flank attachment modes, whose
-patch-local compliance the line-contact law already carries (docs/fe.md: convergence
-study). ``rvflex reduce --part disc`` instead defaults to the reference basis with flank
-attachment modes (``rvflex.fe.reduce.DEFAULTS``: 10 modes, 2 attachment patches per tooth),
-the basis its static flank check is about; the model reaches it with ``--fe-modes 10
---fe-attach 2``."""
+DISC_FE: PartSettings = DEFAULTS["disc"]
+"""Disc reduction of the flexible presets, the one default disc reduction
+(:data:`rvflex.fe.reduce.DEFAULTS` ``["disc"]``, also ``rvflex reduce --part disc``'s default):
+global deformation only — 6 bore (RBE2) modes and 12 fixed-interface modes on 6 mm
+quadratic tets, no flank attachment modes, whose patch-local compliance the line-contact law
+already carries (docs/flexible.md: convergence study). The basis with flank attachment modes
+that the static flank check is about (:data:`rvflex.fe.reduce.DISC_FLANK_BASIS`: 10 modes, 2
+attachment patches per tooth) is ``with_fe("discs", n_modes=10, attach_per_tooth=2)``, on the
+command line ``--fe-modes 10 --fe-attach 2``."""
 
-CARRIER_FE = PartSettings(maxh_m=6e-3, n_modes=10, mesh_order=2, curvature_safety=1.0, seat_coupling="rbe3")
-"""Carrier reduction of :meth:`ModelOptions.flexible_discs_and_carrier`: output face the
-reference, 4 distributing (RBE3) seats with 6 attachment modes each, 10 fixed-interface
-modes, 6 mm quadratic tets (static check 3.3 % at the seats, 0.1 % at the pillars:
-docs/fe.md) — the same settings as ``rvflex reduce --part carrier``."""
+CARRIER_FE: PartSettings = DEFAULTS["carrier"]
+"""Carrier reduction of :meth:`ModelOptions.flexible_discs_and_carrier`, the one default carrier
+reduction (:data:`rvflex.fe.reduce.DEFAULTS` ``["carrier"]``, also ``rvflex reduce --part
+carrier``'s default): output face the reference, 4 distributing (RBE3) seats with 6 attachment
+modes each, 10 fixed-interface modes, 6 mm quadratic tets (static check 3.3 % at the seats,
+0.1 % at the pillars: docs/fe.md)."""
+
+MODEL_TABLE_KEYS = ("fidelity", "discs", "carrier", "carrier_seat_marker")
+"""Keys of a TOML ``[model]`` table (:meth:`ModelOptions.from_table`)."""
 
 
 @dataclass(frozen=True)
@@ -90,11 +87,9 @@ class ModelOptions:
             value = getattr(self, name)
             if value != "rigid" and not isinstance(value, PartSettings):
                 raise SpecError(name, value, "must be 'rigid' or an rvflex.fe.reduce.PartSettings")
-        if isinstance(self.carrier, PartSettings) and self.carrier.seat_coupling not in get_args(SeatCoupling):
-            raise SpecError("carrier.seat_coupling", self.carrier.seat_coupling,
-                            f"must be one of {get_args(SeatCoupling)}")
-        if self.carrier_seat_marker not in get_args(SeatMarker):
-            raise SpecError("carrier_seat_marker", self.carrier_seat_marker, f"must be one of {get_args(SeatMarker)}")
+        if isinstance(self.carrier, PartSettings):
+            check_choice("carrier.seat_coupling", self.carrier.seat_coupling, SeatCoupling)
+        check_choice("carrier_seat_marker", self.carrier_seat_marker, SeatMarker)
         if self.contact_law is not None:
             from rvflex.contact.cycloid_pin import ContactLaw
 
@@ -121,11 +116,60 @@ class ModelOptions:
     def preset(cls, fidelity: Fidelity) -> ModelOptions:
         """The preset of a fidelity name: ``"rigid"``, ``"flexible"`` (discs) or ``"flexible-carrier"``
         (discs and carrier)."""
+        check_choice("fidelity", fidelity, Fidelity)
         presets = {"rigid": cls.rigid, "flexible": cls.flexible_discs,
                    "flexible-carrier": cls.flexible_discs_and_carrier}
-        if fidelity not in presets:
-            raise SpecError("fidelity", fidelity, f"must be one of {', '.join(map(repr, FIDELITIES))}")
         return presets[fidelity]()
+
+    @classmethod
+    def from_table(cls, table: Mapping, where: str = "[model]", source: str | None = None) -> ModelOptions:
+        """Options from a TOML table (a sweep design's ``[model]``), checked key by key.
+
+        ``fidelity`` names the preset (``"rigid"``, the default, ``"flexible"`` or
+        ``"flexible-carrier"``); the sub-tables ``discs`` and ``carrier`` override fields of that
+        preset's reduction of the part (:class:`PartSettings` field names, SI: ``maxh_m``,
+        ``n_modes``, ``attach_per_tooth`` …; the part must be flexible in the preset);
+        ``carrier_seat_marker`` is a :data:`SeatMarker`. No other key is accepted.
+
+        Raises
+        ------
+        SpecError
+            Naming the key as ``{where}.key`` (e.g. ``[model].discs.n_modes``), the value and the
+            rule, and ``source`` (the file).
+        """
+        if not isinstance(table, Mapping):
+            raise SpecError(where, table, "must be a table", source)
+        extra = sorted(set(table) - set(MODEL_TABLE_KEYS))
+        if extra:
+            raise SpecError(f"{where}.{extra[0]}", table[extra[0]],
+                            f"unknown key; valid: {', '.join(MODEL_TABLE_KEYS)}", source)
+        fidelity = table.get("fidelity", "rigid")
+        check_choice(f"{where}.fidelity", fidelity, Fidelity, source)
+        options = cls.preset(fidelity)
+        if "carrier_seat_marker" in table:
+            check_choice(f"{where}.carrier_seat_marker", table["carrier_seat_marker"], SeatMarker, source)
+            options = dataclasses.replace(options, carrier_seat_marker=table["carrier_seat_marker"])
+        fields = tuple(f.name for f in dataclasses.fields(PartSettings))
+        for part in ("discs", "carrier"):
+            if part not in table:
+                continue
+            over = table[part]
+            if not isinstance(over, Mapping):
+                raise SpecError(f"{where}.{part}", over, "must be a table of PartSettings fields", source)
+            if not isinstance(getattr(options, part), PartSettings):
+                raise SpecError(f"{where}.{part}", dict(over), f"the {part} {'are' if part == 'discs' else 'is'} rigid with "
+                                                               f"fidelity = {fidelity!r}: "
+                                                               f"reduction settings apply to a flexible part only",
+                                source)
+            unknown = sorted(set(over) - set(fields))
+            if unknown:
+                raise SpecError(f"{where}.{part}.{unknown[0]}", over[unknown[0]],
+                                f"unknown key; valid: {', '.join(fields)}", source)
+            try:
+                options = options.with_fe(part, **over)
+            except SpecError as err:
+                raise err.within(f"{where}.{part}", source) from None
+        return options
 
     # -- reading ------------------------------------------------------------------------------
     @property

@@ -492,7 +492,7 @@ def register(sub) -> None:
     v.add_argument("--quick", action="store_true", help="reduced resolution (CI; under 3 minutes)")
     v.add_argument("--json", help="write the rows as a JSON list to this path")
     v.add_argument("--out", help="directory for validation.md and one comparison plot per seed")
-    v.add_argument("--only", help=f"comma-separated reproductions to run ({', '.join(REPRODUCTIONS)})")
+    v.add_argument("--only", help=f"comma-separated reproductions to run ({', '.join(REPRODUCTIONS)}; default: all)")
     v.set_defaults(func=main)
 
 

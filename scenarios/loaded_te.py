@@ -12,10 +12,9 @@ import math
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal
-
 import numpy as np
 
+from rvflex.choices import TEMode, check_choice
 from rvflex.geometry.formulas import ARCSEC_PER_RAD
 from rvflex.metrics import TEMetrics, order_spectrum, te_metrics
 from rvflex.model import ReducerModel
@@ -45,7 +44,7 @@ class LoadedTE:
     revolutions: float = 1.0
     positions_per_rev: int = 2048
     direction: int = 1
-    mode: Literal["quasi-static", "dynamic"] = "quasi-static"
+    mode: TEMode = "quasi-static"
     speed_out_rpm: float = 15.0
     step_s: float = 1e-4
     options: ModelOptions | str = ModelOptions()
@@ -61,8 +60,7 @@ class LoadedTE:
             raise SpecError("--positions", self.positions_per_rev, "must be at least 16 per output revolution")
         if self.direction not in (1, -1):
             raise SpecError("direction", self.direction, "must be +1 (forward) or -1 (reverse)")
-        if self.mode not in ("quasi-static", "dynamic"):
-            raise SpecError("--mode", self.mode, "must be 'quasi-static' or 'dynamic'")
+        check_choice("--mode", self.mode, TEMode)
         if self.mode == "dynamic" and not self.speed_out_rpm > 0:
             raise SpecError("--speed-out", self.speed_out_rpm, "must be positive in dynamic mode (rpm at the output)")
         if self.mode == "dynamic" and self.direction < 0:

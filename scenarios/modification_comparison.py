@@ -16,9 +16,11 @@ import dataclasses as dc
 
 import numpy as np
 
+from rvflex.choices import Fidelity
 from rvflex.geometry.formulas import hertz_line_deflection
 from rvflex.metrics import HysteresisMetrics
 from rvflex.model import build_reducer
+from rvflex.options import ModelOptions
 from rvflex.scenarios.lost_motion import LostMotion, run_lost_motion
 from rvflex.solve import quasi_static
 from rvflex.spec import ErrorSpec, ReducerSpec
@@ -48,12 +50,14 @@ def compensated_spec(spec: ReducerSpec, delta_max_m: float | None = None) -> Red
     return dc.replace(spec, cycloid=dc.replace(c, modification=dc.replace(c.modification, compensation_m=-delta)))
 
 
-def compare_modifications(spec: ReducerSpec, steps: int = 200, fidelity: str = "rigid") -> dict[str, HysteresisMetrics]:
+def compare_modifications(spec: ReducerSpec, steps: int = 200, options: ModelOptions | Fidelity = "rigid"
+                          ) -> dict[str, HysteresisMetrics]:
     """Hysteresis metrics of the traditional and the compensated profile (no other errors),
-    with rigid or FE-reduced (``fidelity="flexible"``) discs."""
+    of the model built with ``options`` (:class:`~rvflex.options.ModelOptions` or a preset name:
+    ``"flexible"`` for FE-reduced discs)."""
     out = {}
     for name, s in (("traditional", spec), ("compensated", compensated_spec(spec))):
-        out[name] = run_lost_motion(LostMotion(s, ErrorSpec(), spec.rated_torque_Nm, steps, fidelity))[1]
+        out[name] = run_lost_motion(LostMotion(s, ErrorSpec(), spec.rated_torque_Nm, steps, options))[1]
     return out
 
 
@@ -63,7 +67,7 @@ if __name__ == "__main__":
     spec = catalog.load("rv40e")
     print(f"δ_max = {compensation_amount_m(spec) * 1e6:.3f} µm")
     for fidelity in ("rigid", "flexible"):
-        for name, m in compare_modifications(spec, fidelity=fidelity).items():
+        for name, m in compare_modifications(spec, options=fidelity).items():
             print(f"{fidelity:8s} {name:12s} backlash {m.backlash_arcmin:.4f}′, lost motion {m.lost_motion_arcmin:.4f}′, "
                   f"stiffness {m.torsional_stiffness_Nm_per_arcmin:.2f} N·m/arcmin (50–100 % T_r slope), "
                   f"{m.secant_stiffness_Nm_per_arcmin:.2f} N·m/arcmin (secant over ±T_r)")

@@ -127,11 +127,12 @@ def run_seed000(sc: Seed000) -> Seed000Result:
     from exudyn.itemInterface import SensorNode
 
     from rvflex.model import build_reducer
+    from rvflex.options import ModelOptions
     from rvflex.solve import dynamic
 
     t0 = time.perf_counter()
     law = power_law(sc.spec)
-    model = build_reducer(sc.spec, sc.errors, "rigid", law=law)
+    model = build_reducer(sc.spec, sc.errors, ModelOptions(contact_law=law))  # rigid parts, seed 000's law
     load = sc.spec.rated_torque_Nm if sc.load_Nm is None else sc.load_Nm
     mbs = model.mbs
     sensors = []

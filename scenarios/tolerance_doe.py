@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from rvflex.choices import Executor
 from rvflex.sweep import classify, load_design, plot_main_effects, range_table, sweep
 
 __all__ = ["PAPER_CLASS", "run_tolerance_doe"]
@@ -22,7 +23,7 @@ PAPER_CLASS = {  # seed 004 §4: sensitive e, Δr_p, Δr_rp, r_b, r_r; insensiti
 }
 
 
-def run_tolerance_doe(out: Path, executor: str = "process") -> dict[str, list[dict]]:
+def run_tolerance_doe(out: Path, executor: Executor = "process") -> dict[str, list[dict]]:
     """Run both designs (resumable stores under ``out``); returns each design's range table
     with our class and the paper's."""
     tables = {}

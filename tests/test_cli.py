@@ -1,4 +1,5 @@
-"""The `rvflex geometry` command: JSON keys, figure, and refusal of bad input without output."""
+"""The `rvflex geometry` command: JSON keys, figure, and refusal of bad input without output; the
+help of the commands states the defaults the code uses; `rvflex reduce` defaults to the presets."""
 
 from __future__ import annotations
 
@@ -76,3 +77,72 @@ def test_bench_contact_json_keys(tmp_path):
     assert c["noise_floor_te_pp_arcsec"] <= 0.05
     assert c["ours_geom_error_m"] < 1e-9 < c["curvecircles_geom_error_m"]
     assert c["speedup"] > 1.0
+
+
+# --------------------------------------------------------------------------- help states the code's defaults
+
+
+def _help(capsys, *argv: str) -> str:
+    """The --help text of ``rvflex argv``, whitespace collapsed."""
+    with pytest.raises(SystemExit):
+        main([*argv, "--help"])
+    return " ".join(capsys.readouterr().out.split())
+
+
+def test_model_command_help_states_the_preset_reductions(capsys):
+    from rvflex.options import CARRIER_FE, DISC_FE
+
+    for command in ("te", "lost-motion", "backlash"):
+        text = _help(capsys, command)
+        assert (f"preset's disc settings: {DISC_FE.maxh_m:g} m, order {DISC_FE.mesh_order}, {DISC_FE.n_modes} modes, "
+                f"{DISC_FE.attach_per_tooth} attachment patches/tooth; carrier: {CARRIER_FE.maxh_m:g} m, order "
+                f"{CARRIER_FE.mesh_order}, {CARRIER_FE.n_modes} modes, {CARRIER_FE.seat_coupling} seats") in text
+        assert f"fixed-interface eigenmodes (default {DISC_FE.n_modes})" in text
+        assert "(default rigid)" in text and "default: no errors" in text
+    from rvflex.scenarios.reversal_backlash import DEFAULT_LOAD_FRACTION
+
+    assert f"default: {DEFAULT_LOAD_FRACTION * 100:g} % of rated" in _help(capsys, "backlash")
+
+
+def test_reduce_help_states_the_one_default_reduction_per_part(capsys):
+    from rvflex.fe.reduce import DEFAULTS, DISC_FLANK_BASIS
+    from rvflex.options import CARRIER_FE, DISC_FE
+
+    assert DEFAULTS["disc"] is DISC_FE and DEFAULTS["carrier"] is CARRIER_FE
+    text = _help(capsys, "reduce")
+    assert (f"disc maxh {DISC_FE.maxh_m * 1e3:g} mm, {DISC_FE.n_modes} eigenmodes, order-{DISC_FE.mesh_order} tets, "
+            "curvature safety 1, no flank attachment modes") in text
+    assert f"carrier maxh {CARRIER_FE.maxh_m * 1e3:g} mm, {CARRIER_FE.n_modes} eigenmodes" in text
+    assert f"(default {DISC_FE.n_modes} for the disc, {CARRIER_FE.n_modes} for the carrier)" in text
+    assert f"--modes {DISC_FLANK_BASIS.n_modes} --attach {DISC_FLANK_BASIS.attach_per_tooth}" in text
+
+
+def test_reduce_command_reduces_with_the_model_presets(monkeypatch, capsys):
+    """``rvflex reduce`` without settings reduces each part exactly as the flexible presets do
+    (the uncached build step is stood in for, so nothing is meshed); flags override fields."""
+    from rvflex.fe import reduce
+    from rvflex.fe.reduce import DISC_FLANK_BASIS
+    from rvflex.options import ModelOptions
+
+    seen = {}
+
+    class Built(Exception):
+        pass
+
+    def stand_in(spec, part, settings, key, progress):
+        seen[part] = settings
+        raise Built
+
+    monkeypatch.setattr(reduce, "_build", stand_in)
+    for part, want in (("disc", ModelOptions.flexible_discs().discs),
+                       ("carrier", ModelOptions.flexible_discs_and_carrier().carrier)):
+        with pytest.raises(Built):
+            main(["reduce", "--reducer", "rv40e", "--part", part, "--no-cache"])
+        assert seen[part] == want
+    with pytest.raises(Built):
+        main(["reduce", "--reducer", "rv40e", "--part", "disc", "--no-cache", "--modes", "10", "--attach", "2"])
+    assert seen["disc"] == DISC_FLANK_BASIS
+    seen.clear()
+    assert main(["reduce", "--reducer", "rv40e", "--part", "carrier", "--attach", "2"]) == 2
+    assert "--attach = 2: flank attachment modes apply to --part disc only" in capsys.readouterr().err
+    assert not seen

@@ -267,15 +267,18 @@ def test_two_processes_writing_the_same_key(disc, cache_dir, tmp_path):
 
 
 @pytest.fixture(scope="module")
-def default_disc(spec, tmp_path_factory):
-    from rvflex.fe.reduce import reduce_part
+def flank_basis_disc(spec, tmp_path_factory):
+    """The quadratic-tet disc with flank attachment modes (DISC_FLANK_BASIS: the basis the static
+    flank check is about; the model's default disc, DEFAULTS["disc"], has none)."""
+    from rvflex.fe.reduce import DISC_FLANK_BASIS, reduce_part
 
-    return reduce_part(spec, "disc", cache_dir=tmp_path_factory.mktemp("fe-default"))
+    return reduce_part(spec, "disc", cache_dir=tmp_path_factory.mktemp("fe-default"),
+                       **dataclasses.asdict(DISC_FLANK_BASIS))
 
 
 @pytest.mark.slow
-def test_free_free_frequency_near_plate_estimate(default_disc, spec):
-    """First elastic free–free mode of the default (quadratic-tet) disc vs a free Kirchhoff
+def test_free_free_frequency_near_plate_estimate(flank_basis_disc, spec):
+    """First elastic free–free mode of the flank-basis (quadratic-tet) disc vs a free Kirchhoff
     plate with 2 nodal diameters (λ² = 5.25, Leissa): f = λ²/(2πa²)·√(D/ρh), a = r_p − r_rp
     ≈ 3.2 kHz. The holes (−15 % of the area, at the crank circle) and the teeth move it:
     accepted 0.75–1.25 × the estimate."""
@@ -285,33 +288,36 @@ def test_free_free_frequency_near_plate_estimate(default_disc, spec):
     h, a = cy.disc_thickness_m, cy.pin_circle_radius_m - cy.pin_radius_m
     D = m.youngs_modulus_Pa * h**3 / (12 * (1 - m.poisson_ratio**2))
     f_plate = 5.25 / (2 * math.pi * a**2) * math.sqrt(D / (m.density_kg_m3 * h))
-    f = free_free_frequencies_hz(default_disc, 4)
+    f = free_free_frequencies_hz(flank_basis_disc, 4)
     assert 0.75 * f_plate < f[0] < 1.25 * f_plate
 
 
 @pytest.mark.slow
-def test_default_disc_mass_and_flank_error(default_disc, spec):
+def test_flank_basis_disc_mass_and_flank_error(flank_basis_disc, spec):
     """Quadratic (curved) tets: FE mass = ρ·(exact profile area − holes)·T to 0.1 %; flank error ≤ 5 %."""
     from rvflex.fe.geometry import disc_geometry
 
-    M = default_disc.fem.GetMassMatrix(sparse=True)
+    M = flank_basis_disc.fem.GetMassMatrix(sparse=True)
     ones = np.zeros(M.shape[0])
     ones[0::3] = 1.0
     vol = disc_geometry(spec).volume_m3
     assert ones @ (M @ ones) == pytest.approx(spec.materials.gears_cranks_discs.density_kg_m3 * vol, rel=1e-3)
-    assert default_disc.check.flank_pct <= 5.0
+    assert flank_basis_disc.check.flank_pct <= 5.0
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("part", ["disc", "carrier"])
-def test_cli_reduce_default_settings(part, tmp_path, capsys):
-    """The default (quadratic-tet) reductions through ``rvflex reduce``: JSON keys, flank
-    (pillar) error ≤ 5 % (carrier: seats too), first fixed-interface mode in the kHz range
-    (carrier: above 300 Hz); the warm run is a cache hit within 2 s."""
+def test_cli_reduce_quadratic_settings(part, tmp_path, capsys):
+    """The quadratic-tet reductions through ``rvflex reduce`` (carrier: its default; disc: the
+    flank basis, ``--modes 10 --attach 2``, as the default disc has no flank attachment modes):
+    JSON keys, flank (pillar) error ≤ 5 % (carrier: seats too), first fixed-interface mode in the
+    kHz range (carrier: above 300 Hz); the warm run is a cache hit within 2 s."""
     from rvflex.cli import main
 
     out = tmp_path / "r.json"
     args = ["reduce", "--reducer", "rv40e", "--part", part, "--json", str(out), "--cache-dir", str(tmp_path)]
+    if part == "disc":
+        args += ["--modes", "10", "--attach", "2"]
     assert main(args) == 0
     doc = json.loads(out.read_text())
     assert set(doc) == {"n_nodes", "n_modes", "freqs_hz", "static_error_pct", "wall_s", "cached"}

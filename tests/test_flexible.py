@@ -150,10 +150,12 @@ def test_flexibility_effect_scenario_writes_its_table(setup, tmp_path):
 def test_fe_convergence_scenario_runs_its_cases(setup):
     """Smoke run of the convergence study on the (cached) coarse reduction: the rigid row and
     the flexible row agree with the direct runs above within solver noise."""
+    from rvflex.fe.reduce import settings_for
     from rvflex.scenarios.fe_convergence import fe_convergence
 
     spec, reduced, theta, rigid = setup
-    rows = fe_convergence(spec, positions=len(theta), cases=(("coarse", COARSE),), progress=lambda msg: None)
+    rows = fe_convergence(spec, positions=len(theta), cases=(("coarse", settings_for("disc", **COARSE)),),
+                          progress=lambda msg: None)
     assert [r["case"] for r in rows] == ["rigid discs", "coarse"]
     assert rows[0]["mean_windup_arcsec"] == pytest.approx(rigid.mean(), abs=1e-6)
     assert rows[1]["n_modes"] == reduced.n_modes

@@ -146,6 +146,7 @@ FORBIDDEN = [
     (("rvflex.model", "rvflex.solve"), ("rvflex.scenarios", "rvflex.sweep", "rvflex.diagnose"), (), ()),
     (("rvflex.solve",), ("rvflex.parts",), (), ()),  # solvers talk to the model; shared numbers: rvflex.numerics
     (PLUMBING + ("rvflex.spec_types",), ("rvflex",), (), PLUMBING),  # plumbing and the spec types at the bottom
+    (("rvflex.choices",), ("rvflex",), (), PLUMBING + ("rvflex.spec_types",)),  # the option types, just above them
 ]
 
 
@@ -167,3 +168,39 @@ def test_walker_sees_the_whole_package():
             "rvflex.sweep.executors"} <= set(mods)
     edges, _ = graph()
     assert "rvflex.fe.reduce" in edges["rvflex.model"]  # a function-local import is an edge
+
+
+# Options that select behaviour are Literal types checked by rvflex.choices.check_choice, never a
+# bare ``str``: a dataclass field or a function parameter with one of these names annotated ``str``
+# fails. Known exceptions, each with its reason:
+OPTION_NAMES = {"mode", "kind", "fidelity", "seat_marker", "seat_coupling", "patch_shape", "executor", "distribution",
+                "part"}
+BARE_STRING_ALLOWED = {
+    "rvflex.spec_types:kind",  # Bearing.kind describes the bearing (checked against BEARING_KINDS), selects no code
+    # rvflex/diagnose is owned by the diagnosis issue; its fidelity strings go through rvflex.options.as_options
+    "rvflex.diagnose.bench:kind", "rvflex.diagnose.effects:kind", "rvflex.diagnose.effects:fidelity",
+    "rvflex.diagnose.replay:kind", "rvflex.diagnose.replay:fidelity", "rvflex.diagnose.selfcheck:fidelity",
+}
+
+
+def bare_string_options() -> set[str]:
+    """``module:name`` of every option-named field or parameter annotated plain ``str``."""
+    found = set()
+    for name, path in modules().items():
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name):
+                target, annotation = node.target.id, node.annotation
+            elif isinstance(node, ast.arg) and node.annotation is not None:
+                target, annotation = node.arg, node.annotation
+            else:
+                continue
+            if target in OPTION_NAMES and isinstance(annotation, ast.Name) and annotation.id == "str":
+                found.add(f"{name}:{target}")
+    return found
+
+
+def test_options_that_select_behaviour_are_literal_types():
+    found = bare_string_options()
+    assert not found - BARE_STRING_ALLOWED, "bare str options (type them with rvflex.choices):\n" + "\n".join(
+        sorted(found - BARE_STRING_ALLOWED))
+    assert found & BARE_STRING_ALLOWED  # the walker sees annotations (and the allowed list is not stale)

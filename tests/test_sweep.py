@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 from pathlib import Path
 
@@ -241,7 +242,121 @@ def test_only_the_point_that_kills_its_worker_is_recorded_as_dead(tmp_path, monk
         return {"te_pp_arcsec": 1e6 * sum(point.values())}
 
     monkeypatch.setattr(sw, "evaluate_point", stand_in)
-    monkeypatch.setattr(sw, "warm_process", lambda reducer, scenario: reducer)
+    monkeypatch.setattr(sw, "warm_process", lambda reducer, scenario, options=None: reducer)
     res = sweep(load_design(SMOKE), tmp_path / "k.sqlite", executor="process", workers=2)
     assert [r["point"] for r in res.rows if r.get("error") == "worker died"] == [1]
     assert res.finished == 5 and res.failed == 1
+
+
+# --------------------------------------------------------------------------- model options of a design
+
+SMOKE_FLEXIBLE = SMOKE.with_name("smoke_flexible.toml")
+
+
+def test_design_model_table_maps_to_model_options(tmp_path):
+    """``[model]`` becomes the design's ModelOptions: the preset of ``fidelity`` with the
+    ``[model.discs]`` fields overridden; no table is rigid, and a rigid design keeps the digest it
+    had before designs carried options (its stores resume)."""
+    from rvflex.options import ModelOptions
+
+    assert load_design(SMOKE).options == ModelOptions.rigid()
+    assert load_design(SMOKE).digest == "50a0ec0d575e8eed"  # the digest of smoke.toml before [model] existed
+    assert load_design(SMOKE_FLEXIBLE).options == ModelOptions.flexible_discs()
+    p = tmp_path / "d.toml"
+    p.write_text(SMOKE.read_text() + '\n[model]\nfidelity = "rigid"\n')
+    assert load_design(p).digest == load_design(SMOKE).digest
+    p.write_text(SMOKE.read_text() + '\n[model]\nfidelity = "flexible-carrier"\ncarrier_seat_marker = "all_nodes"\n'
+                                     '[model.discs]\nn_modes = 24\nmaxh_m = 8e-3\n[model.carrier]\nseat_coupling = "rbe2"\n')
+    d = load_design(p)
+    want = ModelOptions.flexible_discs_and_carrier().with_fe("discs", n_modes=24, maxh_m=8e-3).with_fe(
+        "carrier", seat_coupling="rbe2")
+    assert d.options == dataclasses.replace(want, carrier_seat_marker="all_nodes")
+    assert d.digest != load_design(SMOKE).digest  # another model: another store
+
+
+@pytest.mark.parametrize("model, message", [
+    ('fidelity = "flex"', r"\[model\]\.fidelity = 'flex': must be one of 'rigid', 'flexible', 'flexible-carrier'"),
+    ("fidelity = 1", r"\[model\]\.fidelity = 1: must be one of"),
+    ('fidelty = "flexible"', r"\[model\]\.fidelty = 'flexible': unknown key; valid: fidelity, discs, carrier"),
+    ('fidelity = "rigid"\n[model.discs]\nn_modes = 24', r"\[model\]\.discs = .*rigid with fidelity = 'rigid'"),
+    ('fidelity = "flexible"\n[model.discs]\nmodes = 24', r"\[model\]\.discs\.modes = 24: unknown key; valid: maxh_m"),
+    ('fidelity = "flexible"\n[model.discs]\nn_modes = 2.5', r"\[model\]\.discs\.n_modes = 2\.5: must be an integer"),
+    ('fidelity = "flexible"\n[model.discs]\nmaxh_m = 6', r"\[model\]\.discs\.maxh_m = 6: expected metres"),
+    ('fidelity = "flexible"\n[model.carrier]\nn_modes = 4', r"\[model\]\.carrier = .*the carrier is rigid"),
+    ('fidelity = "flexible-carrier"\n[model.carrier]\nseat_coupling = "rbe4"',
+     r"\[model\]\.carrier\.seat_coupling = 'rbe4': must be one of 'rbe3', 'rbe2'"),
+    ('carrier_seat_marker = "some"', r"\[model\]\.carrier_seat_marker = 'some': must be one of 'virtual', 'all_nodes'"),
+])
+def test_design_with_invalid_model_options_is_refused_naming_the_key(tmp_path, model, message):
+    p = tmp_path / "d.toml"
+    p.write_text(SMOKE.read_text() + f"\n[model]\n{model}\n")
+    with pytest.raises(SpecError, match=message) as err:
+        load_design(p)
+    assert str(p) in str(err.value)  # the file is named too
+
+
+@pytest.mark.parametrize("old, new, message", [
+    ('scenario = "te"', 'scenario = "te"\nfidelity = "flexible"',
+     r"\[sweep\]\.fidelity = 'flexible': unknown key \(model options go in the \[model\] table\)"),
+    ('kind = "single-factor"', 'kind = "single_factor"', r"\[sweep\]\.kind = 'single_factor': must be one of"),
+    ('kind = "single-factor"', 'kind = "monte-carlo"\ndistribution = "gaussian"\nsamples = 2',
+     r"\[sweep\]\.distribution = 'gaussian': must be one of 'uniform', 'normal'"),
+    ("[sweep]", "[modle]\nfidelity = 'flexible'\n\n[sweep]", r"\[modle\] = .*unknown table; valid: \[sweep\]"),
+])
+def test_design_sweep_table_choices_are_checked(tmp_path, old, new, message):
+    p = tmp_path / "d.toml"
+    p.write_text(SMOKE.read_text().replace(old, new, 1))
+    with pytest.raises(SpecError, match=message):
+        load_design(p)
+
+
+def test_every_point_runs_with_the_design_options(tmp_path, monkeypatch):
+    """The design's ModelOptions reach the scenario of every point, under either executor
+    (a stand-in scenario records what it gets)."""
+    from rvflex.sweep import SweepScenario, registry
+
+    p = tmp_path / "d.toml"
+    p.write_text(SMOKE.read_text().replace('scenario = "te"', 'scenario = "record-options"')
+                 + '\n[model]\nfidelity = "flexible"\n[model.discs]\nn_modes = 7\n')
+    monkeypatch.setitem(registry._REGISTRY, "record-options",
+                        SweepScenario("record-options", _record_options, "n_modes", "1", _no_warm))
+    design = load_design(p)
+    for executor in ("serial", "process"):
+        res = sweep(design, tmp_path / f"{executor}.sqlite", executor=executor, workers=2)
+        assert res.failed == 0 and len(res.rows) == 6
+        assert {r["n_modes"] for r in res.rows} == {7.0}
+        assert {r["flexible_carrier"] for r in res.rows} == {0.0}
+
+
+def _record_options(spec, errors, load_Nm, positions_per_rev, revolutions, options):
+    return {"n_modes": float(options.discs.n_modes), "flexible_carrier": float(options.flexible_carrier_on)}
+
+
+def _no_warm():
+    pass
+
+
+@pytest.mark.flexible
+def test_flexible_design_point_equals_the_flexible_scenario_run(tmp_path, coarse_disc):
+    """A sweep point of a flexible design (coarse disc: 8 mm linear tets, 12 modes) gives the TE
+    of the same LoadedTE run directly with the same options, and not the rigid model's."""
+    import rvflex
+    from rvflex.options import ModelOptions
+    from rvflex.sweep import FACTORS
+
+    spec, _ = coarse_disc  # the coarse disc is in the session's FE cache
+    p = tmp_path / "d.toml"
+    p.write_text(SMOKE_FLEXIBLE.read_text().replace("levels = [-1e-6, 1e-6]", "levels = [1e-6]")
+                 .replace("positions_per_rev = 64", "positions_per_rev = 32").replace("revolutions = 0.25", "revolutions = 0.125")
+                 + "\n[model.discs]\nmaxh_m = 8e-3\nmesh_order = 1\n")
+    design = load_design(p)
+    options = ModelOptions.flexible_discs().with_fe("discs", maxh_m=8e-3, mesh_order=1)
+    assert design.options == options
+    res = sweep(design, tmp_path / "f.sqlite", executor="serial")
+    assert res.failed == 0
+    variant, errors = FACTORS["pin_radius"][2](spec, rvflex.ErrorSpec(), 1e-6)
+    runs = {name: rvflex.run(rvflex.LoadedTE(variant, errors, 412.0, 0.125, 32, options=o)).metrics
+            for name, o in (("flexible", options), ("rigid", ModelOptions.rigid()))}
+    assert res.rows[0]["te_pp_arcsec"] == pytest.approx(runs["flexible"].te_pp_arcsec, rel=1e-9, abs=1e-9)
+    assert res.rows[0]["mean_windup_arcsec"] == pytest.approx(runs["flexible"].mean_windup_arcsec, rel=1e-9)
+    assert abs(runs["flexible"].mean_windup_arcsec - runs["rigid"].mean_windup_arcsec) > 0.1  # the discs' compliance

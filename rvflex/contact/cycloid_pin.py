@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from rvflex.choices import ContactLawKind, check_choice
 from rvflex.contact import _cycloid_kernel as K
 from rvflex.geometry.pins import pin_centres, pin_radii
 from rvflex.geometry.profile import CycloidProfile, build_profile
@@ -69,7 +70,7 @@ class ContactLaw:
         and Newton cycles there. ``default_contact_law`` takes R_b = the pin-circle radius.
     """
 
-    kind: str
+    kind: ContactLawKind
     stiffness: float = 0.0
     exponent: float = 1.0
     damping_Ns_m: float = 0.0
@@ -81,8 +82,7 @@ class ContactLaw:
     body_radius_m: float = math.inf
 
     def __post_init__(self) -> None:
-        if self.kind not in ("linear", "power", "line", "strip"):
-            raise ValueError(f"contact law kind = {self.kind!r}: must be 'linear', 'power', 'line' or 'strip'")
+        check_choice("contact law kind", self.kind, ContactLawKind)
         if self.kind != "line" and not self.stiffness > 0:
             raise ValueError(f"contact law stiffness = {self.stiffness!r}: must be positive")
         if self.kind == "power" and not 1.0 <= self.exponent <= 3.0:

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 
+from rvflex.choices import FEPart
 from rvflex.fe import geometry
 from rvflex.fe.types import FlankRows, Interface, PartSettings, ReducedPart, StaticCheck
 from rvflex.io import write_atomic
@@ -39,7 +40,7 @@ def cache_root(cache_dir: str | os.PathLike | None = None) -> Path:
     return Path(env) if env else Path.home() / ".cache" / "rvflex"
 
 
-def _inputs(spec: ReducerSpec, part: str) -> dict:
+def _inputs(spec: ReducerSpec, part: FEPart) -> dict:
     """The spec fields the part's geometry and material depend on (and nothing else, so a
     sweep over bearing stiffness or errors reuses the reduction)."""
     cy, cr, ca = spec.cycloid, spec.cranks, spec.carrier
@@ -55,7 +56,7 @@ def _inputs(spec: ReducerSpec, part: str) -> dict:
             "material": dataclasses.asdict(spec.materials.carriers)}
 
 
-def key_for(spec: ReducerSpec, part: str, settings, code_version: str) -> str:
+def key_for(spec: ReducerSpec, part: FEPart, settings, code_version: str) -> str:
     """Content hash (hex, 24 chars) of geometry, material, mesh/reduction settings and code version."""
     # versions from the metadata: importing exudyn/ngsolve here would slow every warm load
     from importlib.metadata import version

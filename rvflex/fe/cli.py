@@ -8,59 +8,77 @@ import sys
 import time
 
 from rvflex import catalog
-from rvflex.fe.reduce import DEFAULTS, STEPS, reduce_part
+from rvflex.choices import FEPart, choices
+from rvflex.fe.reduce import DEFAULTS, DISC_FLANK_BASIS, STEPS, reduce_part
 from rvflex.io import emit
+from rvflex.spec import SpecError
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the FE sub-commands to the ``rvflex`` parser."""
-    from rvflex.options import CARRIER_FE, DISC_FE
-
     disc, carrier = DEFAULTS["disc"], DEFAULTS["carrier"]
-
-    def basis(s, part: str = "disc") -> str:
-        attach = f", {s.attach_per_tooth} attachment patches/tooth" if part == "disc" else ""
-        return f"{s.maxh_m * 1e3:g} mm order-{s.mesh_order} tets, {s.n_modes} modes{attach}"
-
     p = sub.add_parser("reduce", help="Craig–Bampton-reduce a flexible part (cached on disk)",
                        description="Mesh a part with netgen, reduce it (Hurty–Craig–Bampton; disc: rigid RBE2 "
                                    "bores; carrier: output face the reference, distributing RBE3 crank seats) and "
                                    "report its size, eigenfrequencies and the reduced-vs-full static error at "
                                    "rated load. JSON keys: n_nodes, n_modes, freqs_hz, static_error_pct "
-                                   "({flank, interface, max}, %), wall_s, cached. Defaults (rvflex.fe.reduce.DEFAULTS): "
-                                   f"disc {_describe(disc)} (the reference basis of the flank check); carrier "
-                                   f"{_describe(carrier)}, {carrier.seat_coupling.upper()} seats. The "
-                                   "models of --fidelity flexible / flexible-carrier use the ModelOptions presets "
-                                   f"(rvflex.options): disc {basis(DISC_FE)} (global deformation only), carrier "
-                                   f"{basis(CARRIER_FE, 'carrier')} — the same carrier reduction as this command's.")
+                                   "({flank, interface, max}, %), wall_s, cached. Defaults: the one reduction per "
+                                   "part that the models of --fidelity flexible / flexible-carrier use "
+                                   "(rvflex.fe.reduce.DEFAULTS, the ModelOptions presets' DISC_FE and CARRIER_FE): "
+                                   f"disc {_describe(disc, 'disc')}; carrier {_describe(carrier, 'carrier')}. The disc basis the "
+                                   "static flank check is about, with flank attachment modes "
+                                   f"(rvflex.fe.reduce.DISC_FLANK_BASIS): --modes {DISC_FLANK_BASIS.n_modes} "
+                                   f"--attach {DISC_FLANK_BASIS.attach_per_tooth}.")
     p.add_argument("--reducer", required=True, help="catalogue name (rv40e) or spec TOML path")
-    p.add_argument("--part", required=True, choices=("disc", "carrier"))
+    p.add_argument("--part", required=True, choices=choices(FEPart))
     p.add_argument("--json", help="write the result document here")
-    p.add_argument("--maxh", type=float, help=f"largest element size, m (default {disc.maxh_m:g} for the disc, "
+    p.add_argument("--maxh", type=float, metavar="M", help=f"largest element size, m (default {disc.maxh_m:g} for the disc, "
                                               f"{carrier.maxh_m:g} for the carrier)")
-    p.add_argument("--modes", type=int, help=f"fixed-interface eigenmodes (default {disc.n_modes} for the disc, "
+    p.add_argument("--modes", type=int, metavar="N", help=f"fixed-interface eigenmodes (default {disc.n_modes} for the disc, "
                                              f"{carrier.n_modes} for the carrier)")
+    p.add_argument("--attach", type=int, dest="attach_per_tooth", metavar="N",
+                   help=f"disc only: flank attachment patches per tooth, normal and tangential loads (default "
+                        f"{disc.attach_per_tooth})")
+    p.add_argument("--order", type=int, choices=(1, 2), dest="mesh_order",
+                   help=f"tet order (default {disc.mesh_order} for the disc, {carrier.mesh_order} for the carrier)")
     p.add_argument("--no-cache", action="store_true", help="compute afresh and do not write the cache")
     p.add_argument("--cache-dir", help="cache directory (default $RVFLEX_CACHE_DIR or ~/.cache/rvflex)")
     p.add_argument("--out", help=argparse.SUPPRESS)
     p.set_defaults(func=_cmd_reduce)
 
 
-def _describe(s) -> str:
+def _describe(s, part: FEPart) -> str:
     """The settings of one part in words, for the help text."""
     words = [f"maxh {s.maxh_m * 1e3:g} mm", f"{s.n_modes} eigenmodes", f"order-{s.mesh_order} tets",
              f"curvature safety {s.curvature_safety:g}"]
-    if s.attach_per_tooth:
+    if part == "carrier":
+        words.append("distributing (RBE3) crank seats, 6 seat attachment modes each" if s.seat_coupling == "rbe3"
+                     else "rigid (RBE2) crank seats")
+    elif s.attach_per_tooth:
         words.append(f"{s.attach_per_tooth} attachment modes per tooth"
                      f"{' (normal and tangential)' if s.attach_tangential else ''}, {s.patch_shape} patches of "
                      f"half-width {s.patch_half_width_m * 1e3:g} mm")
+    else:
+        words.append(f"no flank attachment modes (flank rows on {s.patch_shape} patches of half-width "
+                     f"{s.patch_half_width_m * 1e3:g} mm)")
     return ", ".join(words)
+
+
+def reduce_settings(args: argparse.Namespace) -> dict:
+    """The :func:`reduce_part` settings the ``rvflex reduce`` flags give (omitted flags: the
+    defaults, :data:`rvflex.fe.reduce.DEFAULTS`); ``--attach`` applies to the disc only."""
+    if args.attach_per_tooth is not None and args.part != "disc":
+        raise SpecError("--attach", args.attach_per_tooth, "flank attachment modes apply to --part disc only")
+    given = {"maxh_m": args.maxh, "n_modes": args.modes, "attach_per_tooth": args.attach_per_tooth,
+             "mesh_order": args.mesh_order}
+    return {k: v for k, v in given.items() if v is not None}
 
 
 def _cmd_reduce(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
     spec = catalog.resolve(args.reducer)
+    settings = reduce_settings(args)
     t0 = time.perf_counter()
     with tqdm(total=len(STEPS), desc=f"reduce {args.part}", unit="step", file=sys.stderr, mininterval=0.2,
               bar_format="{desc}: {n}/{total} {postfix} [{elapsed}]") as bar:
@@ -68,8 +86,8 @@ def _cmd_reduce(args: argparse.Namespace) -> int:
             bar.set_postfix_str(step)
             bar.update(1)
 
-        rp = reduce_part(spec, args.part, maxh_m=args.maxh, n_modes=args.modes, cache_dir=args.cache_dir,
-                         use_cache=not args.no_cache, progress=progress)
+        rp = reduce_part(spec, args.part, cache_dir=args.cache_dir, use_cache=not args.no_cache, progress=progress,
+                         **settings)
     wall = time.perf_counter() - t0
     chk = rp.check
     doc = {

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rvflex.choices import FEPart
 from rvflex.geometry.profile import CycloidProfile, build_profile
 from rvflex.spec import ReducerSpec, SpecError
 
@@ -73,7 +74,7 @@ class PartGeometry:
         Solid volume (m³), used for the mesh-size estimate.
     """
 
-    part: str
+    part: FEPart
     shape: object
     interfaces: tuple[tuple[str, ...], ...]
     interface_names: tuple[str, ...]
@@ -250,7 +251,7 @@ def carrier_geometry(spec: ReducerSpec) -> PartGeometry:
     return PartGeometry("carrier", solid, tuple(groups), tuple(names), np.array(centres), float(solid.mass))
 
 
-def part_geometry(spec: ReducerSpec, part: str) -> PartGeometry:
+def part_geometry(spec: ReducerSpec, part: FEPart) -> PartGeometry:
     """Geometry of ``part`` (``"disc"`` or ``"carrier"``)."""
     if part == "disc":
         return disc_geometry(spec)

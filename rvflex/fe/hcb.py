@@ -11,6 +11,7 @@ import time
 
 import numpy as np
 
+from rvflex.choices import FEPart
 from rvflex.fe.checks import carrier_check, disc_check
 from rvflex.fe.couplings import boundary_node_sets, interfaces_of, rbe3_loads, rigid_map
 from rvflex.fe.geometry import part_geometry
@@ -46,7 +47,7 @@ def _available_bytes() -> int:
     return 8 << 30
 
 
-def estimate_tets(volume_m3: float, maxh_m: float, part: str, curvature_safety: float = 2.0) -> int:
+def estimate_tets(volume_m3: float, maxh_m: float, part: FEPart, curvature_safety: float = 2.0) -> int:
     """Tet count estimate: 4·V/maxh³ (fitted to netgen's graded meshes, docs/fe.md) plus the
     floor that the curvature of the tooth profile forces on the disc (RV-40E: ≈ 6 000 tets
     at curvaturesafety 1, 23 000 at 2, whatever maxh)."""
@@ -76,7 +77,7 @@ def _progress(progress, msg: str) -> None:
         progress(msg)
 
 
-def build(spec: ReducerSpec, part: str, s: PartSettings, key: str, progress=None) -> ReducedPart:
+def build(spec: ReducerSpec, part: FEPart, s: PartSettings, key: str, progress=None) -> ReducedPart:
     import ngsolve as ngs
     from exudyn.FEM import FEMinterface
     from netgen.occ import OCCGeometry

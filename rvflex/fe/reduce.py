@@ -40,6 +40,7 @@ import os
 
 import numpy as np
 
+from rvflex.choices import FEPart
 from rvflex.fe import cache
 from rvflex.fe.checks import static_check
 from rvflex.fe.couplings import nodeset, rbe3_loads, rbe3_virtual_nodes, rigid_map
@@ -49,6 +50,7 @@ from rvflex.fe.types import (
     CHECK_ANGLES_PITCH,
     CODE_VERSION,
     DEFAULTS,
+    DISC_FLANK_BASIS,
     FEError,
     FlankRows,
     Interface,
@@ -64,6 +66,7 @@ __all__ = [
     "CHECK_ANGLES_PITCH",
     "CODE_VERSION",
     "DEFAULTS",
+    "DISC_FLANK_BASIS",
     "STEPS",
     "FEError",
     "FlankRows",
@@ -87,7 +90,7 @@ _build = build  # the uncached step; a module attribute so tests can stand in fo
 _nodeset = nodeset  # old private name (tests)
 
 
-def reduce_part(spec: ReducerSpec, part: str, *, maxh_m: float | None = None, n_modes: int | None = None,
+def reduce_part(spec: ReducerSpec, part: FEPart, *, maxh_m: float | None = None, n_modes: int | None = None,
                 cache_dir: str | os.PathLike | None = None, use_cache: bool = True, progress=None,
                 **settings) -> ReducedPart:
     """Reduce ``part`` (``"disc"`` or ``"carrier"``) of ``spec``, from the disk cache when possible.
@@ -97,7 +100,8 @@ def reduce_part(spec: ReducerSpec, part: str, *, maxh_m: float | None = None, n_
     spec : ReducerSpec
     part : {"disc", "carrier"}
     maxh_m : float, optional
-        Largest element size (m); default :data:`DEFAULTS`.
+        Largest element size (m); default :data:`DEFAULTS` (the flexible presets' reduction of
+        ``part``).
     n_modes : int, optional
         Fixed-interface eigenmodes; default :data:`DEFAULTS`.
     cache_dir : path, optional
@@ -153,7 +157,7 @@ def free_free_frequencies_hz(rp: ReducedPart, n: int = 6) -> np.ndarray:
     return np.sqrt(np.abs(lam[6:6 + n])) / (2 * np.pi)
 
 
-def convergence_study(spec: ReducerSpec, part: str, variants, *, metric=None, cache_dir=None,
+def convergence_study(spec: ReducerSpec, part: FEPart, variants, *, metric=None, cache_dir=None,
                       progress=None) -> list[dict]:
     """Reduce ``part`` for each settings variant (dicts of :func:`reduce_part` keywords, e.g.
     ``{"maxh_m": 3e-3}``, ``{"n_modes": 20}``) and tabulate the results.

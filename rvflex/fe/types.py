@@ -9,9 +9,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from rvflex.choices import FEPart, PatchShape, SeatCoupling, check_choice
 from rvflex.spec import SpecError
 
-__all__ = ["CHECK_ANGLES_PITCH", "CODE_VERSION", "DEFAULTS", "FEError", "FlankRows", "Interface", "PartSettings", "ReducedPart", "StaticCheck", "VirtualNodes", "settings_for"]
+__all__ = ["CHECK_ANGLES_PITCH", "CODE_VERSION", "DEFAULTS", "DISC_FLANK_BASIS", "FEError", "FlankRows", "Interface", "PartSettings", "ReducedPart", "StaticCheck", "VirtualNodes", "settings_for"]
 
 
 CODE_VERSION = "fe-2"  # bump when the reduction's numbers change for the same inputs (part of the cache key)
@@ -40,9 +41,9 @@ class PartSettings:
     patch_half_width_m: float = 2.5e-3
     attach_per_tooth: int = 0
     curvature_safety: float = 2.0
-    patch_shape: str = "hat"
+    patch_shape: PatchShape = "hat"
     attach_tangential: bool = False
-    seat_coupling: str = "rbe3"  # carrier crank seats: "rbe3" distributing coupling (default) or "rbe2" rigid rings
+    seat_coupling: SeatCoupling = "rbe3"  # carrier crank seats: "rbe3" distributing coupling (default) or "rbe2" rigid rings
 
     def __post_init__(self) -> None:
         if not (isinstance(self.maxh_m, (int, float)) and 0.3e-3 <= self.maxh_m <= 0.05):
@@ -53,28 +54,40 @@ class PartSettings:
             raise SpecError("mesh_order", self.mesh_order, "must be 1 (linear tets) or 2 (quadratic tets)")
         if not 0.2e-3 <= self.patch_half_width_m <= 20e-3:
             raise SpecError("patch_half_width_m", self.patch_half_width_m, "expected metres, 0.2 mm to 20 mm")
-        if self.patch_shape not in ("hat", "cos2"):
-            raise SpecError("patch_shape", self.patch_shape, "must be 'hat' or 'cos2'")
+        check_choice("patch_shape", self.patch_shape, PatchShape)
         if not 0.5 <= self.curvature_safety <= 5.0:
             raise SpecError("curvature_safety", self.curvature_safety, "netgen's curvaturesafety, 0.5 to 5 (2 is its default)")
         if not (isinstance(self.attach_per_tooth, int) and 0 <= self.attach_per_tooth <= 16):
             raise SpecError("attach_per_tooth", self.attach_per_tooth, "must be an integer from 0 to 16")
-        if self.seat_coupling not in ("rbe2", "rbe3"):
-            raise SpecError("seat_coupling", self.seat_coupling, "must be 'rbe3' (distributing) or 'rbe2' (rigid)")
+        check_choice("seat_coupling", self.seat_coupling, SeatCoupling)
 
 
-# Chosen by the convergence study of docs/fe.md (static flank/seat response vs maxh and modes).
-DEFAULTS = {
-    "disc": PartSettings(maxh_m=6e-3, n_modes=10, mesh_order=2, patch_half_width_m=3e-3, attach_per_tooth=2,
+DEFAULTS: dict[str, PartSettings] = {
+    "disc": PartSettings(maxh_m=6e-3, n_modes=12, mesh_order=2, patch_half_width_m=3e-3, attach_per_tooth=0,
                          curvature_safety=1.0, attach_tangential=True),
-    "carrier": PartSettings(maxh_m=6e-3, n_modes=10, mesh_order=2, curvature_safety=1.0),
+    "carrier": PartSettings(maxh_m=6e-3, n_modes=10, mesh_order=2, curvature_safety=1.0, seat_coupling="rbe3"),
 }
+"""The one default reduction of each part: what :func:`rvflex.fe.reduce.reduce_part` and ``rvflex
+reduce`` use when no setting is given, and what the flexible presets of
+:class:`rvflex.options.ModelOptions` hold (``DISC_FE``, ``CARRIER_FE`` are these objects).
+
+Disc: global deformation only — 6 bore (RBE2) static modes and 12 fixed-interface modes on 6 mm
+quadratic tets, no flank attachment modes (the line-contact law carries the patch-local
+compliance; docs/flexible.md). Carrier: output face the reference, 4 distributing (RBE3) seats
+with 6 attachment modes each, 10 fixed-interface modes, 6 mm quadratic tets. Both chosen by the
+convergence studies of docs/fe.md and docs/flexible.md."""
+
+DISC_FLANK_BASIS = dataclasses.replace(DEFAULTS["disc"], n_modes=10, attach_per_tooth=2)
+"""The disc basis the static flank check is about: :data:`DEFAULTS` with 10 fixed-interface modes
+and 2 flank attachment patches per tooth (normal and tangential; 172 modes on the RV-40E, flank
+error 4.4 %: docs/fe.md). ``rvflex reduce --part disc --modes 10 --attach 2``; in a model,
+``ModelOptions.flexible_discs().with_fe("discs", n_modes=10, attach_per_tooth=2)`` (``--fe-modes
+10 --fe-attach 2``)."""
 
 
-def settings_for(part: str, *, maxh_m: float | None = None, n_modes: int | None = None, **over) -> PartSettings:
-    """The default settings of ``part`` with the given overrides."""
-    if part not in DEFAULTS:
-        raise SpecError("part", part, "must be 'disc' or 'carrier'")
+def settings_for(part: FEPart, *, maxh_m: float | None = None, n_modes: int | None = None, **over) -> PartSettings:
+    """The default settings of ``part`` (:data:`DEFAULTS`) with the given overrides."""
+    check_choice("part", part, FEPart)
     base = DEFAULTS[part]
     kw = dict(over)
     if maxh_m is not None:
@@ -155,7 +168,7 @@ class ReducedPart:
 
     Attributes
     ----------
-    part : str
+    part : FEPart
         ``"disc"`` or ``"carrier"``.
     settings : PartSettings
     key : str
@@ -182,7 +195,7 @@ class ReducedPart:
         Wall time of the cold reduction (s).
     """
 
-    part: str
+    part: FEPart
     settings: PartSettings
     key: str
     fem: object

@@ -1,5 +1,11 @@
 """Sweep designs: the :class:`Design` and its TOML file, and the points each kind of design samples.
 
+A design TOML has a ``[sweep]`` table (name, reducer, scenario, kind, load, resolution,
+sampling), one ``[[factor]]`` table per factor, and an optional ``[model]`` table, the model
+options every point runs with (:meth:`rvflex.options.ModelOptions.from_table`: ``fidelity`` =
+``"rigid"`` (default) | ``"flexible"`` | ``"flexible-carrier"``, ``[model.discs]`` /
+``[model.carrier]`` overriding that preset's reduction fields).
+
 Kinds: single factor, orthogonal arrays (L9, L16(4^5), L27), Latin hypercube and Sobol
 (scipy.stats.qmc), Monte Carlo tolerance stacks (seeded normal or uniform), and two global
 sensitivity designs sampled with SALib: ``morris`` (elementary-effects trajectories) and
@@ -18,6 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
+from rvflex.choices import DesignKind, Distribution, check_choice, choices
+from rvflex.options import ModelOptions
 from rvflex.spec import SpecError
 from rvflex.sweep import registry
 from rvflex.sweep.factors import FACTORS
@@ -26,7 +34,7 @@ from rvflex.units import UM
 __all__ = ["DESIGN_KINDS", "SALIB_KINDS", "Design", "Factor", "design_points", "load_design", "monte_carlo_design",
            "orthogonal_array", "salib_problem", "salib_samples"]
 
-DESIGN_KINDS = ("single-factor", "L9", "L16", "L27", "lhs", "sobol", "monte-carlo", "morris", "sobol-indices")
+DESIGN_KINDS: tuple[str, ...] = choices(DesignKind)
 SALIB_KINDS = ("morris", "sobol-indices")
 
 
@@ -67,21 +75,49 @@ class Factor:
 
 @dataclass(frozen=True)
 class Design:
-    """A sweep definition (see ``scenarios/designs/smoke.toml``)."""
+    """A sweep definition (see ``scenarios/designs/smoke.toml``).
+
+    Parameters
+    ----------
+    name, reducer : str
+        Sweep name; built-in reducer name or spec TOML path (:func:`rvflex.catalog.resolve`).
+    scenario : str
+        A registered sweep scenario (:mod:`rvflex.sweep.registry`: ``te``, ``lost-motion``).
+    kind : DesignKind
+        How the points are chosen (:data:`DESIGN_KINDS`).
+    factors : tuple of Factor
+        Levels or ranges of the deviations (m).
+    load_Nm : float
+        Output load of every point (N·m).
+    positions_per_rev, revolutions, samples, seed, distribution, morris_levels
+        Resolution of each point and the sampling of the design.
+    options : ModelOptions
+        The model every point builds (default rigid; TOML: the ``[model]`` table).
+    source : str
+        Where the design came from (for messages).
+    """
 
     name: str
     reducer: str
     scenario: str
-    kind: str
+    kind: DesignKind
     factors: tuple[Factor, ...]
     load_Nm: float
     positions_per_rev: int = 256
     revolutions: float = 1.0
     samples: int = 8
     seed: int = 1
-    distribution: str = "uniform"
+    distribution: Distribution = "uniform"
     morris_levels: int = 4
+    options: ModelOptions = dc.field(default_factory=ModelOptions.rigid)
     source: str = "<design>"
+
+    def __post_init__(self) -> None:
+        check_choice("[sweep].kind", self.kind, DesignKind, self.source)
+        check_choice("[sweep].distribution", self.distribution, Distribution, self.source)
+        if not isinstance(self.options, ModelOptions):
+            raise SpecError("options", self.options, "must be an rvflex.options.ModelOptions (TOML: the [model] "
+                                                     "table)", self.source)
 
     @property
     def digest(self) -> str:
@@ -90,6 +126,9 @@ class Design:
         d.pop("source")
         if self.kind != "morris":  # only Morris uses it: older stores keep their digest
             d.pop("morris_levels")
+        d.pop("options")
+        if self.options != ModelOptions.rigid():  # rigid designs keep the digest they had before options
+            d["options"] = self.options.as_dict()
         return hashlib.sha256(json.dumps(d, sort_keys=True, default=str).encode()).hexdigest()[:16]
 
 
@@ -108,8 +147,6 @@ def load_design(path: str | Path) -> Design:
     if sw["scenario"] not in registry.names():
         raise SpecError("[sweep].scenario", sw["scenario"], f"must be one of {', '.join(registry.names())} "
                                                             f"(the registered sweep scenarios)", src)
-    if sw["kind"] not in DESIGN_KINDS:
-        raise SpecError("[sweep].kind", sw["kind"], f"must be one of {', '.join(DESIGN_KINDS)}", src)
     factors = []
     for k, f in enumerate(data.get("factor", [])):
         name = f.get("name")
@@ -125,11 +162,16 @@ def load_design(path: str | Path) -> Design:
         factors.append(fac)
     if not factors:
         raise SpecError("factor", None, "a design needs at least one [[factor]]", src)
-    known = {f.name for f in dc.fields(Design)} - {"factors", "source"}
+    known = {f.name for f in dc.fields(Design)} - {"factors", "options", "source"}
     extra = set(sw) - known
     if extra:
-        raise SpecError(f"[sweep].{min(extra)}", sw[min(extra)], "unknown key", src)
-    design = Design(factors=tuple(factors), source=src, **sw)
+        hint = " (model options go in the [model] table)" if min(extra) in ("fidelity", "options") else ""
+        raise SpecError(f"[sweep].{min(extra)}", sw[min(extra)], f"unknown key{hint}", src)
+    top = sorted(set(data) - {"sweep", "factor", "model"})
+    if top:
+        raise SpecError(f"[{top[0]}]", data[top[0]], "unknown table; valid: [sweep], [[factor]], [model]", src)
+    options = ModelOptions.from_table(data.get("model", {}), "[model]", src)
+    design = Design(factors=tuple(factors), options=options, source=src, **sw)
     if design.kind in SALIB_KINDS:
         salib_problem(design)  # bounds and sample counts checked before anything runs
     return design

@@ -12,7 +12,9 @@ cluster by address).
 
 The sweep process warms itself once (imports, compiled kernels, the nominal spec) before the
 pool forks its workers, so workers start warm; that start-up is reported apart from the
-evaluation wall time (``SweepResult.startup_s`` and ``wall_s``). What a point runs comes from
+evaluation wall time (``SweepResult.startup_s`` and ``wall_s``). Every point builds its model
+with the design's :class:`~rvflex.options.ModelOptions` (``Design.options``); with FE parts the
+warm-up reduces them once (disk cache) before the workers start. What a point runs comes from
 the scenario registry (:mod:`rvflex.sweep.registry`), never from a scenario import here.
 """
 
@@ -26,6 +28,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from rvflex.catalog import resolve
+from rvflex.choices import Executor, check_choice, choices
+from rvflex.options import ModelOptions
 from rvflex.parallel import map_warm
 from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
 from rvflex.sweep import registry
@@ -37,24 +41,25 @@ from rvflex.sweep.store import Store
 __all__ = ["DASK_CONNECT_TIMEOUT_S", "EXECUTORS", "SweepResult", "evaluate_point", "evaluate_timed", "sweep",
            "warm_process"]
 
-EXECUTORS = ("serial", "process", "dask")
+EXECUTORS: tuple[str, ...] = choices(Executor)
 
 
-def evaluate_point(args: tuple[str | ReducerSpec, str | SweepScenario, float, int, float, dict[str, float]]
-                   ) -> dict[str, float]:
+def evaluate_point(args: tuple[str | ReducerSpec, str | SweepScenario, float, int, float, dict[str, float],
+                               ModelOptions]) -> dict[str, float]:
     """Evaluate one point in the current process (a worker): build the variant, its model, run.
 
     ``args`` = (nominal reducer, scenario, load N·m, positions per revolution, revolutions,
-    point). The nominal reducer is a :class:`ReducerSpec` (the sweep resolves it once and ships
-    it; it is immutable) or a name/path for :func:`rvflex.catalog.resolve`; the scenario a
-    registered :class:`~rvflex.sweep.registry.SweepScenario` or its name."""
-    reducer, scenario, load, positions, revs, point = args
+    point, model options). The nominal reducer is a :class:`ReducerSpec` (the sweep resolves it
+    once and ships it; it is immutable) or a name/path for :func:`rvflex.catalog.resolve`; the
+    scenario a registered :class:`~rvflex.sweep.registry.SweepScenario` or its name; the options
+    a :class:`~rvflex.options.ModelOptions` (``Design.options``)."""
+    reducer, scenario, load, positions, revs, point, options = args
     spec = reducer if isinstance(reducer, ReducerSpec) else resolve(reducer)
     entry = scenario if isinstance(scenario, SweepScenario) else registry.get(scenario)
     errors = ErrorSpec()
     for name, value in point.items():
         spec, errors = FACTORS[name][2](spec, errors, value)
-    return entry.evaluate(spec, errors, load, positions, revs)
+    return entry.evaluate(spec, errors, load, positions, revs, options)
 
 
 def evaluate_timed(args) -> tuple[dict[str, float], float, int]:
@@ -72,7 +77,7 @@ class SweepResult:
     finished: int
     failed: int
     wall_s: float
-    executor: str
+    executor: Executor
     workers: int
     startup_s: float = 0.0  # the process warm-up before the first point (:func:`warm_process`), not in wall_s
     cpu_s: float = 0.0  # worker CPU time summed over the points evaluated in this run
@@ -106,15 +111,15 @@ class SweepResult:
         return ds
 
 
-def sweep(design: Design, store_path: str | Path, *, executor: str = "process", workers: int | None = None,
+def sweep(design: Design, store_path: str | Path, *, executor: Executor = "process", workers: int | None = None,
           scheduler: str | None = None, progress=None) -> SweepResult:
-    """Evaluate every point of ``design`` (skipping those already in the store).
+    """Evaluate every point of ``design`` (skipping those already in the store), each with a
+    model built with ``design.options``.
 
     ``executor``: "serial", "process" (a local process pool) or "dask" (a LocalCluster of
     ``workers`` single-threaded worker processes, or the cluster at ``scheduler``,
     ``tcp://HOST:PORT``)."""
-    if executor not in EXECUTORS:
-        raise SpecError("--executor", executor, "must be 'serial', 'process' or 'dask'")
+    check_choice("--executor", executor, Executor)
     points = design_points(design)
     workers = 1 if executor == "serial" else (workers or os.cpu_count() or 1)
     with contextlib.ExitStack() as stack:
@@ -123,10 +128,13 @@ def sweep(design: Design, store_path: str | Path, *, executor: str = "process", 
         return _sweep(design, points, Path(store_path), executor, workers, client, progress)
 
 
-def warm_process(reducer: str | ReducerSpec, scenario: str | SweepScenario) -> ReducerSpec:
+def warm_process(reducer: str | ReducerSpec, scenario: str | SweepScenario,
+                 options: ModelOptions | None = None) -> ReducerSpec:
     """Once-per-process warm-up of a sweep: import the evaluation path (Exudyn, the model, the
     scenario, SciPy through the geometry checks) and load its cached compiled kernels by
-    resolving the nominal reducer and building its model once; returns that spec.
+    resolving the nominal reducer and building its model once with ``options`` (None: rigid;
+    FE parts are reduced here, or loaded from the disk cache, so the workers find them
+    cached); returns that spec.
 
     The sweep runs it in its own process before the pool forks, so every worker starts warm
     (about 2–3 s of imports and kernel loading paid once per sweep instead of once per
@@ -137,10 +145,11 @@ def warm_process(reducer: str | ReducerSpec, scenario: str | SweepScenario) -> R
     import rvflex.solve  # noqa: F401
 
     (scenario if isinstance(scenario, SweepScenario) else registry.get(scenario)).warm()
-    if isinstance(reducer, ReducerSpec):
+    options = options or ModelOptions.rigid()
+    if isinstance(reducer, ReducerSpec) and options == ModelOptions.rigid():
         return reducer
-    spec = resolve(reducer)
-    rvflex.model.build_reducer(spec)  # loads the contact and mesh kernels; the model is dropped
+    spec = reducer if isinstance(reducer, ReducerSpec) else resolve(reducer)
+    rvflex.model.build_reducer(spec, None, options)  # loads the kernels (and FE reductions); the model is dropped
     return spec
 
 
@@ -152,11 +161,11 @@ def _sweep(design, points, store_path, executor, workers, client, progress) -> S
     nominal = design.reducer
     scenario = registry.get(design.scenario)
     if todo:
-        nominal = warm_process(design.reducer, scenario)
+        nominal = warm_process(design.reducer, scenario, design.options)
         if client is not None:  # the resolved spec: a remote worker need not read the reducer's file
-            client.run(warm_process, nominal, scenario)
-    args = [(nominal, scenario, design.load_Nm, design.positions_per_rev, design.revolutions, points[i])
-            for i in todo]
+            client.run(warm_process, nominal, scenario, design.options)
+    args = [(nominal, scenario, design.load_Nm, design.positions_per_rev, design.revolutions, points[i],
+             design.options) for i in todo]
     t0 = time.perf_counter()
 
     cpu: dict[int, float] = {}  # worker process id → CPU time of its points evaluated in this run (s)

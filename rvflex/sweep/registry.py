@@ -12,6 +12,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from rvflex.options import ModelOptions
 from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
 
 __all__ = ["SweepScenario", "get", "names", "register"]
@@ -21,13 +22,14 @@ __all__ = ["SweepScenario", "get", "names", "register"]
 class SweepScenario:
     """A scenario a sweep point can run.
 
-    ``evaluate(spec, errors, load_Nm, positions_per_rev, revolutions) -> {metric: value}``
-    runs one point (builds its own model); ``metric`` is the ranking metric among its keys,
+    ``evaluate(spec, errors, load_Nm, positions_per_rev, revolutions, options) -> {metric: value}``
+    runs one point (builds its own model with ``options``, a
+    :class:`~rvflex.options.ModelOptions`); ``metric`` is the ranking metric among its keys,
     in ``unit``; ``warm()`` imports what ``evaluate`` needs (run once per process before a
     pool forks)."""
 
     name: str
-    evaluate: Callable[[ReducerSpec, ErrorSpec, float, int, float], dict[str, float]]
+    evaluate: Callable[[ReducerSpec, ErrorSpec, float, int, float, ModelOptions], dict[str, float]]
     metric: str
     unit: str
     warm: Callable[[], None]

@@ -1,0 +1,74 @@
+"""The string options that select behaviour, as ``Literal`` types, and the one check they share.
+
+Every option whose value picks a code path (a fidelity, a coupling, a design kind, an
+executor …) is typed by one of the ``Literal`` aliases below and checked where it enters
+(a dataclass's ``__post_init__``, a loader, a command) by :func:`check_choice`, which refuses
+any other value with a :class:`~rvflex.spec_types.SpecError` naming the field and listing the
+allowed values. ``typing.get_args(T)`` gives the allowed values of a type ``T``.
+
+Names that are an open set, not a choice, stay ``str``: a sweep's scenario is any name
+registered with :mod:`rvflex.sweep.registry`, checked there.
+"""
+
+from __future__ import annotations
+
+from typing import Literal, get_args
+
+from rvflex.spec_types import SpecError
+
+__all__ = ["BodyFidelity", "ContactLawKind", "DesignKind", "Distribution", "Executor", "FEPart", "Fidelity",
+           "PatchShape", "SeatCoupling", "SeatMarker", "TEMode", "check_choice", "choices"]
+
+Fidelity = Literal["rigid", "flexible", "flexible-carrier"]
+"""Names of the :class:`~rvflex.options.ModelOptions` presets (the CLI's ``--fidelity``): rigid
+parts; FE discs; FE discs and carrier."""
+
+BodyFidelity = Literal["rigid", "flexible"]
+"""How a part builder (:mod:`rvflex.parts`) builds its part: a planar rigid body or a
+Craig–Bampton FFRF body."""
+
+FEPart = Literal["disc", "carrier"]
+"""The parts :func:`rvflex.fe.reduce.reduce_part` can reduce."""
+
+SeatMarker = Literal["virtual", "all_nodes"]
+"""Flexible carrier seat markers: on four massless nodes carrying each seat's RBE3 motion
+(``"virtual"``) or on all seat nodes (``"all_nodes"``: the same coupling, slow — for comparison)."""
+
+SeatCoupling = Literal["rbe3", "rbe2"]
+"""Carrier crank-seat coupling of a reduction: distributing (RBE3) or rigid rings (RBE2)."""
+
+PatchShape = Literal["hat", "cos2"]
+"""Weight of a flank patch load along the arc length: linear hat or cos²."""
+
+ContactLawKind = Literal["linear", "power", "line", "strip"]
+"""Normal law of the cycloid–pin contact (:class:`rvflex.contact.cycloid_pin.ContactLaw`)."""
+
+TEMode = Literal["quasi-static", "dynamic"]
+"""Loaded-TE solution: quasi-static stepping or a generalized-α time integration."""
+
+Executor = Literal["serial", "process", "dask"]
+"""Where a sweep evaluates its points: this process, a local process pool, a Dask cluster."""
+
+DesignKind = Literal["single-factor", "L9", "L16", "L27", "lhs", "sobol", "monte-carlo", "morris", "sobol-indices"]
+"""Kinds of sweep design (:mod:`rvflex.sweep.designs`)."""
+
+Distribution = Literal["uniform", "normal"]
+"""Monte Carlo sampling of a tolerance: uniform in [low, high] or normal with ``sigma``."""
+
+
+def choices(kind) -> tuple[str, ...]:
+    """The allowed values of a ``Literal`` type, in their order."""
+    return get_args(kind)
+
+
+def check_choice(field: str, value: object, kind, source: str | None = None) -> None:
+    """Refuse ``value`` unless it is one of the values of the ``Literal`` type ``kind``.
+
+    Raises
+    ------
+    SpecError
+        Naming ``field`` (and ``source``, the file it came from), listing the allowed values.
+    """
+    allowed = get_args(kind)
+    if not (isinstance(value, str) and value in allowed):
+        raise SpecError(field, value, f"must be one of {', '.join(map(repr, allowed))}", source)
