@@ -16,8 +16,9 @@ from typing import Literal, get_args
 
 from rvflex.spec_types import SpecError
 
-__all__ = ["BodyFidelity", "ContactLawKind", "DesignKind", "Distribution", "Executor", "FEPart", "Fidelity",
-           "PatchShape", "SeatCoupling", "SeatMarker", "TEMode", "check_choice", "choices"]
+__all__ = ["BodyFidelity", "ContactLawKind", "DesignKind", "Distribution", "EffectKind", "Executor", "FEPart",
+           "Fidelity", "Mismatch", "PatchShape", "RunKind", "SeatCoupling", "SeatMarker", "TEMode", "check_choice",
+           "choices"]
 
 Fidelity = Literal["rigid", "flexible", "flexible-carrier"]
 """Names of the :class:`~rvflex.options.ModelOptions` presets (the CLI's ``--fidelity``): rigid
@@ -54,6 +55,16 @@ DesignKind = Literal["single-factor", "L9", "L16", "L27", "lhs", "sobol", "monte
 
 Distribution = Literal["uniform", "normal"]
 """Monte Carlo sampling of a tolerance: uniform in [low, high] or normal with ``sigma``."""
+
+EffectKind = Literal["model", "conditions", "measurement", "fidelity"]
+"""How a diagnosis effect acts (:class:`rvflex.diagnose.effects.Effect`): on the spec and errors the
+model is built with, on the run conditions, on the recorded TE, or as another model blended in."""
+
+RunKind = Literal["te", "hysteresis"]
+"""Kinds of bench run (:mod:`rvflex.diagnose.bench`): a loaded-TE run or a torque cycle."""
+
+Mismatch = Literal["none", "realistic"]
+"""Self-check generators: the diagnosing model's family, or another one per case."""
 
 
 def choices(kind) -> tuple[str, ...]:

@@ -22,6 +22,7 @@ from rvflex.diagnose.bench import (
 )
 from rvflex.diagnose.effects import EFFECTS, Effect, Param, available_effects
 from rvflex.diagnose.fit import withheld_folds, withheld_split
+from rvflex.options import ModelOptions
 from rvflex.spec import ErrorSpec
 from rvflex.diagnose.replay import (
     DiagnosisSettings,
@@ -334,7 +335,7 @@ def test_the_model_grid_folds_no_pin_mesh_harmonic_into_the_analysed_orders():
 
     def orders(n):
         te = evaluate(SPEC, ErrorSpec(), plan, DiagnosisSettings(positions_per_rev=n, max_order=127),
-                      fidelity="flexible").te[0] * ARCSEC_PER_RAD
+                      options=ModelOptions.flexible_discs()).te[0] * ARCSEC_PER_RAD
         return np.abs(np.fft.rfft(te)[1:128]) * 2 / n
 
     fine, chosen, coarse = orders(1024), orders(320), orders(256)
@@ -502,7 +503,7 @@ def _mismatched_bench(tmp_path, hidden, samples_per_rev=512, **drawn):
     stiffness, a nominal crank-bearing clearance; TE sampled over [0, 2π)), rigid for CI time."""
     from rvflex.diagnose.selfcheck import GeneratorModel, RealisticMismatch, generate_case
 
-    gen = RealisticMismatch(fidelity="rigid", samples_per_rev=samples_per_rev, fixed=tuple(drawn.items()))
+    gen = RealisticMismatch(options=ModelOptions.rigid(), samples_per_rev=samples_per_rev, fixed=tuple(drawn.items()))
     truth = generate_case(tmp_path / "bench", tmp_path / "truth.json", SPEC, hidden, np.random.default_rng(7),
                           gen=GeneratorModel(positions_per_rev=256, hysteresis_steps=48), realistic=gen)
     assert truth["nominal"] == drawn

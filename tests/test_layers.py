@@ -173,13 +173,10 @@ def test_walker_sees_the_whole_package():
 # Options that select behaviour are Literal types checked by rvflex.choices.check_choice, never a
 # bare ``str``: a dataclass field or a function parameter with one of these names annotated ``str``
 # fails. Known exceptions, each with its reason:
-OPTION_NAMES = {"mode", "kind", "fidelity", "seat_marker", "seat_coupling", "patch_shape", "executor", "distribution",
+OPTION_NAMES = {"mode", "kind", "fidelity", "mismatch", "seat_marker", "seat_coupling", "patch_shape", "executor", "distribution",
                 "part"}
 BARE_STRING_ALLOWED = {
     "rvflex.spec_types:kind",  # Bearing.kind describes the bearing (checked against BEARING_KINDS), selects no code
-    # rvflex/diagnose is owned by the diagnosis issue; its fidelity strings go through rvflex.options.as_options
-    "rvflex.diagnose.bench:kind", "rvflex.diagnose.effects:kind", "rvflex.diagnose.effects:fidelity",
-    "rvflex.diagnose.replay:kind", "rvflex.diagnose.replay:fidelity", "rvflex.diagnose.selfcheck:fidelity",
 }
 
 

@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rvflex.choices import RunKind, choices
 from rvflex.diagnose.errors import BenchError
 from rvflex.diagnose.measured import TEWindow, te_window
 from rvflex.spec import ReducerSpec, SpecError
@@ -44,7 +45,7 @@ TE_ANGLE_COLUMN = "output_angle_deg"  # the second TE form: output angle (°) an
 HYST_COLUMNS = ("time_s", "torque_Nm", "theta_out_rad")
 MIN_SAMPLES_PER_REV = 256  # the order decomposition up to ≥ 3·z_b = 120 needs ≥ 2·128 samples per revolution
 MIN_HYSTERESIS_SAMPLES = 40  # a 0 → +T → −T → 0 cycle sampled at fewer points has no usable branches
-RUN_KINDS = ("te", "hysteresis")
+RUN_KINDS = choices(RunKind)
 DIRECTIONS = ("forward", "reverse")
 
 
@@ -90,7 +91,7 @@ class BenchRun:
     """
 
     file: str
-    kind: str
+    kind: RunKind
     time_s: np.ndarray
     theta_in_rad: np.ndarray
     theta_out_rad: np.ndarray

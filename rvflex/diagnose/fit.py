@@ -307,7 +307,7 @@ def diagnose(dataset, *, settings: DiagnosisSettings | None = None, effects: tup
                       withheld=withheld_check(prob, plan, none, nominal_model, f0, folds))
     out = []
     for c in allc:
-        wh = withheld_check(prob, plan, c, none, f0, folds, settings.withheld_hold_nominal)
+        wh = withheld_check(prob, plan, c, none, f0, folds, hold_nominal=True)
         out.append(dc.replace(c, score=none.bic - c.bic, gap_shrink_pct=_shrink(c.rss, none.rss), withheld=wh))
     out.sort(key=lambda c: -c.score)
     chosen = None

@@ -23,6 +23,7 @@ from __future__ import annotations
 import dataclasses as dc
 
 from rvflex.diagnose.effects import Effect, Param
+from rvflex.options import ModelOptions
 from rvflex.spec import ErrorSpec, ReducerSpec
 from rvflex.units import UM
 
@@ -128,7 +129,7 @@ def _builtin() -> tuple[Effect, ...]:
         # relief, closer to a point contact (F ∝ x^1.5, zero stiffness at first touch); blended linearly
         Effect("contact_law_form", "form of the pin–disc contact law: share of the equivalent point-contact law "
                "F = k·x^1.5 blended with the line contact (0 = line contact)",
-               (Param("point_contact_share", "1", 0.0, 1.5, 1.0),), kind="fidelity", fidelity="rigid",
+               (Param("point_contact_share", "1", 0.0, 1.5, 1.0),), kind="fidelity",
                alt_law=point_contact_law, prior_sigma=(0.7,),
                separating_runs="a torque cycle with fine steps through ±10 % of rated torque and TE runs at "
                                "two loads (the law's curvature shows as load-dependent stiffness)"),
@@ -136,7 +137,7 @@ def _builtin() -> tuple[Effect, ...]:
         # TE enter as a share of the flexible model's, nominally all of it (1), calibrated like a stiffness
         Effect("disc_flexibility", "elastic discs and carrier (share of the FE-reduced flexible model's difference "
                "from the rigid one; nominal 1)", (Param("flexible_share", "1", 0.0, 2.0, 1.0),), kind="fidelity",
-               fidelity="flexible", prior_sigma=(0.5,), prior_center=(1.0,),
+               options=ModelOptions.flexible_discs(), prior_sigma=(0.5,), prior_center=(1.0,),
                separating_runs="TE runs at two loads (the elastic TE at order 2·z_b grows with the load)"),
         # a nominal clearance class of a few µm: beyond its prior, clearance is an unmodelled effect
         Effect("crank_bearing_clearance", "nominal radial clearance of the crank (needle) bearings",

@@ -26,7 +26,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rvflex.choices import RunKind
 from rvflex.geometry.formulas import ARCSEC_PER_RAD
+from rvflex.options import ModelOptions
 from rvflex.spec import ErrorSpec, ReducerSpec
 
 __all__ = [
@@ -112,7 +114,6 @@ class DiagnosisSettings:
     order_floor_arcsec: float = 0.03
     order_floor_rel: float = 0.0
     mesh_order_floor_rel: float = 0.0
-    withheld_hold_nominal: bool = False
     windup_floor_arcsec: float = 0.5
     windup_floor_rel: float = 0.02
 
@@ -179,7 +180,7 @@ class PlanRun:
     (the model itself is temperature-free; per-run effects such as thermal expansion use it).
     """
 
-    kind: str
+    kind: RunKind
     label: str
     direction: int = 1
     load_Nm: float = 0.0
@@ -266,8 +267,10 @@ FIDELITY_TIME_FACTOR = 4.0  # a flexible run may take this many times the rigid 
 
 
 def _run_model(variants: list[tuple[ReducerSpec, ErrorSpec]], plan: tuple[PlanRun, ...],
-               settings: DiagnosisSettings, fidelity: str, law) -> Response:
-    """Run every plan run with its own (spec, errors) variant (``variants[r]`` for run r)."""
+               settings: DiagnosisSettings, options: ModelOptions, law) -> Response:
+    """Run every plan run with its own (spec, errors) variant (``variants[r]`` for run r), the model
+    built with ``options`` (``law``, a ContactLaw or a callable spec → ContactLaw, replaces its
+    contact law when given)."""
     import time
 
     from rvflex.model import build_reducer
@@ -275,7 +278,7 @@ def _run_model(variants: list[tuple[ReducerSpec, ErrorSpec]], plan: tuple[PlanRu
 
     n = settings.positions_per_rev
     te, tq, th = [], [], []
-    limit = settings.eval_timeout_s * (FIDELITY_TIME_FACTOR if fidelity != "rigid" else 1.0)
+    limit = settings.eval_timeout_s * (FIDELITY_TIME_FACTOR if options != ModelOptions.rigid() else 1.0)
     t_end = [0.0]
 
     def budget(done: int, total: int) -> None:
@@ -285,7 +288,8 @@ def _run_model(variants: list[tuple[ReducerSpec, ErrorSpec]], plan: tuple[PlanRu
     for p, (spec, errors) in zip(plan, variants):
         t_end[0] = time.perf_counter() + limit
         try:
-            model = build_reducer(spec, errors, fidelity, law=law(spec) if callable(law) else law)
+            run_law = law(spec) if callable(law) else law
+            model = build_reducer(spec, errors, options if run_law is None else dc.replace(options, contact_law=run_law))
             if p.kind == "te":
                 theta = p.direction * np.linspace(0.0, 2 * math.pi * model.ratio, n, endpoint=False)
                 res = quasi_static(model, theta, p.load_Nm, progress=budget, fail_fast=True, skip_unsolved=True)
@@ -328,14 +332,15 @@ def _over_skipped(torque: np.ndarray, theta: np.ndarray) -> np.ndarray:
 
 
 def evaluate(spec: ReducerSpec, errors: ErrorSpec, plan: tuple[PlanRun, ...], settings: DiagnosisSettings,
-             active: tuple = (), *, law=None, fidelity: str = "rigid") -> Response:
+             active: tuple = (), *, law=None, options: ModelOptions | None = None) -> Response:
     """Run the model under ``plan`` with the effects ``active`` ((Effect, x) pairs) switched on.
 
     Model effects change the spec/ErrorSpec the model is built with (``per_run`` ones per run,
     e.g. thermal expansion at each run's ``temperature_C``); condition effects change the plan;
-    measurement effects transform the recorded TE; a fidelity effect blends in another fidelity
-    (or, with ``alt_law``, the same fidelity with another contact-law form) by its share.
+    measurement effects transform the recorded TE; a fidelity effect blends in the model with its
+    own ``options`` (or, with ``alt_law``, the same options with another contact-law form) by its share.
     ``law``: a ContactLaw, or a callable spec → ContactLaw (per run variant); None: the model's.
+    ``options``: the model's :class:`~rvflex.options.ModelOptions` (None: rigid).
 
     Raises
     ------
@@ -363,11 +368,12 @@ def evaluate(spec: ReducerSpec, errors: ErrorSpec, plan: tuple[PlanRun, ...], se
                 blends.append((eff, float(x[0])))
     except SpecError as err:
         raise EvaluationFailed(f"effect value breaks a spec rule: {err}") from None
-    resp = base = _run_model(variants, plan, settings, fidelity, law)
+    options = options or ModelOptions.rigid()
+    resp = base = _run_model(variants, plan, settings, options, law)
     for eff, w in blends:  # another fidelity or contact-law form, blended in by its share w
         if w == 0.0:
             continue
-        alt = _run_model(variants, plan, settings, eff.fidelity, eff.alt_law or law)
+        alt = _run_model(variants, plan, settings, eff.options or options, eff.alt_law or law)
         resp = Response(tuple(None if a is None else a + w * (b - a0) for a, a0, b in zip(resp.te, base.te, alt.te)),
                         resp.torque,
                         tuple(None if a is None else a + w * (b - a0)

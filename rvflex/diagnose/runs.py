@@ -15,7 +15,7 @@ from rvflex.parallel import Outcome, map_warm
 
 __all__ = ["CACHE_VERSION", "ModelRunner"]
 
-CACHE_VERSION = "diag-8"
+CACHE_VERSION = "diag-9"
 
 
 # ----------------------------------------------------------------------------- workers (module level: picklable)

@@ -32,9 +32,11 @@ from pathlib import Path
 
 import numpy as np
 
+from rvflex.choices import Mismatch, check_choice, choices
 from rvflex.diagnose.bench import BenchDataset, BenchRun, read_bench, write_bench
 from rvflex.diagnose.effects import Effect, available_effects
 from rvflex.diagnose.replay import DiagnosisSettings, PlanRun, evaluate
+from rvflex.options import ModelOptions
 from rvflex.parallel import map_warm
 from rvflex.spec import ErrorSpec, ReducerSpec
 from rvflex.units import ARCSEC
@@ -49,7 +51,7 @@ __all__ = [
     "selfcheck",
 ]
 
-MISMATCH = ("none", "realistic")
+MISMATCH = choices(Mismatch)
 CALIBRATION_TOL = 0.25  # a calibrated stiffness scale within ±25 % of the drawn one counts as calibrated
 MIN_SIGNATURE = 10.0  # an effect whose model signature is smaller (in residual-floor units) is not hidden:
 # no diagnosis could find it with this bench plan; such effects are listed in the JSON instead
@@ -105,7 +107,7 @@ class RealisticMismatch:
 
     stiffness_spread: float = 0.4
     clearance_max_m: float = 5e-6
-    fidelity: str = "flexible"
+    options: ModelOptions = field(default_factory=ModelOptions.flexible_discs)
     samples_per_rev: int = 1024
     fixed: tuple[tuple[str, float], ...] = ()  # (key, value) pairs taken instead of drawn (tests)
 
@@ -150,12 +152,11 @@ class SelfCheckSettings:
     realism: BenchRealism = field(default_factory=BenchRealism)
     generator: GeneratorModel = field(default_factory=GeneratorModel)
     diagnosis: DiagnosisSettings = field(default_factory=DiagnosisSettings)
-    mismatch: str = "none"  # "none": today's generator; "realistic": RealisticMismatch per case
+    mismatch: Mismatch = "none"  # "none": today's generator; "realistic": RealisticMismatch per case
     realistic: RealisticMismatch = field(default_factory=RealisticMismatch)
 
     def __post_init__(self) -> None:
-        if self.mismatch not in MISMATCH:
-            raise ValueError(f"mismatch = {self.mismatch!r}: must be one of {', '.join(MISMATCH)}")
+        check_choice("mismatch", self.mismatch, Mismatch)
 
 
 def draw_truth(rng: np.random.Generator, effects: tuple[Effect, ...], n_effects: int,
@@ -263,7 +264,7 @@ def generate_case(folder: str | Path, truth_path: str | Path, spec: ReducerSpec,
         else:
             drawn = realistic.draw(rng)
             spec_g, errors_g, law_g = realistic.model(spec, drawn)
-            resp = evaluate(spec_g, errors_g, plan, gs, tuple(truth), law=law_g, fidelity=realistic.fidelity)
+            resp = evaluate(spec_g, errors_g, plan, gs, tuple(truth), law=law_g, options=realistic.options)
     finally:
         exu.config.printToConsole = before
     ratio = spec.nominal_ratio
