@@ -6,6 +6,11 @@ previous one advanced by the ideal kinematics. The first loaded step is reached 
 continuation from a stiffly held output (DESIGN.md: clearances make the bodies float; weak
 springs carry a negligible share — see :mod:`rvflex.parts.bearings` and
 :data:`rvflex.numerics.OUTPUT_REGULARISER_NM_RAD`).
+
+Over 600 lines on purpose: quasi-static stepping, torque stepping and the dynamic run share the
+static-solve helpers (chord Newton, sub-stepping, regulariser continuation, the jump guard), and
+their free-play fallbacks call each other (a failed first loading is redone by torque stepping);
+split apart they would import each other's private helpers.
 """
 
 from __future__ import annotations
