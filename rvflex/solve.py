@@ -347,7 +347,7 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
             else:
                 q = _advance(model, ss, q, prev_th, th, check=check)
         except Exception as err:  # Exudyn raises its own error types; report the step
-            if not record and not loaded_by_stepping and theta_in[0] == 0.0:
+            if not record and theta_in[0] == 0.0:  # (after such a loading no unrecorded step is left)
                 # the load continuation at the first pose failed (measured: 4.3 µm crank-bearing clearance
                 # with a 6 µm pin-ring runout, stiff regulariser, full rated torque at once): load the unit
                 # step by step with the torque-stepping engine instead (input locked at 0, its free-play

@@ -323,14 +323,13 @@ def test_the_model_grid_folds_no_pin_mesh_harmonic_into_the_analysed_orders():
     orders is refused with the harmonic and the order named, and the chosen grid reproduces the flexible
     model's orders 1…127 as a 1024-position run gives them. At 256 positions the flexible discs' 4·z_b
     (0.93″ at 412 N·m) folds to order 96 — a model-only signature no bench shows."""
-    from rvflex.diagnose.fit import check_aliasing
     from rvflex.diagnose.replay import evaluate
     from rvflex.units import ARCSEC_PER_RAD
 
-    s = check_aliasing(DiagnosisSettings(), SPEC)
+    s = DiagnosisSettings().for_spec(SPEC)
     assert s.positions_per_rev == 320  # z_b = 40: every m·z_b, m ≤ 8, resolved or folded onto a multiple of z_b
     with pytest.raises(ValueError, match=r"4·z_b = 160 folds to order 96.*use 320"):
-        check_aliasing(DiagnosisSettings(positions_per_rev=256), SPEC)
+        DiagnosisSettings(positions_per_rev=256).for_spec(SPEC)
     plan = (PlanRun("te", "fwd", 1, 412.0),)
 
     def orders(n):

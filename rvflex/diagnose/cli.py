@@ -6,6 +6,8 @@ import argparse
 import sys
 from pathlib import Path
 
+from rvflex.choices import Mismatch, choices
+
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the diagnosis sub-commands to the ``rvflex`` parser."""
@@ -24,7 +26,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--out", help="folder for the datasets, truths, cache and per-case reports "
                                  "(default: a temporary folder)")
     s.add_argument("--workers", type=int, default=2, help="processes for the model runs (default 2)")
-    s.add_argument("--mismatch", choices=("none", "realistic"), default="none",
+    s.add_argument("--mismatch", choices=choices(Mismatch), default="none",
                    help="generator: 'none' (default) the diagnosing model at a finer resolution, contact 2 %% stiffer; "
                         "'realistic' another model family per case (power-law contact, needle-bearing and mesh "
                         "stiffness ±40 %%, nominal crank-bearing clearance 0–5 µm, flexible discs, TE sampled over "

@@ -71,7 +71,7 @@ from rvflex.diagnose.sensitivity import (
 from rvflex.diagnose.verdict import equivalent, verdict, withheld_check
 from rvflex.spec import ErrorSpec, ReducerSpec
 
-__all__ = ["Candidate", "Diagnosis", "available_candidates", "check_aliasing", "diagnose", "second_effect_adds",
+__all__ = ["Candidate", "Diagnosis", "available_candidates", "diagnose", "second_effect_adds",
            "signature_sizes", "withheld_folds", "withheld_split"]
 
 
@@ -204,7 +204,7 @@ def diagnose(dataset, *, settings: DiagnosisSettings | None = None, effects: tup
     t0 = time.perf_counter()
     settings = settings or DiagnosisSettings()
     spec: ReducerSpec = dataset.reducer
-    settings = check_aliasing(settings, spec)
+    settings = settings.for_spec(spec)  # the alias-free model grid (or the given one, checked)
     errors = errors or ErrorSpec()
     plan = plan_from_dataset(dataset, settings)
     y, lay, windows = measured_runs(dataset, plan, settings)
@@ -368,15 +368,6 @@ def _calibrate(prob: Problem, f0, sens, cal, n, n_nuis) -> Candidate:
     (x, nu, d, rss, A), J, lo, hi = best
     return make_candidate(cal, x, nu, d, rss, A, n, n_nuis, f0 + J @ x, refined=False, note="calibration",
                           jacobian=J, box=(lo, hi))
-
-
-def check_aliasing(settings: DiagnosisSettings, spec: ReducerSpec) -> DiagnosisSettings:
-    """``settings`` with the model position grid for ``spec``: chosen so that the pin-mesh
-    harmonics do not fold into the analysed orders when None, else checked (ValueError naming the
-    folded harmonic; see :func:`rvflex.diagnose.replay.aliasing_problem`). The bench fit (many
-    samples per revolution) does not alias: an aliased model order would be a signature the data
-    can never show."""
-    return settings.for_spec(spec)
 
 
 def _shrink(rss: float, ref: float) -> float:

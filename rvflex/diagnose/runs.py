@@ -46,8 +46,6 @@ class ModelRunner:
     """Evaluates model runs (serially or in a process pool), with an on-disk cache by content hash."""
 
     def __init__(self, spec, errors, plan, settings, law, cache_dir: Path | None, progress=None):
-        if settings.positions_per_rev is None:
-            settings = settings.for_spec(spec)
         self.spec, self.errors, self.plan, self.settings, self.law = spec, errors, plan, settings, law
         self.cache_dir = Path(cache_dir) if cache_dir else None
         self.progress = progress

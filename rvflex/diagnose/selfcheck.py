@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rvflex.choices import Mismatch, check_choice, choices
+from rvflex.choices import Mismatch, check_choice
 from rvflex.diagnose.bench import BenchDataset, BenchRun, read_bench, write_bench
 from rvflex.diagnose.effects import Effect, available_effects
 from rvflex.diagnose.replay import DiagnosisSettings, PlanRun, evaluate
@@ -51,7 +51,6 @@ __all__ = [
     "selfcheck",
 ]
 
-MISMATCH = choices(Mismatch)
 CALIBRATION_TOL = 0.25  # a calibrated stiffness scale within ±25 % of the drawn one counts as calibrated
 MIN_SIGNATURE = 10.0  # an effect whose model signature is smaller (in residual-floor units) is not hidden:
 # no diagnosis could find it with this bench plan; such effects are listed in the JSON instead
@@ -379,32 +378,23 @@ def _score_calibration(truth: dict, cand) -> dict:
     return {"calibration": out, "calibration_ok": bool(ok) and all(ok)}
 
 
-def _generate_job(args):
-    folder, truth_path, spec, truth, seed, realism, gen, name, realistic = args
-    from rvflex.diagnose.replay import EvaluationFailed
-
-    try:
-        return generate_case(folder, truth_path, spec, truth, np.random.default_rng(seed), realism, gen, name,
-                             realistic), ""
-    except EvaluationFailed as err:
-        return None, str(err)
-
-
 def _case_job(args):
     """One self-check bench: its truth drawn (redrawn up to twice when the generator model cannot
     solve it) and generated. Returns (truth document or None, the generator's failure messages)."""
     (folder, truth_path, spec, hideable, n_eff, first, case_seed, sizes, realism, gen, reducer, realistic) = args
     from rvflex.diagnose.effects import EFFECTS
+    from rvflex.diagnose.replay import EvaluationFailed
 
     effects = tuple(EFFECTS[n] for n in hideable)
     msgs = []
     for attempt in range(3):
         truth = (draw_truth(np.random.default_rng(case_seed + attempt), effects, n_eff,
                             EFFECTS[first] if first else None, sizes) if n_eff else [])
-        doc, msg = _generate_job((folder, truth_path, spec, truth, case_seed, realism, gen, reducer, realistic))
-        if doc is not None:
-            return doc, msgs
-        msgs.append(msg)
+        try:
+            return generate_case(folder, truth_path, spec, truth, np.random.default_rng(case_seed), realism, gen,
+                                 reducer, realistic), msgs
+        except EvaluationFailed as err:
+            msgs.append(str(err))
     return None, msgs
 
 
