@@ -12,7 +12,33 @@ from rvflex.diagnose.linear import Candidate, Sensitivities
 from rvflex.diagnose.nominal import describe_calibration
 from rvflex.diagnose.verdict import SIGNATURE_TIE
 
-__all__ = ["CALIBRATION_PREFERRED", "calibration_sentence", "calibration_ties"]
+__all__ = ["CALIBRATION_PREFERRED", "UNDETERMINED_INFO", "calibration_sentence", "calibration_ties", "undetermined"]
+
+UNDETERMINED_INFO = 1.0  # a prior σ of the parameter moves the weighted features by less: the runs do not determine it
+
+
+def undetermined(cal, sens, w: np.ndarray, nuis: np.ndarray) -> dict[str, str]:
+    """Nominal parameters these runs do not determine, with the reason: one prior σ of every
+    parameter changes the weighted features by less than UNDETERMINED_INFO floor units once the
+    offsets have taken their share (the data hold less about it than the prior). Calibrating such a
+    parameter fits model-form mismatch and noise (measured: the first-stage mesh stiffness of the
+    RV-40E moves the output's wind-up by 0.05″ over its prior range, 0.02 floor units, and the
+    refinement drove it to either bound of its range); it is held at its nominal value."""
+    cols = nuis[:, np.abs(nuis).sum(0) > 0] * w[:, None]
+    q = np.linalg.qr(cols)[0] if cols.shape[1] else np.zeros((len(w), 0))
+    out = {}
+    for c in cal:
+        info = 0.0
+        for J in (sens.plus.get(c.name), sens.minus.get(c.name)):
+            if J is None:
+                continue
+            Jw = J.reshape(len(w), -1) * w[:, None]
+            Jw = Jw - q @ (q.T @ Jw)
+            info = max(info, float(np.max(np.linalg.norm(Jw, axis=0) * np.asarray(c.prior_sigma))))
+        if info < UNDETERMINED_INFO:
+            out[c.name] = (f"not determined by these runs: over one prior σ it moves the weighted features by "
+                           f"{info:.2g} floor units (< {UNDETERMINED_INFO:g}); held at its nominal value")
+    return out
 
 
 def _fmt_cal(row: dict) -> str:
@@ -23,10 +49,12 @@ def _fmt_cal(row: dict) -> str:
     return f"{row['name'].replace('_', ' ')} {row['value']:.2f}"
 
 
-def calibration_sentence(none: Candidate, nominal_model: Candidate, chosen, settings) -> str:
+def calibration_sentence(none: Candidate, nominal_model: Candidate, chosen, settings, held: dict | None = None) -> str:
     rows = describe_calibration(none)
+    kept = (f" Not determined by these runs, held at nominal: {', '.join(n.replace('_', ' ') for n in held)}."
+            if held else "")
     if not rows:
-        return "No nominal parameter calibrated."
+        return "No nominal parameter calibrated." + kept
     moved = [r for r in rows if abs(r["shift"]) > 0.5 * r["prior_sigma"]]
     bound = [r["name"] for r in rows if r["at_prior_bound"]]
     shrink = none.gap_shrink_pct
@@ -36,7 +64,7 @@ def calibration_sentence(none: Candidate, nominal_model: Candidate, chosen, sett
         s += f" {', '.join(bound)} ran into the bound of its prior range: the nominal parameter is off by more than assumed."
     if chosen is None and moved and shrink >= settings.min_shrink_pct:
         s += " Nominal parameters off; no unmodelled effect."
-    return s
+    return s + kept
 
 
 CALIBRATION_PREFERRED = 0.10  # nominal parameters reproducing an effect's change to within this: no effect needed

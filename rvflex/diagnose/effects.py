@@ -106,6 +106,10 @@ class Effect:
     before any effect is attributed, with a regulariser ‖(x − c)/σ‖² toward its nominal value c
     (``prior_center``, default 0);
     ``separating_runs`` names the bench runs that tell it from look-alike effects.
+    ``coupled_to`` (kind ``"model"``): the name of a fidelity effect whose model changes this
+    effect's signature (the contact stiffness shapes the elastic discs' pin-mesh orders): the
+    effect's secant is taken on that model too, and the difference from the rigid one enters in
+    proportion to the fidelity effect's share (:mod:`rvflex.diagnose.sensitivity`).
     """
 
     name: str
@@ -125,6 +129,7 @@ class Effect:
     prior_sigma: tuple[float, ...] = ()
     prior_center: tuple[float, ...] = ()
     separating_runs: str = ""
+    coupled_to: str | None = None
 
     def __post_init__(self) -> None:
         check_choice(f"effect {self.name}: kind", self.kind, EffectKind)

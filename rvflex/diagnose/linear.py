@@ -269,6 +269,7 @@ class Sensitivities:
     plus: dict
     minus: dict
     responses: dict = field(default_factory=dict)  # fidelity effects: the response at their step
+    coupling: dict = field(default_factory=dict)  # coupled effects: (fidelity effect, n × k change per unit share·x)
 
     def __contains__(self, name: str) -> bool:
         return name in self.plus

@@ -14,15 +14,21 @@ the whole prior range.
 
 What separates them (``separating_runs``): the torque-cycle slope beyond ±50 % T_r and the load
 dependence of the wind-up between TE runs (the stiffnesses; their TE signatures differ: the
-contact stiffness shapes the pin-mesh orders, the bearing stiffness the crank orders, the mesh
-stiffness the sun-mesh orders), and the free-play region of the torque cycle (the clearance).
+contact stiffness shapes the pin-mesh orders, the bearing stiffness the crank orders), and the
+free-play region of the torque cycle (the clearance). The first-stage mesh stiffness is not
+determined by output-side runs (reflected through the first-stage ratio its compliance moves the
+output by ~0.05″ on the RV-40E; its sun-mesh orders lie near order 1400): the diagnosis finds that
+from the sensitivities and holds it at nominal (:func:`rvflex.diagnose.calibration.undetermined`).
 """
 
 from __future__ import annotations
 
 import dataclasses as dc
 
+import numpy as np
+
 from rvflex.diagnose.effects import Effect, Param
+from rvflex.diagnose.linear import Z95
 from rvflex.options import ModelOptions
 from rvflex.spec import ErrorSpec, ReducerSpec
 from rvflex.units import UM
@@ -91,8 +97,6 @@ def power_law_equivalent(spec: ReducerSpec) -> float:
     materials and disc width of the spec) over the pin forces of the tests: least squares in log
     force over POWER_LAW_LOAD_RANGE of the most loaded pin's force at rated torque, at a loaded-flank
     radius of POWER_LAW_FLANK_RADIUS_M."""
-    import numpy as np
-
     from rvflex.geometry.formulas import hertz_line_deflection
 
     m = spec.materials
@@ -116,21 +120,27 @@ def _builtin() -> tuple[Effect, ...]:
         return (Param(name, "1", COMPLIANCE_LOW, COMPLIANCE_HIGH, 0.25),)
 
     return (
+        # the elastic discs' pin-mesh orders (5.7″ at 2·z_b) depend on the contact's compliance against the
+        # teeth's: the stiffness acts through the flexible model too (coupled to the disc-flexibility share)
         Effect("contact_stiffness", "pin–disc contact stiffness (compliance change u = 1/s − 1 of the line-contact law)",
                u("compliance_change"), apply=_contact, prior_sigma=(COMPLIANCE_PRIOR,),
-               separating_runs=STIFFNESS_RUNS),
+               separating_runs=STIFFNESS_RUNS, coupled_to="disc_flexibility"),
         Effect("needle_bearing_stiffness", "crank (needle) bearing radial stiffness (compliance change u = 1/s − 1)",
                u("compliance_change"), apply=_needle, prior_sigma=(COMPLIANCE_PRIOR,),
                separating_runs=STIFFNESS_RUNS),
         Effect("mesh_stiffness", "first-stage (involute) mesh stiffness (compliance change u = 1/s − 1)",
                u("compliance_change"), apply=_mesh, prior_sigma=(COMPLIANCE_PRIOR,),
-               separating_runs=STIFFNESS_RUNS),
+               separating_runs="a torsional test of the first stage alone (input side, cranks held): output-side "
+                               "runs see its compliance only through the first-stage ratio"),
         # the contact law's form: a line contact (F nearly ∝ x) or, with crowning, misalignment or edge
-        # relief, closer to a point contact (F ∝ x^1.5, zero stiffness at first touch); blended linearly
+        # relief, closer to a point contact (F ∝ x^1.5, zero stiffness at first touch); blended linearly as
+        # the difference the law makes to the flexible model (the elastic discs' pin-mesh orders, 5.7″ at
+        # 2·z_b, depend on the law: its difference on the rigid model left a weighted RSS of 977 at a
+        # power-law bench's own parameters, 90 % on the mesh orders)
         Effect("contact_law_form", "form of the pin–disc contact law: share of the equivalent point-contact law "
                "F = k·x^1.5 blended with the line contact (0 = line contact)",
                (Param("point_contact_share", "1", 0.0, 1.5, 1.0),), kind="fidelity",
-               alt_law=point_contact_law, prior_sigma=(0.7,),
+               alt_law=point_contact_law, options=ModelOptions.flexible_discs(), prior_sigma=(0.7,),
                separating_runs="a torque cycle with fine steps through ±10 % of rated torque and TE runs at "
                                "two loads (the law's curvature shows as load-dependent stiffness)"),
         # the bench unit's discs (and carrier) are elastic: the rigid model's missing elastic wind-up and
@@ -153,23 +163,33 @@ REPLACES = {"disc_flexibility": "disc_carrier_flexibility"}
 """Candidate effects a nominal parameter stands for (not attributed separately when it is calibrated)."""
 
 
-def describe_calibration(c) -> list[dict]:
+def describe_calibration(c, held: dict | None = None) -> list[dict]:
     """The calibrated nominal parameters of ``c``: value, 95 % interval, nominal value, shift, and
-    for stiffnesses the stiffness scale s = 1/(1 + u) with its interval."""
+    for stiffnesses the stiffness scale s = 1/(1 + u) with its interval (``determined``: True). The
+    parameters in ``held`` (name → why; the runs do not determine them) follow at their nominal
+    value with the prior's 95 % interval (``determined``: False, ``why``)."""
     out = []
-    for e, x, iv in c.calibrated:
+    values = [(e, x, iv, True) for e, x, iv in c.calibrated]
+    for name in held or {}:
+        e = NOMINAL[name]
+        iv = np.column_stack([np.maximum(e.center - Z95 * np.asarray(e.prior_sigma), e.lower),
+                              np.minimum(e.center + Z95 * np.asarray(e.prior_sigma), e.upper)])
+        values.append((e, e.center, iv, False))
+    for e, x, iv, determined in values:
         e = NOMINAL.get(e.name, e)  # the stated prior, not the one the attribution stage was given
         for j, prm in enumerate(e.params):
             row = {"name": e.name, "param": prm.name, "unit": prm.unit, "value": float(x[j]),
                    "interval": [float(iv[j][0]), float(iv[j][1])], "nominal": float(e.center[j]),
                    "shift": float(x[j] - e.center[j]), "prior_sigma": float(e.prior_sigma[j]),
-                   "prior_range": [prm.low, prm.high],
-                   "at_prior_bound": bool(min(x[j] - prm.low, prm.high - x[j]) < 1e-3 * (prm.high - prm.low)
+                   "prior_range": [prm.low, prm.high], "determined": determined,
+                   "at_prior_bound": bool(determined and min(x[j] - prm.low, prm.high - x[j]) < 1e-3 * (prm.high - prm.low)
                                           and not (prm.low == e.center[j] == 0.0 and x[j] - prm.low < 1e-12))}
             if prm.name == "compliance_change":
                 row["stiffness_scale"] = stiffness_scale(x[j])
                 row["stiffness_scale_interval"] = sorted(stiffness_scale(min(max(v, prm.low), prm.high))
                                                          for v in iv[j])
+            if not determined:
+                row["why"] = held[e.name]
             out.append(row)
     return out
 

@@ -3,7 +3,8 @@ candidate's Jacobian from real model runs at its fitted values, until a run no l
 
 Fidelity parameters (the flexible model's share) act linearly by construction (the response is
 the rigid one plus the share times the flexible model's difference), so the refinement runs the
-rigid model and adds their share in feature space instead of running the flexible model each time.
+rigid model and adds their share in feature space instead of running the flexible model each time;
+an effect coupled to a fidelity parameter adds its coupling column times that share (bilinear).
 """
 
 from __future__ import annotations
@@ -64,11 +65,15 @@ def evaluate_sets(runner, sens: Sensitivities, resp0: Response, actives: list[tu
     for a, (f, r, msg) in zip(actives, runner.run(model_sets)):
         if f is not None:
             f = f0 + denoise_orders(f - f0, lay)
+            shares = {e.name: float(x[0]) for e, x in a if e.kind == "fidelity"}
             for e, x in a:
                 if e.kind == "fidelity":
                     f = f + sens.plus[e.name] @ np.asarray(x, float)
                     if r is not None and e.name in sens.responses:
                         r = _blend(r, resp0, sens.responses[e.name], float(x[0]) / e.params[0].step)
+                elif e.name in sens.coupling:  # its change on the fidelity model, by that model's share
+                    fid, c = sens.coupling[e.name]
+                    f = f + shares.get(fid, 0.0) * (c @ np.asarray(x, float))
         out.append((f, r, msg))
     return out
 
@@ -82,8 +87,10 @@ def refine(cands: list[Candidate], prob: Problem, runner, sens: Sensitivities, f
     n = prob.lay.n
     st = {id(c): RefineState(c, c.jacobian.copy(), np.zeros(len(c.x)) if c.base_x is None else c.base_x.copy(),
                              f0 if c.base_features is None else c.base_features, c.x.copy()) for c in cands}
+    known_failed = set(failed)  # effects whose sensitivities failed: not refined
+    lost = {}  # candidates whose first evaluation failed: the message
     for it in range(settings.refine_iterations):
-        live = [k for k, s in st.items() if s.cand.name not in failed and s.x_next is not None]
+        live = [k for k, s in st.items() if s.cand.name not in known_failed and k not in lost and s.x_next is not None]
         if not live:
             break
         xs = {k: st[k].x_next for k in live}
@@ -104,7 +111,7 @@ def refine(cands: list[Candidate], prob: Problem, runner, sens: Sensitivities, f
             s = st[k]
             if fx is None:
                 if s.best is None:
-                    failed[s.cand.name] = f"model evaluation failed at the fitted values: {msg}"
+                    lost[k] = msg
                 s.x_next = None  # keep the best evaluation so far
                 continue
             x_eval = xs[k]
@@ -123,6 +130,10 @@ def refine(cands: list[Candidate], prob: Problem, runner, sens: Sensitivities, f
             # moved/equidistant deviations along their near-cancelling direction, needs several)
             stalled = it >= 1 and rss_real > (1.0 - settings.refine_min_gain) * prev_best
             s.x_next = None if converged or stalled else x_new
+    # a name fails only when every start of it did (the calibration is refined from several)
+    for k, msg in lost.items():
+        if all(j in lost for j, o in st.items() if o.cand.name == st[k].cand.name):
+            failed[st[k].cand.name] = f"model evaluation failed at the fitted values: {msg}"
     refined = []
     for s in st.values():
         if s.best is None:

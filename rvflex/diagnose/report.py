@@ -215,7 +215,7 @@ def json_document(diag) -> dict:
     if not diag.withheld_runs:
         withheld["note"] = "no run usable for the withheld check"
     return {"where": where_list(diag), "effects": effects, "gap_before": before, "gap_after": after,
-            "gap_calibrated": calibrated, "calibration": describe_calibration(diag.baseline),
+            "gap_calibrated": calibrated, "calibration": describe_calibration(diag.baseline, diag.undetermined),
             "calibration_shrink_pct": float(diag.baseline.gap_shrink_pct),
             "calibration_withheld_improvement_pct": diag.baseline.withheld.get("improvement_pct"),
             "calibration_ties": list(diag.calibration_ties), "separating_runs": list(diag.separating_runs),
@@ -398,8 +398,11 @@ def markdown(diag, doc: dict, pngs: list[str]) -> str:
         f = (lambda v: f"{v * 1e6:.2f} µm") if unit == "m" else (lambda v: f"{v:.3f}")
         sc = (f"×{c['stiffness_scale']:.3f} [{c['stiffness_scale_interval'][0]:.2f} … "
               f"{c['stiffness_scale_interval'][1]:.2f}]") if "stiffness_scale" in c else "—"
-        lines.append(f"| {c['name']}.{c['param']} | {f(c['value'])} [{f(c['interval'][0])} … {f(c['interval'][1])}] | "
-                     f"{f(c['nominal'])} | {f(c['prior_sigma'])} | {sc} | {'yes' if c['at_prior_bound'] else ''} |")
+        value = (f"{f(c['value'])} [{f(c['interval'][0])} … {f(c['interval'][1])}]" if c["determined"] else
+                 "held at nominal: not determined by these runs")
+        lines.append(f"| {c['name']}.{c['param']} | {value} | "
+                     f"{f(c['nominal'])} | {f(c['prior_sigma'])} | {sc if c['determined'] else '—'} | "
+                     f"{'yes' if c['at_prior_bound'] else ''} |")
     lines += ["", "## Where the gap lies (nominal model)", "",
              "| where | direction | load (N·m) | temperature (°C) | share of the weighted gap |",
              "|---|---|---:|---:|---:|"]

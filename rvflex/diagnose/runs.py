@@ -59,8 +59,10 @@ class ModelRunner:
                                                   settings.hysteresis_steps, repr(law)))).hexdigest()
 
     def key(self, active) -> str:
+        # the model an effect blends in is part of what it means (no entry when there is none)
         desc = [(e.name, e.kind, tuple(p.name for p in e.params), tuple(np.round(np.asarray(x, float), 15)))
-                for e, x in active]
+                + ((repr(e.options), getattr(e.alt_law, "__qualname__", None))
+                   if e.options is not None or e.alt_law is not None else ()) for e, x in active]
         return hashlib.sha256((self._base + repr(desc)).encode()).hexdigest()[:24]
 
     def _load(self, key):

@@ -330,7 +330,7 @@ def score_case(truth: dict, diag) -> dict:
            "ranked": [c.name for c in ranked[:3]],
            "gap_shrink_pct": float(chosen.gap_shrink_pct) if chosen else 0.0,
            "verdict": diag.verdict, "wall_s": diag.wall_s, "model_runs": diag.model_runs}
-    row.update(_score_calibration(truth, chosen or diag.baseline))
+    row.update(_score_calibration(truth, chosen or diag.baseline, diag.undetermined))
     if not hidden:
         row["correct"] = chosen is None
         return row
@@ -359,23 +359,31 @@ CALIBRATED_SCALES = {"contact_stiffness": "contact_scale", "needle_bearing_stiff
                      "mesh_stiffness": "mesh_scale"}
 
 
-def _score_calibration(truth: dict, cand) -> dict:
-    """Calibrated stiffness scales against the generator's drawn ones (within ±CALIBRATION_TOL)."""
+def _score_calibration(truth: dict, cand, held: dict | None = None) -> dict:
+    """Calibrated stiffness scales against the generator's drawn ones (within ±CALIBRATION_TOL).
+
+    ``calibration_ok``: every scale the diagnosis determined is within tolerance. A scale the runs
+    do not determine (``held``: kept at its nominal value, reported as not determined) is not a
+    calibrated one; ``calibration_ok_all`` also counts it, at its nominal value (the strict reading)."""
     from rvflex.diagnose.nominal import describe_calibration
 
     drawn = truth.get("nominal")
     if not drawn:
         return {}
-    rows = {r["name"]: r for r in describe_calibration(cand)}
+    rows = {r["name"]: r for r in describe_calibration(cand, held)}
     out = {}
     for name, key in CALIBRATED_SCALES.items():
         if name in rows:
-            out[name] = {"calibrated": rows[name]["stiffness_scale"], "drawn": drawn[key]}
+            v = rows[name]["stiffness_scale"]
+            out[name] = {"calibrated": v, "drawn": drawn[key], "determined": rows[name]["determined"],
+                         "within_tol": bool(abs(v / drawn[key] - 1.0) <= CALIBRATION_TOL)}
     if "crank_bearing_clearance" in rows:
         out["crank_bearing_clearance"] = {"calibrated_m": rows["crank_bearing_clearance"]["value"],
                                           "drawn_m": drawn["clearance_m"]}
-    ok = [abs(v["calibrated"] / v["drawn"] - 1.0) <= CALIBRATION_TOL for k, v in out.items() if k in CALIBRATED_SCALES]
-    return {"calibration": out, "calibration_ok": bool(ok) and all(ok)}
+    scales = [v for k, v in out.items() if k in CALIBRATED_SCALES]
+    ok = [v["within_tol"] for v in scales if v["determined"]]
+    return {"calibration": out, "calibration_ok": bool(ok) and all(ok),
+            "calibration_ok_all": bool(scales) and all(v["within_tol"] for v in scales)}
 
 
 def _case_job(args):
@@ -487,6 +495,8 @@ def selfcheck(out_dir: str | Path, settings: SelfCheckSettings = SelfCheckSettin
         "median_gap_shrink_pct": float(np.median([r["gap_shrink_pct"] for r in eff])) if eff else None,
         "control_correct_rate": _rate([r["correct"] for r in ctl]),
         "calibration_rate": _rate([r["calibration_ok"] for r in rows if "calibration_ok" in r]),
+        "calibration_rate_all_scales": _rate([r["calibration_ok_all"] for r in rows if "calibration_ok_all" in r]),
+        "calibration_by_scale": _calibration_by_scale(rows),
         "mismatch": settings.mismatch,
         "wall_s": time.perf_counter() - t0,
         "effect_cases": len(eff), "control_cases": len(ctl),
@@ -495,6 +505,18 @@ def selfcheck(out_dir: str | Path, settings: SelfCheckSettings = SelfCheckSettin
         "per_case": rows,
     }
     return doc
+
+
+def _calibration_by_scale(rows: list[dict]) -> dict:
+    """Per stiffness scale: cases scored, cases whose runs determined it, and of those the ones
+    within ±CALIBRATION_TOL of the drawn scale (and of all cases, counting held ones at nominal)."""
+    out = {}
+    for name in CALIBRATED_SCALES:
+        v = [r["calibration"][name] for r in rows if name in r.get("calibration", {})]
+        det = [x for x in v if x["determined"]]
+        out[name] = {"cases": len(v), "determined": len(det), "within_tol_of_determined": sum(x["within_tol"] for x in det),
+                     "within_tol_all": sum(x["within_tol"] for x in v)}
+    return out
 
 
 def _rate(flags: list) -> float | None:

@@ -54,6 +54,17 @@ def second_effect_adds(pair: Candidate, singles: dict, settings: DiagnosisSettin
     return shrink >= settings.min_shrink_pct and sub.bic - pair.bic >= settings.bic_threshold
 
 
+def _side_step(e: Effect, prm, sign: float) -> float:
+    """The secant step of a two-sided effect on one side: the typical step, or the parameter's
+    bound on that side when nearer (a secant from beyond the range mis-states the response within
+    it: measured, the −11.5 ppm/K secant of a thermal mismatch bounded at −5 ppm/K, deep in the
+    preload the shrinking pin circle makes)."""
+    if not e.two_sided:
+        return prm.step
+    room = prm.high if sign > 0 else -prm.low
+    return min(prm.step, room) if room > 0 else prm.step
+
+
 def sensitivities(runner, cands, f0, resp0, plan, settings, lay) -> tuple[Sensitivities, dict]:
     """Secant sensitivities (features per unit parameter) of every candidate, and the failures."""
     n = lay.n
@@ -65,11 +76,23 @@ def sensitivities(runner, cands, f0, resp0, plan, settings, lay) -> tuple[Sensit
         for j, prm in enumerate(e.params):
             for sign in ((1.0, -1.0) if e.central or e.two_sided else (1.0,)):
                 x = np.zeros(e.n)
-                x[j] = sign * prm.step
+                x[j] = sign * _side_step(e, prm, sign)
                 jobs.append(((e, x),))
                 owners.append((e.name, j, sign))
+    # coupled effects: the same step on the model of the fidelity effect they are coupled to (at its step)
+    by_name = {c.name: c for c in cands}
+    coupled = {e.name: by_name[e.coupled_to] for e in cands
+               if e.coupled_to in by_name and by_name[e.coupled_to].kind == "fidelity"}
+    for name, fid in coupled.items():
+        e = by_name[name]
+        for j, prm in enumerate(e.params):
+            x = np.zeros(e.n)
+            x[j] = prm.step
+            jobs.append(((e, x), (fid, np.array([fid.params[0].step]))))
+            owners.append((name, j, "coupled"))
     # other-fidelity (slow) jobs first, so that they run alongside the rigid ones
-    order = sorted(range(len(jobs)), key=lambda i: next(c for c in cands if c.name == owners[i][0]).kind != "fidelity")
+    order = sorted(range(len(jobs)), key=lambda i: not (owners[i][2] == "coupled"
+                                                        or by_name[owners[i][0]].kind == "fidelity"))
     outs: list = [None] * len(jobs)
     for i, o in zip(order, runner.run([jobs[i] for i in order])):
         outs[i] = o
@@ -88,7 +111,11 @@ def sensitivities(runner, cands, f0, resp0, plan, settings, lay) -> tuple[Sensit
                 cols.append((fj - f0) / prm.step)
             sens[e.name] = np.column_stack(cols)
     responses = {}
+    flexed = {}
     for (name, j, sign), (fj, rj, msg) in zip(owners, outs):
+        if sign == "coupled":
+            flexed[(name, j)] = (fj, msg)
+            continue
         if fj is not None and next(c for c in cands if c.name == name).kind == "fidelity":
             responses[name] = rj
         if name in failed:
@@ -100,14 +127,37 @@ def sensitivities(runner, cands, f0, resp0, plan, settings, lay) -> tuple[Sensit
             continue
         e = next(c for c in cands if c.name == name)
         if e.two_sided and sign < 0:  # the −step secant (f0 − f−)/h, kept apart
-            minus.setdefault(name, np.zeros((n, e.n)))[:, j] = (f0 - fj) / e.params[j].step
+            minus.setdefault(name, np.zeros((n, e.n)))[:, j] = (f0 - fj) / _side_step(e, e.params[j], -1.0)
             continue
         # one-sided: the secant (f+ − f0)/h; central: (f+ − f0)/(2h) + (f0 − f−)/(2h)
         scale = e.params[j].step * (2.0 if e.central else 1.0)
         sens.setdefault(name, np.zeros((n, e.n)))[:, j] += sign * (fj - f0) / scale
+    # the coupling: the step's change on the fidelity model less its change on the rigid one, per unit
+    # share·x; the secant used by the linear fits is the fidelity model's (the share is nominally 1)
+    coupling = {}
+    for name, fid in coupled.items():
+        e = by_name[name]
+        if name not in sens or fid.name not in sens:
+            continue
+        h_f = fid.params[0].step
+        f_fid = f0 + sens[fid.name][:, 0] * h_f  # the fidelity model at its step
+        cols = []
+        for j, prm in enumerate(e.params):
+            fj, msg = flexed[(name, j)]
+            if fj is None:
+                failed[name] = f"model evaluation failed at the sensitivity step on the {fid.name} model: {msg}"
+                break
+            cols.append(((fj - f_fid) / prm.step - sens[name][:, j]) / h_f)
+        else:
+            coupling[name] = (fid.name, np.column_stack(cols))
+            sens[name] = sens[name] + coupling[name][1]
+    for name in list(coupled):
+        if name in failed:
+            sens.pop(name, None)
     sens = {name: denoise_orders(v, lay) for name, v in sens.items()}
     minus = {name: denoise_orders(v, lay) for name, v in minus.items()}
-    return Sensitivities(sens, minus, responses), failed
+    coupling = {name: (fid, denoise_orders(c, lay)) for name, (fid, c) in coupling.items()}
+    return Sensitivities(sens, minus, responses, coupling), failed
 
 
 def signature_sizes(spec: ReducerSpec, plan, settings: DiagnosisSettings, effects: tuple[str, ...] | None = None,
