@@ -102,8 +102,38 @@ class ModelRunner:
                                            f"{type(o.error).__name__}: {o.error}")
             self._finish(keys[i], out[i])
 
+        if workers:
+            self._warm_fe([actives[i] for i in todo])
         map_warm(_eval_item, [(*args, actives[i]) for i in todo], workers, on_outcome=done)
         return out
+
+    def _warm_fe(self, actives: list[tuple]) -> None:
+        """Build here, before the pool forks, every disc reduction the pool's runs need (from the
+        disk cache, or meshed here): a worker forked after this process meshed must not mesh itself,
+        since OpenCascade's thread pool is copied without its threads and the worker's meshing waits
+        on it forever (measured: a CI run hung in a worker meshing the contact-stiffness variant's
+        disc after the test process had meshed the nominal one)."""
+        import dataclasses
+
+        from rvflex.fe.reduce import reduce_part
+
+        seen = set()
+        for active in actives:
+            opts = [e.options for e, _ in active if e.options is not None and e.options.flexible_discs_on]
+            if not opts:
+                continue
+            spec = self.spec
+            for e, x in active:
+                if e.kind == "model" and not e.per_run:  # what can change the disc's geometry or material
+                    spec, _ = e.apply_to(spec, self.errors, np.asarray(x, float), self.plan[0])
+            for o in opts:
+                key = (repr(spec), repr(o.discs))
+                if key not in seen:
+                    seen.add(key)
+                    try:
+                        reduce_part(spec, "disc", **dataclasses.asdict(o.discs))
+                    except Exception:  # noqa: BLE001 -- the run itself reports what fails
+                        pass
 
     def _finish(self, key, value) -> None:
         self.model_runs += 1
