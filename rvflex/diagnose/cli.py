@@ -114,7 +114,7 @@ def _cmd_selfcheck(args: argparse.Namespace) -> int:
                            "realistic": dc.asdict(settings.realistic)}
         summary = {k: doc[k] for k in ("cases", "mismatch", "top1_rate", "top2_rate", "magnitude_within_25pct_rate",
                                        "median_gap_shrink_pct", "control_correct_rate", "calibration_rate",
-                                       "wall_s")}
+                                       "calibration_rate_all_scales", "wall_s")}
         print(json.dumps(summary, indent=2))
         if args.out:
             write_atomic(out / "selfcheck.json", json.dumps(doc, indent=2).encode())
