@@ -116,7 +116,8 @@ def sensitivities(runner, cands, f0, resp0, plan, settings, lay) -> tuple[Sensit
         if sign == "coupled":
             flexed[(name, j)] = (fj, msg)
             continue
-        if fj is not None and next(c for c in cands if c.name == name).kind == "fidelity":
+        e = by_name[name]
+        if fj is not None and e.kind == "fidelity":
             responses[name] = rj
         if name in failed:
             continue
@@ -125,7 +126,6 @@ def sensitivities(runner, cands, f0, resp0, plan, settings, lay) -> tuple[Sensit
             sens.pop(name, None)
             minus.pop(name, None)
             continue
-        e = next(c for c in cands if c.name == name)
         if e.two_sided and sign < 0:  # the −step secant (f0 − f−)/h, kept apart
             minus.setdefault(name, np.zeros((n, e.n)))[:, j] = (f0 - fj) / _side_step(e, e.params[j], -1.0)
             continue
