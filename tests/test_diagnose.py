@@ -212,7 +212,7 @@ def test_branch_angles_of_a_linear_loop():
 
 def test_effect_library_covers_the_issue_and_registers_new_effects():
     need = {"eccentric_bearing_clearance", "main_bearing_clearance", "pin_ring_runout", "pin_position_h2",
-            "pin_radius_error", "crank_eccentricity_error", "crank_phase_error", "disc_modification_deviation",
+            "crank_eccentricity_error", "crank_phase_error", "disc_modification_deviation",
             "cycloid_pitch_error", "carrier_hole_position", "disc_carrier_flexibility", "pin_contact_friction",
             "thermal_expansion", "output_encoder_eccentricity", "input_stage_runout"}
     assert need <= set(EFFECTS)
@@ -233,6 +233,29 @@ def test_effect_library_covers_the_issue_and_registers_new_effects():
             register(extra)
     finally:
         EFFECTS.pop("test_only")
+
+
+def test_a_pin_radius_error_is_the_equidistant_deviation_reversed():
+    """The pin–profile gap depends only on pin radius + generating pin radius: a +4 µm pin radius
+    error and a −4 µm equidistant deviation give the same TE at two loads and the same torque
+    cycle (to 1e-3″, the solver's settling) while each moves them by ~18″ — so the library has one
+    effect for both, and the deviation's description says so."""
+    from rvflex.diagnose.replay import evaluate
+
+    path = tuple(412.0 * np.interp(np.linspace(0, 1, 25), [0, 0.25, 0.75, 1], [0, 1, -1, 0]))
+    plan = (PlanRun("te", "a", 1, 412.0), PlanRun("te", "b", 1, 103.0),
+            PlanRun("hysteresis", "h", torque_max_Nm=412.0, torque_path_Nm=path))
+    s = DiagnosisSettings(hysteresis_steps=24)
+    base = evaluate(SPEC, ErrorSpec(), plan, s)
+    pin = evaluate(SPEC, ErrorSpec(pin_radius_error_m=4e-6), plan, s)
+    dev = evaluate(SPEC, ErrorSpec(), plan, s, ((EFFECTS["disc_modification_deviation"], np.array([0.0, -4e-6])),))
+    arcsec = 180 * 3600 / np.pi
+    for k in range(2):
+        assert np.ptp(np.asarray(pin.te[k]) - base.te[k]) * arcsec > 0.05  # the pin error changes the TE ripple
+        assert np.abs(np.mean(pin.te[k]) - np.mean(base.te[k])) * arcsec > 10.0  # and its wind-up
+        np.testing.assert_allclose(np.asarray(pin.te[k]) * arcsec, np.asarray(dev.te[k]) * arcsec, atol=1e-3)
+    np.testing.assert_allclose(np.asarray(pin.theta[2]) * arcsec, np.asarray(dev.theta[2]) * arcsec, atol=1e-3)
+    assert "pin_radius_error" not in EFFECTS and "pin radius error" in EFFECTS["disc_modification_deviation"].description
 
 
 def test_temperature_round_trip_and_run_labels(tmp_path):
@@ -267,8 +290,8 @@ def test_thermal_expansion_needs_every_runs_temperature():
 
     plan = (PlanRun("te", "te forward 412 N·m at 40 °C", 1, 412.0, temperature_C=40.0),
             PlanRun("hysteresis", "hysteresis ±412 N·m", torque_max_Nm=412.0))
-    cands, why = available_candidates(("thermal_expansion", "pin_radius_error"), plan)
-    assert [e.name for e in cands] == ["pin_radius_error"]
+    cands, why = available_candidates(("thermal_expansion", "pin_ring_runout"), plan)
+    assert [e.name for e in cands] == ["pin_ring_runout"]
     assert "temperature_C" in why["thermal_expansion"] and "hysteresis ±412 N·m" in why["thermal_expansion"]
     with pytest.raises(EvaluationFailed, match="temperature_C"):
         evaluate(SPEC, ErrorSpec(), plan, DiagnosisSettings(), ((EFFECTS["thermal_expansion"], np.array([1e-5])),))
@@ -279,7 +302,7 @@ def test_thermal_expansion_needs_every_runs_temperature():
 def test_two_sided_sensitivities_fit_each_sign_with_its_own_secant():
     from rvflex.diagnose.linear import Sensitivities
 
-    th, pr = EFFECTS["thermal_expansion"], EFFECTS["pin_radius_error"]
+    th, pr = EFFECTS["thermal_expansion"], EFFECTS["carrier_hole_position"]
     plus, minus = np.array([[1.0], [2.0]]), np.array([[3.0], [4.0]])
     sens = Sensitivities({th.name: plus, pr.name: np.array([[5.0], [6.0]])}, {th.name: minus})
     (j1, lo1, hi1), (j2, lo2, hi2) = sens.orthants((th,))
@@ -301,7 +324,7 @@ def test_a_pair_needs_its_second_effect_to_remove_a_quarter_of_the_rest():
     from rvflex.diagnose.linear import bic
 
     n = 800
-    a, b = EFFECTS["pin_radius_error"], EFFECTS["thermal_expansion"]
+    a, b = EFFECTS["carrier_hole_position"], EFFECTS["thermal_expansion"]
 
     def cand(effects, rss, k):
         return SimpleNamespace(effects=effects, attributed=effects, name=" + ".join(e.name for e in effects), rss=rss, bic=bic(rss, n, k))
@@ -526,7 +549,7 @@ def test_a_control_with_30pct_stiffness_mismatch_is_nominal_parameters_off(tmp_p
     ds = _mismatched_bench(tmp_path, [], contact_scale=1.3, needle_bearing_scale=0.7, mesh_scale=1.3,
                            clearance_m=2e-6)
     diag = diagnose(ds, settings=CI_SETTINGS, nominal=CAL, cache_dir=tmp_path / "cache",
-                    effects=("eccentric_bearing_clearance", "pin_ring_runout", "pin_radius_error"))
+                    effects=("eccentric_bearing_clearance", "pin_ring_runout", "disc_modification_deviation"))
     assert diag.chosen is None, diag.verdict
     assert "Nominal parameters off; no unmodelled effect" in diag.verdict
     assert diag.baseline.gap_shrink_pct >= 50.0  # calibration closes most of the nominal model's gap
@@ -548,14 +571,15 @@ def test_a_hidden_clearance_is_found_through_a_30pct_contact_stiffness_mismatch(
     diagnosing model's: the clearance is accepted and its size (nominal + excess, the observable
     total) is within ±25 %. At the diagnosis's default resolution: with orders only up to 95 and a
     24-step torque cycle a −10 µm pin-radius error (its torque-cycle signature is the clearance's)
-    wins instead, tied with the clearance — measured."""
+    won instead, tied with the clearance — measured; the pin radius error is now the equidistant
+    deviation's, which stands in the candidate list for it."""
     from rvflex.diagnose.fit import diagnose
 
     hidden = [(EFFECTS["eccentric_bearing_clearance"], np.array([10e-6]))]
     ds = _mismatched_bench(tmp_path, hidden, samples_per_rev=1024, contact_scale=0.7, needle_bearing_scale=1.0,
                            mesh_scale=1.0, clearance_m=0.0)
     diag = diagnose(ds, settings=DiagnosisSettings(workers=2), nominal=CAL, cache_dir=tmp_path / "cache",
-                    effects=("eccentric_bearing_clearance", "pin_ring_runout", "pin_radius_error"))
+                    effects=("eccentric_bearing_clearance", "pin_ring_runout", "disc_modification_deviation"))
     assert diag.chosen is not None and diag.chosen.name == "eccentric_bearing_clearance", diag.verdict
     total = diag.chosen.magnitude_of("eccentric_bearing_clearance") + diag.chosen.magnitude_of("crank_bearing_clearance")
     assert total == pytest.approx(10e-6, rel=0.25)

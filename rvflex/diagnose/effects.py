@@ -229,10 +229,6 @@ def _pin_harmonic(spec, errors, x, *, harmonic: int):
     return spec, dc.replace(errors, pin_radial_m=tuple(float(v) for v in old + r))
 
 
-def _pin_radius(spec, errors, x):
-    return spec, dc.replace(errors, pin_radius_error_m=errors.pin_radius_error_m + float(x[0]))
-
-
 def _per_crank(spec, errors, x, *, field: str):
     old = getattr(errors, field) or (0.0,) * spec.cranks.count
     return spec, dc.replace(errors, **{field: tuple(float(o + v) for o, v in zip(old, x))})
@@ -321,8 +317,6 @@ def _builtin() -> tuple[Effect, ...]:
         Effect("pin_position_h3", "per-pin radial position error, 3rd harmonic around the ring (cos/sin amplitudes)",
                polar(10 * um, 4 * um, ("cos_m", "sin_m")), apply=partial(_pin_harmonic, harmonic=3), polar=True,
                central=True),
-        Effect("pin_radius_error", "pin radius error, all pins",
-               (Param("radius_error_m", "m", -10 * um, 10 * um, 4 * um),), apply=_pin_radius),
         # common and differential parts: both cranks off alike change the drive's eccentricity (clearance
         # opens on one sign, preload on the other), which the sum of two one-crank secants missed (measured:
         # a −3.4/−3.2 µm pair fitted at the bounds, removing 4 % of a gap it had made)
@@ -333,8 +327,12 @@ def _builtin() -> tuple[Effect, ...]:
         Effect("crank_phase_error", "eccentric phase error of each crankshaft",
                tuple(Param(f"crank{k}_rad", "rad", -2e-3, 2e-3, 5e-4) for k in range(2)),
                apply=partial(_per_crank, field="crank_phase_error_rad")),
-        # two-sided: a negative deviation takes clearance away (towards preload), a positive one adds it
-        Effect("disc_modification_deviation", "deviation of the moved (Δr_p) and equidistant (Δr_rp) modification",
+        # two-sided: a negative deviation takes clearance away (towards preload), a positive one adds it.
+        # A pin radius error +δ of all pins is the equidistant deviation −δ: the pin–profile gap depends
+        # on their sum only (the model's features agree to 0.0000″, test), so no bench run can tell
+        # them apart and this one effect stands for both (as pin_ring_runout does for two runouts)
+        Effect("disc_modification_deviation", "deviation of the moved (Δr_p) and equidistant (Δr_rp) modification; "
+               "an equidistant deviation −δ is also a pin radius error +δ of all pins (the same pin–profile gap)",
                (Param("moved_m", "m", -10 * um, 10 * um, 4 * um), Param("equidistant_m", "m", -10 * um, 10 * um, 4 * um)),
                apply=_modification, two_sided=True),
         Effect("cycloid_pitch_error", "cumulative pitch error of the discs, once-per-disc harmonic (cos/sin)",
