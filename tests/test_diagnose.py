@@ -236,7 +236,7 @@ def test_effect_library_covers_the_issue_and_registers_new_effects():
 
 
 def test_a_pin_radius_error_is_the_equidistant_deviation_reversed():
-    """The pin–profile gap depends only on pin radius + generating pin radius: a +4 µm pin radius
+    """The pin–profile gap depends only on generating pin radius − pin radius: a +4 µm pin radius
     error and a −4 µm equidistant deviation give the same TE at two loads and the same torque
     cycle (to 1e-3″, the solver's settling) while each moves them by ~18″ — so the library has one
     effect for both, and the deviation's description says so."""

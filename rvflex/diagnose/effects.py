@@ -329,7 +329,7 @@ def _builtin() -> tuple[Effect, ...]:
                apply=partial(_per_crank, field="crank_phase_error_rad")),
         # two-sided: a negative deviation takes clearance away (towards preload), a positive one adds it.
         # A pin radius error +δ of all pins is the equidistant deviation −δ: the pin–profile gap depends
-        # on their sum only (the model's features agree to 0.0000″, test), so no bench run can tell
+        # on the generating pin radius minus the pin radius only (features agree to 0.001″, test), so no run can tell
         # them apart and this one effect stands for both (as pin_ring_runout does for two runouts)
         Effect("disc_modification_deviation", "deviation of the moved (Δr_p) and equidistant (Δr_rp) modification; "
                "an equidistant deviation −δ is also a pin radius error +δ of all pins (the same pin–profile gap)",
