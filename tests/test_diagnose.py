@@ -241,6 +241,7 @@ def test_a_pin_radius_error_is_the_equidistant_deviation_reversed():
     cycle (to 1e-3″, the solver's settling) while each moves them by ~18″ — so the library has one
     effect for both, and the deviation's description says so."""
     from rvflex.diagnose.replay import evaluate
+    from rvflex.units import ARCSEC_PER_RAD as arcsec
 
     path = tuple(412.0 * np.interp(np.linspace(0, 1, 25), [0, 0.25, 0.75, 1], [0, 1, -1, 0]))
     plan = (PlanRun("te", "a", 1, 412.0), PlanRun("te", "b", 1, 103.0),
@@ -249,7 +250,6 @@ def test_a_pin_radius_error_is_the_equidistant_deviation_reversed():
     base = evaluate(SPEC, ErrorSpec(), plan, s)
     pin = evaluate(SPEC, ErrorSpec(pin_radius_error_m=4e-6), plan, s)
     dev = evaluate(SPEC, ErrorSpec(), plan, s, ((EFFECTS["disc_modification_deviation"], np.array([0.0, -4e-6])),))
-    arcsec = 180 * 3600 / np.pi
     for k in range(2):
         assert np.ptp(np.asarray(pin.te[k]) - base.te[k]) * arcsec > 0.05  # the pin error changes the TE ripple
         assert np.abs(np.mean(pin.te[k]) - np.mean(base.te[k])) * arcsec > 10.0  # and its wind-up
@@ -571,8 +571,8 @@ def test_a_hidden_clearance_is_found_through_a_30pct_contact_stiffness_mismatch(
     diagnosing model's: the clearance is accepted and its size (nominal + excess, the observable
     total) is within ±25 %. At the diagnosis's default resolution: with orders only up to 95 and a
     24-step torque cycle a −10 µm pin-radius error (its torque-cycle signature is the clearance's)
-    won instead, tied with the clearance — measured; the pin radius error is now the equidistant
-    deviation's, which stands in the candidate list for it."""
+    won instead, tied with the clearance — measured; the equidistant deviation now stands for the
+    pin radius error in the candidate list."""
     from rvflex.diagnose.fit import diagnose
 
     hidden = [(EFFECTS["eccentric_bearing_clearance"], np.array([10e-6]))]
