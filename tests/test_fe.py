@@ -332,3 +332,34 @@ def test_cli_reduce_quadratic_settings(part, tmp_path, capsys):
     warm = json.loads(out.read_text())
     assert warm["cached"] is True and warm["wall_s"] < 2.0
     assert warm["freqs_hz"] == doc["freqs_hz"]
+
+
+def _reduce_in_worker(spec, cache_dir: str) -> None:
+    from rvflex.fe.reduce import reduce_part
+
+    reduce_part(spec, "disc", cache_dir=cache_dir, **COARSE)
+
+
+def test_a_forked_worker_builds_a_reduction_after_its_parent_meshed(disc, spec, cache_dir, tmp_path):
+    """A process forked after its parent meshed a disc reduces another disc (built in a separate
+    process, rvflex.fe.isolated): meshing in the forked process itself waits forever on the OCC
+    thread pool the fork copied without its threads (the self-check's generator hung so). The
+    child gets 240 s, about ten times what the coarse build takes."""
+    import dataclasses as dc
+    import multiprocessing as mp
+
+    from rvflex.fe import cache
+    from rvflex.fe.reduce import CODE_VERSION, settings_for
+
+    assert disc.n_modes > 0  # the parent has meshed
+    mod = spec.cycloid.modification
+    other = dc.replace(spec, cycloid=dc.replace(spec.cycloid, modification=dc.replace(mod, moved_m=mod.moved_m + 3e-6)))
+    proc = mp.get_context("fork").Process(target=_reduce_in_worker, args=(other, str(tmp_path)))
+    proc.start()
+    proc.join(240)
+    hung = proc.is_alive()
+    if hung:
+        proc.kill()
+        proc.join()
+    assert not hung and proc.exitcode == 0
+    assert cache.load(cache.key_for(other, "disc", settings_for("disc", **COARSE), CODE_VERSION), tmp_path) is not None

@@ -36,6 +36,7 @@ Cholesky solves), :mod:`~rvflex.fe.hcb` (the build and its estimates),
 
 from __future__ import annotations
 
+import multiprocessing as mp
 import os
 
 import numpy as np
@@ -45,6 +46,7 @@ from rvflex.fe import cache
 from rvflex.fe.checks import static_check
 from rvflex.fe.couplings import nodeset, rbe3_loads, rbe3_virtual_nodes, rigid_map
 from rvflex.fe.hcb import STEPS, build, estimate_memory_bytes
+from rvflex.fe.isolated import build_isolated
 from rvflex.fe.loads import disc_rated_load_case
 from rvflex.fe.types import (
     CHECK_ANGLES_PITCH,
@@ -133,6 +135,8 @@ def reduce_part(spec: ReducerSpec, part: FEPart, *, maxh_m: float | None = None,
         hit = cache.load(key, cache_dir)
         if hit is not None:
             return hit
+    if mp.parent_process() is not None:  # a pool worker: OCC meshing is not fork-safe (rvflex.fe.isolated)
+        return build_isolated(spec, part, s, key, cache_dir, use_cache)
     rp = _build(spec, part, s, key, progress)
     if use_cache:
         cache.store(rp, cache_dir)
