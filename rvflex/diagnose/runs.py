@@ -109,10 +109,10 @@ class ModelRunner:
 
     def _warm_fe(self, actives: list[tuple]) -> None:
         """Build here, before the pool forks, every disc reduction the pool's runs need (from the
-        disk cache, or meshed here): a worker forked after this process meshed must not mesh itself,
-        since OpenCascade's thread pool is copied without its threads and the worker's meshing waits
-        on it forever (measured: a CI run hung in a worker meshing the contact-stiffness variant's
-        disc after the test process had meshed the nominal one)."""
+        disk cache, or meshed here), once, instead of in each worker that needs it. (A worker
+        never meshes in its own process anyway: OpenCascade's thread pool, copied by the fork
+        without its threads, would hang it; :mod:`rvflex.fe.isolated` builds there in a fresh
+        interpreter.)"""
         import dataclasses
 
         from rvflex.fe.reduce import reduce_part
