@@ -49,7 +49,12 @@ def _fmt_cal(row: dict) -> str:
     return f"{row['name'].replace('_', ' ')} {row['value']:.2f}"
 
 
-def calibration_sentence(none: Candidate, nominal_model: Candidate, chosen, settings, held: dict | None = None) -> str:
+def calibration_sentence(none: Candidate, nominal_model: Candidate, chosen, settings, held: dict | None = None,
+                         open_effect: bool = False) -> str:
+    """The verdict's first sentence: the calibrated nominal parameters and how much of the gap they
+    close. "Nominal parameters off; no unmodelled effect" only when no effect is accepted and none is
+    left open (``open_effect``: a significant candidate that was not confirmed, or whose model
+    evaluation failed — the verdict then says the gap it explains stays unexplained)."""
     rows = describe_calibration(none)
     kept = (f" Not determined by these runs, held at nominal: {', '.join(n.replace('_', ' ') for n in held)}."
             if held else "")
@@ -62,7 +67,7 @@ def calibration_sentence(none: Candidate, nominal_model: Candidate, chosen, sett
          f"model's weighted gap.")
     if bound:
         s += f" {', '.join(bound)} ran into the bound of its prior range: the nominal parameter is off by more than assumed."
-    if chosen is None and moved and shrink >= settings.min_shrink_pct:
+    if chosen is None and not open_effect and moved and shrink >= settings.min_shrink_pct:
         s += " Nominal parameters off; no unmodelled effect."
     return s + kept
 

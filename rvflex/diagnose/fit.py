@@ -68,7 +68,7 @@ from rvflex.diagnose.sensitivity import (
     signature_size,
     signature_sizes,
 )
-from rvflex.diagnose.verdict import equivalent, verdict, withheld_check
+from rvflex.diagnose.verdict import equivalent, is_significant, verdict, withheld_check
 from rvflex.spec import ErrorSpec, ReducerSpec
 
 __all__ = ["Candidate", "Diagnosis", "available_candidates", "diagnose", "second_effect_adds",
@@ -349,7 +349,9 @@ def diagnose(dataset, *, settings: DiagnosisSettings | None = None, effects: tup
                 f"{demoted.gap_shrink_pct:.0f} % of what calibration leaves, but within their prior ranges the nominal "
                 f"parameters {', '.join(cal_ties)} reproduce its signature, so these runs cannot tell it from them "
                 f"(a tie); {'; '.join(runs_needed)} would separate them.")
-    text = (calibration_sentence(none, nominal_model, chosen if demoted is None else demoted, settings, held)
+    open_effect = blocked is not None or bool(final and is_significant(final[0], settings))
+    text = (calibration_sentence(none, nominal_model, chosen if demoted is None else demoted, settings, held,
+                                 open_effect=open_effect)
             + " " + text)
     if cal_ties and demoted is None:
         text += (f" Partly tied with the calibration of {', '.join(cal_ties)} (within their prior ranges they reproduce "

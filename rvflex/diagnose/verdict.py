@@ -11,7 +11,8 @@ from rvflex.diagnose.effects import Effect
 from rvflex.diagnose.linear import Candidate, Problem, bounds, lin_fit, prior_of
 from rvflex.diagnose.replay import shift_measured
 
-__all__ = ["SIGNATURE_TIE", "TIE_RSS_RATIO", "equivalent", "fmt_mag", "fmt_pct", "verdict", "withheld_check"]
+__all__ = ["SIGNATURE_TIE", "TIE_RSS_RATIO", "equivalent", "fmt_mag", "fmt_pct", "is_significant", "verdict",
+           "withheld_check"]
 
 def _linearisation(c: Candidate, f0: np.ndarray):
     """(base features, Jacobian, reference point, lower, upper, prior) a candidate is predicted with:
@@ -159,7 +160,7 @@ def verdict(cands, chosen, none, has_folds, settings, unavailable, failed, tied=
                 f"fitted values failed ({failed.get(blocked.name, '')[:160]}), so no weaker candidate is accepted "
                 f"in its place; what calibration leaves stays unexplained.")
     best = cands[0]
-    significant = best.score >= settings.bic_threshold and best.gap_shrink_pct >= settings.min_shrink_pct
+    significant = is_significant(best, settings)
     if significant and not has_folds:
         return (f"{best.name} fits best (gap shrinks by {best.gap_shrink_pct:.0f} %) but cannot be confirmed: "
                 f"no run is usable for the withheld check (add a reverse or another-load run).")
@@ -178,6 +179,11 @@ def verdict(cands, chosen, none, has_folds, settings, unavailable, failed, tied=
             f"{max(best.gap_shrink_pct, 0):.0f} % of the gap (score {best.score:.1f}, withheld "
             f"{fmt_pct(best.withheld.get('improvement_pct'))}); the remaining gap is model-form "
             f"mismatch and noise.")
+
+
+def is_significant(c: Candidate, settings) -> bool:
+    """A candidate that passes the evidence and gap-shrink rules (whether or not it is confirmed)."""
+    return c.score >= settings.bic_threshold and c.gap_shrink_pct >= settings.min_shrink_pct
 
 
 def fmt_pct(v) -> str:
