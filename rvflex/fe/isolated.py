@@ -20,10 +20,12 @@ import sys
 import tempfile
 from pathlib import Path
 
+from rvflex.choices import FEPart
+
 __all__ = ["build_isolated"]
 
 
-def build_isolated(spec, part: str, settings, key: str, cache_dir: str | os.PathLike | None, use_cache: bool):
+def build_isolated(spec, part: FEPart, settings, key: str, cache_dir: str | os.PathLike | None, use_cache: bool):
     """Reduce ``part`` of ``spec`` with ``settings`` (a :class:`~rvflex.fe.types.PartSettings`) in a
     new interpreter and return it from the disk cache (``cache_dir``; with ``use_cache`` False a
     temporary one, removed afterwards).
