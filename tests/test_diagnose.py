@@ -457,20 +457,28 @@ def test_replay_and_lost_motion_share_one_torque_stepping_engine():
     assert 1.5 < replayed[k] * 180 * 60 / np.pi < 4.5
 
 
-def _variant(active, run):
+def _variant(case, run):
+    """(spec, errors) of a measured failing case: (nominal parameters and effects by name, base errors)."""
     from rvflex.diagnose.nominal import NOMINAL
 
-    spec, err = SPEC, ErrorSpec()
+    active, err = case
+    spec = SPEC
     for name, x in active:
         spec, err = (NOMINAL.get(name) or EFFECTS[name]).apply_to(spec, err, np.asarray(x, float), run)
     return spec, err
 
 
-# measured in the realistic self-check (seed 3): fitted values at which the model failed to converge
-STIFF_FLOATING = (("contact_stiffness", [-0.5]), ("needle_bearing_stiffness", [0.5388]), ("mesh_stiffness", [-0.1149]),
-                  ("crank_bearing_clearance", [4.3405e-6]), ("pin_ring_runout", [6.3268e-6, 6.4955e-6]))
-KINKED_FREE_PLAY = (("contact_stiffness", [-0.2279]), ("needle_bearing_stiffness", [-0.02195]),
-                    ("crank_bearing_clearance", [2.8540e-6]), ("pin_ring_runout", [-1.0147e-6, 2.8465e-6]))
+# measured in the realistic self-check (seed 3): fitted values at which the model failed to converge; the
+# pin-ring runouts as measured (x/y components (6.3268, 6.4955) and (−1.0147, 2.8465) µm), as errors: the
+# contact-onset kink is a knife edge that the runout's φ + π twin does not reproduce bit for bit
+STIFF_FLOATING = ((("contact_stiffness", [-0.5]), ("needle_bearing_stiffness", [0.5388]), ("mesh_stiffness", [-0.1149]),
+                   ("crank_bearing_clearance", [4.3405e-6])),
+                  ErrorSpec(pin_ring_runout_m=math.hypot(6.3268e-6, 6.4955e-6),
+                            pin_ring_runout_phase_rad=math.atan2(6.4955e-6, 6.3268e-6)))
+KINKED_FREE_PLAY = ((("contact_stiffness", [-0.2279]), ("needle_bearing_stiffness", [-0.02195]),
+                     ("crank_bearing_clearance", [2.8540e-6])),
+                    ErrorSpec(pin_ring_runout_m=math.hypot(-1.0147e-6, 2.8465e-6),
+                              pin_ring_runout_phase_rad=math.atan2(2.8465e-6, -1.0147e-6)))
 
 
 def test_a_unit_the_one_shot_loading_cannot_load_is_loaded_step_by_step():
@@ -605,3 +613,33 @@ def test_the_verdict_says_no_unmodelled_effect_only_when_none_is_left_open():
     s = DiagnosisSettings()
     assert "Nominal parameters off; no unmodelled effect." in calibration_sentence(cal, nominal, None, s)
     assert "no unmodelled effect" not in calibration_sentence(cal, nominal, None, s, open_effect=True)
+
+
+def test_the_pin_ring_runout_is_parameterised_by_the_doubled_angle():
+    """A pin-ring runout r at angle φ and at φ + π load the pins alike (the two discs' load zones are
+    180° apart): the model's quarter-load TE and torque cycle agree to 1e-3″, while a quarter turn
+    of φ moves the order-2·z_c TE by about 1.6″ (measured: ±0.79″ at 5 µm). So the effect's
+    parameters are (r cos 2φ, r sin 2φ): the effect maps them to φ = atan2/2, and a linear fit in
+    them can turn the runout (in x/y components the two secants were antiparallel on the TE)."""
+    from rvflex.diagnose.replay import PlanRun, evaluate
+    from rvflex.solve import hysteresis_cycle
+    from rvflex.units import ARCSEC
+
+    e = EFFECTS["pin_ring_runout"]
+    assert e.polar and e.magnitude(np.array([3e-6, 4e-6])) == pytest.approx(5e-6)
+    r, phi = 5e-6, 0.3
+    _, err = e.apply_to(SPEC, ErrorSpec(), np.array([r * math.cos(2 * phi), r * math.sin(2 * phi)]), None)
+    assert err.pin_ring_runout_m == pytest.approx(r) and err.pin_ring_runout_phase_rad == pytest.approx(phi)
+    tr = SPEC.rated_torque_Nm
+    plan = (PlanRun("te", "q", 1, 0.25 * tr, temperature_C=25.0),
+            PlanRun("hysteresis", "h", torque_max_Nm=tr, torque_path_Nm=tuple(map(float, hysteresis_cycle(tr, 40))),
+                    temperature_C=23.0))
+    s = DiagnosisSettings().for_spec(SPEC)
+    out = [evaluate(SPEC, ErrorSpec(pin_ring_runout_m=r, pin_ring_runout_phase_rad=p), plan, s)
+           for p in (phi, phi + math.pi, phi + math.pi / 2)]
+    same = [np.max(np.abs(np.asarray(out[0].te[0]) - np.asarray(out[1].te[0]))) / ARCSEC,
+            np.max(np.abs(np.asarray(out[0].theta[1]) - np.asarray(out[1].theta[1]))) / ARCSEC]
+    assert max(same) < 1e-3
+    zc = SPEC.cycloid.disc_teeth
+    c = [np.fft.rfft(np.asarray(o.te[0]))[2 * zc] * 2 / len(o.te[0]) / ARCSEC for o in out]
+    assert abs(c[2] - c[0]) > 1.0  # a quarter turn of φ is half a turn of 2φ: the order-2·z_c TE flips
