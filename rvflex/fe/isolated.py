@@ -18,7 +18,6 @@ import pickle
 import subprocess
 import sys
 import tempfile
-from pathlib import Path
 
 from rvflex.choices import FEPart
 
@@ -48,7 +47,7 @@ def build_isolated(spec, part: FEPart, settings, key: str, cache_dir: str | os.P
         if rp is None:
             tail = (proc.stderr or proc.stdout).decode(errors="replace").strip().splitlines()[-5:]
             raise FEError(f"the {part} reduction (built in a separate process, rc {proc.returncode}) did not reach "
-                          f"the cache {Path(where)}: " + " | ".join(tail))
+                          f"the cache {cache.cache_root(where)}: " + " | ".join(tail))
     rp.meta["cached"] = False
     return rp
 
