@@ -318,7 +318,7 @@ def diagnose(dataset, *, settings: DiagnosisSettings | None = None, effects: tup
     final = []
     blocked = None  # a candidate that fits better (linearised) but whose model evaluation failed
     for c in out:
-        ok = (c.refined and c.score >= settings.bic_threshold and c.gap_shrink_pct >= settings.min_shrink_pct
+        ok = (c.refined and is_significant(c, settings)
               and c.withheld.get("improvement_pct") is not None
               and c.withheld["improvement_pct"] >= settings.min_withheld_pct)
         if ok and chosen is None and blocked is None:
