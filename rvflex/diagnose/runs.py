@@ -15,7 +15,7 @@ from rvflex.parallel import Outcome, map_warm
 
 __all__ = ["CACHE_VERSION", "ModelRunner"]
 
-CACHE_VERSION = "diag-9"
+CACHE_VERSION = "diag-10"  # 10: the chord Newton re-initialised after Exudyn's solver ran (wrong torque cycles before)
 
 
 # ----------------------------------------------------------------------------- workers (module level: picklable)
