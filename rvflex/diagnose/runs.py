@@ -15,7 +15,7 @@ from rvflex.parallel import Outcome, map_warm
 
 __all__ = ["CACHE_VERSION", "ModelRunner"]
 
-CACHE_VERSION = "diag-10"  # 10: the chord Newton re-initialised after Exudyn's solver ran (wrong torque cycles before)
+CACHE_VERSION = "diag-11"  # 11: a rigid TE run goes on by the chord Newton once Exudyn's solver bisects; 10: the chord Newton re-initialised after Exudyn's solver ran
 
 
 # ----------------------------------------------------------------------------- workers (module level: picklable)
