@@ -199,8 +199,8 @@ def test_the_chord_newton_starts_afresh_after_exudyns_solver_ran_in_a_torque_cyc
     −2 N·m; a pin circle 2.1 µm large, as a 10.6 ppm/K housing mismatch at 23 °C gives, and a 9 nm
     crank-bearing clearance): the chord Newton initialised before that failed run must not be reused
     (it then saw no output load and held the descending branch at −60″ down to −412 N·m). The cycle is
-    the same by either solver wherever it is loaded (0.01″: both stop at ~1e-10 rad) and antisymmetric (the geometry is
-    symmetric in the load's sign)."""
+    the same by either solver wherever it is loaded (0.01″: both stop at ~1e-10 rad) and antisymmetric
+    (the geometry is symmetric in the load's sign)."""
     from rvflex.model import build_reducer
     from rvflex.solve import hysteresis_cycle, torque_stepping
 
