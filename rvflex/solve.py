@@ -283,12 +283,12 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
     the motion. With ``chord_newton`` the steps are solved by :class:`_ChordNewton` from an
     extrapolated guess, else by Exudyn's static solver from the kinematic guess. The default
     (None) takes the chord Newton for FE bodies, whose Jacobian is dear (2.3× faster), and for
-    rigid ones Exudyn's solver (their Jacobian costs about a residual; with the chord Newton for every
-    rigid run the realistic self-check took 975 s instead of 852 s) until a
-    recorded step has to be bisected, then the chord Newton for the rest of the run (measured side
-    by side, RV-40E, 448 positions: both crank eccentricities 3 µm too large at 103 N·m, Exudyn's
-    solver bisecting step after step, 188 s against 0.4 s by the chord Newton; the TE agreed to
-    5e-6″ in that run and in the nominal, clearance-and-runout and preloaded runs beside it).
+    rigid ones Exudyn's solver (their Jacobian costs about a residual; with the chord Newton for
+    every rigid run the realistic self-check took 975 s instead of 852 s) until a recorded step
+    has to be bisected, then the chord Newton for the rest of the run (measured side by side,
+    RV-40E, 448 positions: both crank eccentricities 3 µm too large at 103 N·m, Exudyn's solver
+    bisecting step after step, 188 s against 0.4 s by the chord Newton; the TE agreed to 5e-6″
+    in that run and in the nominal, clearance-and-runout and preloaded runs beside it).
 
     The loaded state at the first pose is reached by a stiff-to-working continuation of the output
     regulariser under the load; when that fails and the run starts at input angle 0, the unit is
@@ -336,11 +336,12 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
         steps += [(theta_in[0], k_work, f0 + (1.0 - f0) * f, False) for f in LOAD_CONTINUATION]
     steps += [(th, k_work, 1.0, True) for th in theta_in]
     prev_th = theta_in[0]
-    switch = chord_newton is None and not (bool(model.discs.modal_nodes) or model.flexible_carrier)
+    fe = bool(model.discs.modal_nodes) or model.flexible_carrier
+    switch = chord_newton is None and not fe  # rigid default: Exudyn's solver until it bisects
     if chord_newton is None:
-        chord_newton = not switch
+        chord_newton = fe
     newton = _ChordNewton(model) if chord_newton or switch else None
-    bisected = []  # Exudyn's solver had to bisect a recorded step: the chord Newton takes over (``switch``)
+    bisected = []  # recorded steps Exudyn's solver had to bisect (``switch``: the chord Newton takes over)
     history: list[tuple[float, np.ndarray]] = []  # (θ_in, elastic part) of the last converged recorded steps
     loaded_by_stepping = False
     skipped = -2  # the last recorded step left out
