@@ -161,7 +161,8 @@ def _far_bench(tmp_path, hidden, scale, samples_per_rev=512, positions=256, clea
     for CI time."""
     from rvflex.diagnose.selfcheck import GeneratorModel, RealisticMismatch, generate_case
 
-    drawn = {"contact_scale": scale, "needle_bearing_scale": scale, "mesh_scale": scale, "clearance_m": clearance_m}
+    drawn = {"contact_scale": scale, "needle_bearing_scale": scale, "mesh_scale": scale, "clearance_m": clearance_m,
+             "global_scale": scale}
     gen = RealisticMismatch(options=ModelOptions.rigid(), samples_per_rev=samples_per_rev, fixed=tuple(drawn.items()))
     generate_case(tmp_path / "bench", tmp_path / "truth.json", SPEC, hidden, np.random.default_rng(11),
                   gen=GeneratorModel(positions_per_rev=positions, hysteresis_steps=48), realistic=gen)
@@ -206,7 +207,7 @@ def test_an_order_234_signature_is_found_from_1024_sample_runs(tmp_path):
     from rvflex.diagnose.fit import diagnose
 
     e = EFFECTS["pin_position_h3"]
-    hidden = [(e, np.array([4e-6, 0.0]))]
+    hidden = [(e, np.array([4e-6 * math.cos(0.8), 4e-6 * math.sin(0.8)]))]
     ds = _far_bench(tmp_path, hidden, 1.0, samples_per_rev=1024, positions=1024, clearance_m=1e-6)
     diag = diagnose(ds, settings=CI, nominal=CAL, cache_dir=tmp_path / "cache",
                     effects=("pin_position_h2", "pin_position_h3", "pin_ring_runout"))

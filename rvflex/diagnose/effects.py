@@ -228,10 +228,13 @@ def _runout(spec, errors, x, *, field: str, angle_multiple: int = 1):
     return spec, dc.replace(errors, **{field: m, field.replace("_m", "_phase_rad"): phase})
 
 
-def _pin_harmonic(spec, errors, x, *, harmonic: int):
+def _pin_harmonic(spec, errors, x, *, harmonic: int, angle_multiple: int = 1):
+    """Per-pin radial position error a·cos(h·θ_j − ψ) with a = |x| and ψ = atan2(x[1], x[0]) / angle_multiple
+    (angle_multiple 1: the cos/sin amplitudes x[0], x[1])."""
     zb = spec.cycloid.pin_count
     ang = 2 * np.pi * np.arange(zb) / zb
-    r = x[0] * np.cos(harmonic * ang) + x[1] * np.sin(harmonic * ang)
+    a, psi = math.hypot(x[0], x[1]), math.atan2(x[1], x[0]) / angle_multiple
+    r = a * np.cos(harmonic * ang - psi)
     old = np.asarray(errors.pin_radial_m) if errors.pin_radial_m else np.zeros(zb)
     return spec, dc.replace(errors, pin_radial_m=tuple(float(v) for v in old + r))
 
@@ -354,9 +357,14 @@ def _builtin() -> tuple[Effect, ...]:
         Effect("pin_position_h2", "per-pin radial position error, 2nd harmonic around the ring (cos/sin amplitudes)",
                polar(10 * um, 4 * um, ("cos_m", "sin_m")), apply=partial(_pin_harmonic, harmonic=2), polar=True,
                central=True),
-        Effect("pin_position_h3", "per-pin radial position error, 3rd harmonic around the ring (cos/sin amplitudes)",
-               polar(10 * um, 4 * um, ("cos_m", "sin_m")), apply=partial(_pin_harmonic, harmonic=3), polar=True,
-               central=True),
+        # a 3rd-harmonic pattern and its negative (the pattern turned by 60°) give identical TE and torque cycles
+        # (measured at 412 N·m: 0.892″ at order 6·z_c = 234 and +2.41″ wind-up for both signs, and central secants
+        # of exactly zero: the effect could never be found); a quarter turn of its phase ψ negates the order-234 TE.
+        # So it is parameterised by the doubled phase, (a cos 2ψ, a sin 2ψ), as the pin-ring runout is
+        Effect("pin_position_h3", "per-pin radial position error, 3rd harmonic around the ring: amplitude a at phase ψ "
+               "as (a cos 2ψ, a sin 2ψ); a pattern and its negative look alike, so only 2ψ is observable",
+               polar(10 * um, 4 * um, ("cos2psi_m", "sin2psi_m")),
+               apply=partial(_pin_harmonic, harmonic=3, angle_multiple=2), polar=True),
         # common and differential parts: both cranks off alike change the drive's eccentricity (clearance
         # opens on one sign, preload on the other), which the sum of two one-crank secants missed (measured:
         # a −3.4/−3.2 µm pair fitted at the bounds, removing 4 % of a gap it had made)

@@ -37,8 +37,14 @@ __all__ = ["NOMINAL", "REPLACES", "describe_calibration", "max_pin_force", "nomi
            "power_law_equivalent", "stiffness_scale"]
 
 COMPLIANCE_PRIOR = 0.35  # σ of the compliance change: a stiffness known to about ±30 %
-COMPLIANCE_LOW, COMPLIANCE_HIGH = -0.5, 1.5  # component scale 2.0 … 0.4 around the data anchor (diagnose.anchor)
-CLEARANCE_HIGH = 10 * UM  # nominal needle-bearing clearance classes of real units reach ~10 µm
+COMPLIANCE_LOW, COMPLIANCE_HIGH = -0.7, 1.5  # component scale 3.3 … 0.4 around the data anchor (diagnose.anchor): a
+# point-contact simulator's contact stiffness sat at the former ×2 bound in 3 of 3 foreign datasets
+# Nominal crank-bearing clearance: 0 … 6 µm. A range to 10 µm (real clearance classes reach it) was measured to
+# absorb a hidden 10 µm clearance into "nominal parameters off" (tests/test_diagnose.py, hidden clearance through a
+# 30 % contact mismatch: calibration 9.8 µm, no effect): the runs determine only the total clearance, and within the
+# prior's range calibration takes it first. Beyond 6 µm it is the effect eccentric_bearing_clearance, reported with
+# the total (nominal + excess).
+CLEARANCE_HIGH = 6 * UM
 
 
 def stiffness_scale(u: float) -> float:

@@ -104,7 +104,9 @@ class RealisticMismatch:
     nominal crank-bearing clearance up to ``clearance_max_m``, FE-reduced flexible discs, and TE
     encoders sampled ``samples_per_rev`` points per revolution over [0, 2π). ``global_range``: an overall
     stiffness scale g drawn log-uniformly in it multiplies the three drawn stiffnesses (``--mismatch far``:
-    ×0.5 … ×2, a unit as far from its catalogue model as real ones are; the FE discs keep their modulus,
+    ×0.5 … ×2, a unit as far from its catalogue model as real ones are; the crank-support and main bearings
+    are scaled by g too, so the rigid unit is g times stiffer at the drawn components' means; the FE discs keep
+    their modulus,
     since an FE reduction per case would dominate the self-check's time)."""
 
     stiffness_spread: float = 0.4
@@ -132,6 +134,10 @@ class RealisticMismatch:
         from rvflex.diagnose.nominal import power_law_equivalent
 
         b, st = spec.bearings, spec.input_stage
+        g = drawn.get("global_scale", 1.0)  # the other bearings follow the overall scale (far mismatch)
+        b = dc.replace(b, crank_support=dc.replace(b.crank_support,
+                                                   radial_stiffness_N_m=b.crank_support.radial_stiffness_N_m * g),
+                       main=dc.replace(b.main, radial_stiffness_N_m=b.main.radial_stiffness_N_m * g))
         spec_g = dc.replace(spec, bearings=dc.replace(b, eccentric=dc.replace(
             b.eccentric, radial_stiffness_N_m=b.eccentric.radial_stiffness_N_m * drawn["needle_bearing_scale"])),
             input_stage=dc.replace(st, mesh_stiffness_mean_N_m=st.mesh_stiffness_mean_N_m * drawn["mesh_scale"],
