@@ -11,7 +11,6 @@ The top-level names load on first use (PEP 562), so ``import rvflex`` stays fast
 
 from __future__ import annotations
 
-import importlib
 from typing import TYPE_CHECKING
 
 __version__ = "0.1.0"
@@ -50,13 +49,20 @@ if TYPE_CHECKING:  # for type checkers and IDEs; at run time the names load lazi
 
 
 def __getattr__(name: str):
+    """Load a public name on first use; an unknown name is refused suggesting the closest one."""
+    import importlib
+
     module = _LAZY.get(name)
     if module is None:
-        raise AttributeError(f"module 'rvflex' has no attribute {name!r}")
+        from rvflex.choices import did_you_mean
+
+        raise AttributeError(f"module 'rvflex' has no attribute {name!r}{did_you_mean(name, __all__)}",
+                             name=name, obj=__import__(__name__))
     value = getattr(importlib.import_module(module), name)
     globals()[name] = value  # later look-ups skip __getattr__
     return value
 
 
 def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_LAZY))
+    """The public names (``__all__``): not the module's imports, nor the submodules it loaded."""
+    return sorted(__all__)

@@ -29,7 +29,7 @@ __all__ = ["ReducerModel", "build_reducer", "check_fidelity", "default_contact_l
 # FIDELITIES (rvflex.options): the preset names build_reducer maps to ModelOptions, re-exported here
 
 
-def check_fidelity(fidelity: Fidelity, field: str = "--fidelity") -> None:
+def check_fidelity(fidelity: Fidelity, field: str = "fidelity") -> None:
     """Refuse a fidelity name that is not a preset (SpecError naming ``field``)."""
     as_options(fidelity, field)
 

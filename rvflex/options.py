@@ -26,7 +26,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal
 
-from rvflex.choices import Fidelity, SeatCoupling, SeatMarker, check_choice, choices
+from rvflex.choices import Fidelity, SeatCoupling, SeatMarker, check_choice, choices, did_you_mean
 from rvflex.fe.reduce import DEFAULTS, PartSettings
 from rvflex.spec import SpecError
 
@@ -234,7 +234,8 @@ def as_options(value: ModelOptions | Fidelity | None, field: str = "options") ->
         return value
     if isinstance(value, str):
         if value not in FIDELITIES:
-            raise SpecError(field, value, f"must be ModelOptions or one of {', '.join(map(repr, FIDELITIES))}")
+            raise SpecError(field, value, f"must be ModelOptions or one of {', '.join(map(repr, FIDELITIES))}"
+                                          f"{did_you_mean(value, FIDELITIES)}")
         return ModelOptions.preset(value)
     raise SpecError(field, value, f"must be ModelOptions or one of {', '.join(map(repr, FIDELITIES))} "
                                   f"(got a {type(value).__name__})")

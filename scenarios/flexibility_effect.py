@@ -68,7 +68,7 @@ class FlexibilityEffect:
         for f in self.load_fractions:
             if not f >= 0:
                 raise SpecError("load_fractions", f, "must be non-negative fractions of rated torque")
-            self.spec.check_torque("load", f * self.spec.rated_torque_Nm, allow_zero=True)
+            self.spec.check_torque("load_fractions", f * self.spec.rated_torque_Nm, allow_zero=True)
         for name in ("discs", "carrier"):
             value = getattr(self, name)
             if not (isinstance(value, PartSettings) or (name == "carrier" and value is None)):

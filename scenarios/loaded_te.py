@@ -53,18 +53,18 @@ class LoadedTE:
         check_scenario_inputs(self)
         if self.load_Nm is None:
             object.__setattr__(self, "load_Nm", self.spec.rated_torque_Nm)
-        self.spec.check_torque("--load", self.load_Nm, allow_zero=True)
+        self.spec.check_torque("load_Nm", self.load_Nm, allow_zero=True)
         if not self.revolutions > 0:
-            raise SpecError("--revs", self.revolutions, "must be positive (output revolutions)")
+            raise SpecError("revolutions", self.revolutions, "must be positive (output revolutions)")
         if not self.positions_per_rev >= 16:
-            raise SpecError("--positions", self.positions_per_rev, "must be at least 16 per output revolution")
+            raise SpecError("positions_per_rev", self.positions_per_rev, "must be at least 16 per output revolution")
         if self.direction not in (1, -1):
             raise SpecError("direction", self.direction, "must be +1 (forward) or -1 (reverse)")
-        check_choice("--mode", self.mode, TEMode)
+        check_choice("mode", self.mode, TEMode)
         if self.mode == "dynamic" and not self.speed_out_rpm > 0:
-            raise SpecError("--speed-out", self.speed_out_rpm, "must be positive in dynamic mode (rpm at the output)")
+            raise SpecError("speed_out_rpm", self.speed_out_rpm, "must be positive in dynamic mode (rpm at the output)")
         if self.mode == "dynamic" and self.direction < 0:
-            raise SpecError("--direction", "reverse", "dynamic runs go forward (reverse: quasi-static)")
+            raise SpecError("direction", self.direction, "dynamic runs go forward (reverse: quasi-static)")
 
     @property
     def n_positions(self) -> int:

@@ -42,9 +42,9 @@ class LostMotion:
         check_scenario_inputs(self)
         if self.torque_Nm is None:
             object.__setattr__(self, "torque_Nm", self.spec.rated_torque_Nm)
-        self.spec.check_torque("--torque", self.torque_Nm)
+        self.spec.check_torque("torque_Nm", self.torque_Nm)
         if not self.steps >= 40:
-            raise SpecError("--steps", self.steps, "must be at least 40 torque steps")
+            raise SpecError("steps", self.steps, "must be at least 40 torque steps")
 
     @property
     def torques_Nm(self) -> np.ndarray:

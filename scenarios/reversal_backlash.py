@@ -49,9 +49,9 @@ class ReversalBacklash:
         check_scenario_inputs(self)
         if self.load_Nm is None:
             object.__setattr__(self, "load_Nm", DEFAULT_LOAD_FRACTION * self.spec.rated_torque_Nm)
-        self.spec.check_torque("--load", self.load_Nm)
+        self.spec.check_torque("load_Nm", self.load_Nm)
         if not self.positions >= 8:
-            raise SpecError("--positions", self.positions, "must be at least 8")
+            raise SpecError("positions", self.positions, "must be at least 8")
 
     def run(self, *, model: ReducerModel | None = None, progress=None) -> ReversalBacklashResult:
         """Run on ``model`` (built here when None; it must come from this scenario's spec, errors

@@ -70,7 +70,7 @@ def test_chord_newton_finds_the_equilibria_of_exudyns_static_solver(rv40e):
 
 
 def test_bad_te_input_is_refused(rv40e, tmp_path, capsys):
-    with pytest.raises(SpecError, match=r"--load = 3000.0: must lie in \[0, 2058\] N·m"):
+    with pytest.raises(SpecError, match=r"^load_Nm = 3000.0: must lie in \[0, 2058\] N·m"):
         LoadedTE(rv40e, ErrorSpec(), 3000.0)
     assert main(["te", "--reducer", "rv40e", "--load", "-5", "--json", str(tmp_path / "t.json")]) == 2
     assert "--load = -5.0: must lie in [0, 2058] N·m" in capsys.readouterr().err
