@@ -33,7 +33,9 @@ _LAZY = {
     "FlexibilityEffect": "rvflex.scenarios.flexibility_effect",
 }
 
-__all__ = ["__version__", *_LAZY]
+__all__ = ["ErrorSpec", "FlexibilityEffect", "LoadedTE", "LostMotion", "ModelOptions", "PartSettings", "ReducerModel",
+           "ReducerSpec", "Result", "ReversalBacklash", "SpecError", "__version__", "build_reducer", "load_errors",
+           "load_reducer", "run"]
 
 if TYPE_CHECKING:  # for type checkers and IDEs; at run time the names load lazily
     from rvflex.api import load_errors, load_reducer, run

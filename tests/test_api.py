@@ -249,3 +249,4 @@ def test_dir_lists_the_public_names_only():
     assert not {"TYPE_CHECKING", "annotations", "importlib", "api", "spec"} & set(names)
     assert {"LoadedTE", "LostMotion", "ReversalBacklash", "load_reducer", "run", "Result"} <= set(names)
     assert all(getattr(rvflex, n) is not None for n in names)
+
