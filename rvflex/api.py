@@ -17,9 +17,8 @@ import os
 from pathlib import Path
 
 from rvflex import catalog
-from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
+from rvflex.spec import ErrorSpec, ReducerSpec, SpecError, load_spec
 from rvflex.spec import load_errors as load_errors_file
-from rvflex.spec import load_spec
 
 __all__ = ["SCENARIO_TYPES", "load_errors", "load_reducer", "run"]
 

@@ -331,7 +331,6 @@ if __name__ == "__main__":
     import sys
 
     from rvflex import catalog
-
     from rvflex.options import CARRIER_FE
 
     result = FlexibilityEffect(catalog.load("rv40e"), carrier=CARRIER_FE).run(

@@ -12,6 +12,7 @@ import math
 import time
 from dataclasses import dataclass
 from pathlib import Path
+
 import numpy as np
 
 from rvflex.choices import TEMode, check_choice

@@ -37,10 +37,11 @@ from pathlib import Path
 
 import numpy as np
 
+from rvflex.diagnose.calibration import CALIBRATION_PREFERRED, calibration_sentence, calibration_ties, undetermined
 from rvflex.diagnose.linear import (
     Candidate,
-    bounds,
     Problem,
+    bounds,
     lin_fit,
     make_candidate,
     nuisance_columns,
@@ -60,7 +61,6 @@ from rvflex.diagnose.replay import (
     plan_from_dataset,
 )
 from rvflex.diagnose.runs import ModelRunner
-from rvflex.diagnose.calibration import CALIBRATION_PREFERRED, calibration_sentence, calibration_ties, undetermined
 from rvflex.diagnose.sensitivity import (
     available_candidates,
     second_effect_adds,
