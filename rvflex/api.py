@@ -95,16 +95,27 @@ def load_errors(name_or_path: str | os.PathLike, spec: ReducerSpec, *, field: st
 
 
 def run(scenario, *, model=None, progress=None):
-    """Run ``scenario`` (:class:`~rvflex.scenarios.loaded_te.LoadedTE`,
-    :class:`~rvflex.scenarios.lost_motion.LostMotion`,
-    :class:`~rvflex.scenarios.reversal_backlash.ReversalBacklash` or
-    :class:`~rvflex.scenarios.flexibility_effect.FlexibilityEffect`) and return its
-    :class:`~rvflex.result.Result`.
+    """Run a scenario and return its labelled result.
 
-    ``model`` (from :func:`rvflex.build_reducer` with the scenario's spec, errors and options)
-    is reused instead of building one, and left as it was found: the same items, and the
-    loads, drive and regulariser settings and coordinates it had. ``progress(done, total)`` is
-    called as the run advances.
+    Parameters
+    ----------
+    scenario : LoadedTE, LostMotion, ReversalBacklash or FlexibilityEffect
+        What to run (:class:`~rvflex.scenarios.loaded_te.LoadedTE`,
+        :class:`~rvflex.scenarios.lost_motion.LostMotion`,
+        :class:`~rvflex.scenarios.reversal_backlash.ReversalBacklash`,
+        :class:`~rvflex.scenarios.flexibility_effect.FlexibilityEffect`).
+    model : ReducerModel, optional
+        A model from :func:`rvflex.build_reducer` with the scenario's spec, errors and options,
+        reused instead of building one and left as it was found: the same items, and the loads,
+        drive and regulariser settings and coordinates it had.
+    progress : callable, optional
+        ``progress(done, total)``, called as the run advances.
+
+    Returns
+    -------
+    Result
+        The scenario's :class:`~rvflex.result.Result`: ``.metrics``, ``.to_xarray()``,
+        ``.to_dataframe()``, ``.plot()``, ``.write(dir)``.
 
     Raises
     ------

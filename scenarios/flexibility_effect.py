@@ -39,12 +39,30 @@ __all__ = ["FlexibilityEffect", "FlexibilityMetrics", "FlexibilityResult", "run_
 
 @dataclass(frozen=True)
 class FlexibilityEffect:
-    """Reducer, errors (None: none), load fractions of rated torque, TE positions per output
-    revolution, hysteresis torque steps, the disc reduction (default
-    :data:`rvflex.options.DISC_FE`: global deformation, 6 bore + 12 fixed-interface modes on 6 mm
-    quadratic tets), the carrier reduction of the ``flexible+carrier`` row (None leaves that
-    row out; the script runs it with :data:`rvflex.options.CARRIER_FE`) and the TE window in
-    output revolutions (default one; 1/z_b is one crank turn)."""
+    """Rigid against flexible discs (and carrier): loaded TE, wind-up and the torsional test
+    of each model at several loads.
+
+    Parameters
+    ----------
+    spec : ReducerSpec
+        The reducer (:func:`rvflex.load_reducer`).
+    errors : ErrorSpec, optional
+        Manufacturing and assembly errors (:func:`rvflex.load_errors`); None: none.
+    load_fractions : tuple of float, optional
+        Loads of the TE runs as fractions of the rated torque (dimensionless, ≥ 0).
+    positions_per_rev : int, optional
+        TE positions per output revolution.
+    steps : int, optional
+        Torque steps of each hysteresis cycle.
+    discs : PartSettings, optional
+        The disc reduction (default :data:`rvflex.options.DISC_FE`: global deformation, 6 bore
+        + 12 fixed-interface modes on 6 mm quadratic tets).
+    carrier : PartSettings, optional
+        The carrier reduction of the ``flexible+carrier`` row; None leaves that row out (the
+        script runs it with :data:`rvflex.options.CARRIER_FE`).
+    revolutions : float, optional
+        The TE window in output revolutions (1/z_b is one crank turn).
+    """
 
     spec: ReducerSpec
     errors: ErrorSpec | None = None
@@ -86,8 +104,20 @@ class FlexibilityEffect:
 
     def run(self, *, model=None, progress=None) -> FlexibilityResult:
         """Build each variant's model once and run the loaded TE at every load and the torque
-        cycle on it; ``progress(done, total)`` per run. ``model`` must be None (the scenario
-        compares several models)."""
+        cycle on it.
+
+        Parameters
+        ----------
+        model : None
+            Must be None: the scenario builds one model per variant.
+        progress : callable, optional
+            ``progress(done, total)``, called per run.
+
+        Returns
+        -------
+        FlexibilityResult
+            One row per (variant, load).
+        """
         if model is not None:
             raise TypeError("FlexibilityEffect.run: model must be None — the scenario builds one model per variant "
                             f"({', '.join(self.variants)}); got {type(model).__name__}")

@@ -31,13 +31,44 @@ __all__ = ["LoadedTE", "LoadedTEResult", "perfect_spec", "run_loaded_te", "seed0
 
 @dataclass(frozen=True)
 class LoadedTE:
-    """Loaded transmission error over whole output revolutions.
+    """Loaded transmission error over whole output revolutions (``rvflex te``).
 
-    Reducer, errors (None: none), output load resisting the motion (N·m; None: rated),
-    output revolutions, positions per output revolution, direction (+1 forward, −1 reverse),
-    mode (quasi-static stepping or a generalized-α run), output speed (rpm) and time step (s)
-    of the dynamic mode, and the model options (:class:`~rvflex.options.ModelOptions` or a
-    preset name: ``"rigid"``, ``"flexible"``, ``"flexible-carrier"``)."""
+    Parameters
+    ----------
+    spec : ReducerSpec
+        The reducer (:func:`rvflex.load_reducer`).
+    errors : ErrorSpec, optional
+        Manufacturing and assembly errors (:func:`rvflex.load_errors`); None: none.
+    load_Nm : float, optional
+        Output torque resisting the motion, N·m; None: the rated torque.
+    revolutions : float, optional
+        Output revolutions of the run.
+    positions_per_rev : int, optional
+        Input positions per output revolution (at least 16).
+    direction : {1, -1}, optional
+        +1 turns the input forward, −1 in reverse (quasi-static only).
+    mode : {"quasi-static", "dynamic"}, optional
+        Quasi-static stepping, or a generalized-α time integration from the loaded static state.
+    speed_out_rpm : float, optional
+        Output speed of the dynamic mode, rpm.
+    step_s : float, optional
+        Time step of the dynamic mode, s.
+    options : ModelOptions or str, optional
+        Model fidelity per part: a :class:`~rvflex.options.ModelOptions` or a preset name
+        (``"rigid"``, ``"flexible"``, ``"flexible-carrier"``).
+
+    Raises
+    ------
+    SpecError
+        A value out of range, naming the parameter (``load_Nm = -5.0: must lie in [0, …] N·m``).
+
+    Examples
+    --------
+    >>> import rvflex
+    >>> spec = rvflex.load_reducer("rv40e")
+    >>> r = rvflex.run(rvflex.LoadedTE(spec, load_Nm=412.0, positions_per_rev=64))  # doctest: +SKIP
+    >>> r.metrics.te_pp_arcsec  # doctest: +SKIP
+    """
 
     spec: ReducerSpec
     errors: ErrorSpec | None = None
@@ -73,8 +104,21 @@ class LoadedTE:
         return int(round(self.positions_per_rev * self.revolutions))
 
     def run(self, *, model: ReducerModel | None = None, progress=None) -> LoadedTEResult:
-        """Run on ``model`` (built here when None; it must come from this scenario's spec, errors
-        and options) and return the labelled result; ``progress(done, total)`` per position."""
+        """Run the scenario (:func:`rvflex.run` calls this).
+
+        Parameters
+        ----------
+        model : ReducerModel, optional
+            A model from :func:`rvflex.build_reducer` with this scenario's spec, errors and
+            options, reused instead of building one; None builds it.
+        progress : callable, optional
+            ``progress(done, total)``, called as the run advances (per position).
+
+        Returns
+        -------
+        LoadedTEResult
+            The labelled result.
+        """
         t0 = time.perf_counter()
         res, met = run_loaded_te(self, progress, model=model)
         return LoadedTEResult(self, met, time.perf_counter() - t0, res)

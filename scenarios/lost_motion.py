@@ -28,9 +28,28 @@ __all__ = ["LostMotion", "LostMotionResult", "run_lost_motion", "write_lost_moti
 
 @dataclass(frozen=True)
 class LostMotion:
-    """Catalogue torsional test. Reducer, errors (None: none), torque amplitude (N·m; None:
-    rated), torque steps over the cycle and the model options (:class:`~rvflex.options.ModelOptions`
-    or a preset name)."""
+    """The catalogue torsional test (``rvflex lost-motion``): input locked, output torque
+    0 → +T → −T → 0; lost motion, hysteresis loss, torsional stiffness and backlash.
+
+    Parameters
+    ----------
+    spec : ReducerSpec
+        The reducer (:func:`rvflex.load_reducer`).
+    errors : ErrorSpec, optional
+        Manufacturing and assembly errors (:func:`rvflex.load_errors`); None: none.
+    torque_Nm : float, optional
+        Torque amplitude T, N·m; None: the rated torque.
+    steps : int, optional
+        Torque steps over the whole cycle (at least 40).
+    options : ModelOptions or str, optional
+        Model fidelity per part: a :class:`~rvflex.options.ModelOptions` or a preset name
+        (``"rigid"``, ``"flexible"``, ``"flexible-carrier"``).
+
+    Raises
+    ------
+    SpecError
+        A value out of range, naming the parameter.
+    """
 
     spec: ReducerSpec
     errors: ErrorSpec | None = None
@@ -52,8 +71,21 @@ class LostMotion:
         return hysteresis_cycle(self.torque_Nm, self.steps)
 
     def run(self, *, model: ReducerModel | None = None, progress=None) -> LostMotionResult:
-        """Run on ``model`` (built here when None; it must come from this scenario's spec, errors
-        and options); ``progress(done, total)`` per torque step."""
+        """Run the scenario (:func:`rvflex.run` calls this).
+
+        Parameters
+        ----------
+        model : ReducerModel, optional
+            A model from :func:`rvflex.build_reducer` with this scenario's spec, errors and
+            options, reused instead of building one; None builds it.
+        progress : callable, optional
+            ``progress(done, total)``, called as the run advances (per torque step).
+
+        Returns
+        -------
+        LostMotionResult
+            The labelled result.
+        """
         t0 = time.perf_counter()
         res, met = run_lost_motion(self, progress, model=model)
         return LostMotionResult(self, met, time.perf_counter() - t0, res)

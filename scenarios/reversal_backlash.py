@@ -34,9 +34,30 @@ DEFAULT_LOAD_FRACTION = 0.03
 
 @dataclass(frozen=True)
 class ReversalBacklash:
-    """Reducer, errors (None: none), resisting load (N·m; None: :data:`DEFAULT_LOAD_FRACTION` of
-    rated), input window (output degrees), positions and the model options
-    (:class:`~rvflex.options.ModelOptions` or a preset name)."""
+    """Reversal backlash (``rvflex backlash``): the output angle lost when the input reverses
+    under a load that resists the motion.
+
+    Parameters
+    ----------
+    spec : ReducerSpec
+        The reducer (:func:`rvflex.load_reducer`).
+    errors : ErrorSpec, optional
+        Manufacturing and assembly errors (:func:`rvflex.load_errors`); None: none.
+    load_Nm : float, optional
+        Load resisting the motion, N·m; None: :data:`DEFAULT_LOAD_FRACTION` of the rated torque.
+    window_out_deg : float, optional
+        Input travel of each branch, in degrees of output rotation.
+    positions : int, optional
+        Positions per branch (at least 8).
+    options : ModelOptions or str, optional
+        Model fidelity per part: a :class:`~rvflex.options.ModelOptions` or a preset name
+        (``"rigid"``, ``"flexible"``, ``"flexible-carrier"``).
+
+    Raises
+    ------
+    SpecError
+        A value out of range, naming the parameter.
+    """
 
     spec: ReducerSpec
     errors: ErrorSpec | None = None
@@ -54,8 +75,21 @@ class ReversalBacklash:
             raise SpecError("positions", self.positions, "must be at least 8")
 
     def run(self, *, model: ReducerModel | None = None, progress=None) -> ReversalBacklashResult:
-        """Run on ``model`` (built here when None; it must come from this scenario's spec, errors
-        and options); ``progress(done, total)`` after each branch."""
+        """Run the scenario (:func:`rvflex.run` calls this).
+
+        Parameters
+        ----------
+        model : ReducerModel, optional
+            A model from :func:`rvflex.build_reducer` with this scenario's spec, errors and
+            options, reused instead of building one; None builds it.
+        progress : callable, optional
+            ``progress(done, total)``, called as the run advances (after each branch).
+
+        Returns
+        -------
+        ReversalBacklashResult
+            The labelled result.
+        """
         t0 = time.perf_counter()
         lost, fwd, rev = run_reversal_backlash(self, model=model, progress=progress)
         return ReversalBacklashResult(self, BacklashMetrics(lost), time.perf_counter() - t0, fwd, rev)
