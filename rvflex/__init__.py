@@ -1,5 +1,5 @@
 """rvflex: rigid–flexible Exudyn models of RV reducers for loaded transmission error,
-lost motion and backlash. SI units throughout; see README.md for conventions.
+lost motion and backlash. SI units throughout; conventions in docs/conventions.md.
 
 The top-level names load on first use (PEP 562), so ``import rvflex`` stays fast::
 
