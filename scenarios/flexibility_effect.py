@@ -217,7 +217,19 @@ def flexibility_metrics(rows: list[dict]) -> FlexibilityMetrics:
 
 @dataclass(frozen=True, eq=False)
 class FlexibilityResult(Result):
-    """The comparison table: one row (dict) per (variant, load)."""
+    """The comparison table: one row (dict) per (variant, load).
+
+    Parameters
+    ----------
+    scenario : FlexibilityEffect
+        The scenario that ran.
+    metrics : FlexibilityMetrics
+        The elastic shares of the comparison.
+    wall_s : float
+        Wall time of the run, s.
+    rows : tuple of dict
+        One row per (variant, load), units in the keys.
+    """
 
     rows: tuple[dict, ...]
 
@@ -227,7 +239,13 @@ class FlexibilityResult(Result):
     def to_xarray(self):
         """Dataset over ``variant`` × ``load`` (N m; ``load_fraction`` of rated alongside): ``te_pp``,
         ``mean_windup`` (arcsec), elastic and carrier shares (1); over ``variant``: ``lost_motion``
-        (arcmin), ``torsional_stiffness`` (N m/arcmin) and their shares."""
+        (arcmin), ``torsional_stiffness`` (N m/arcmin) and their shares.
+
+        Returns
+        -------
+        xarray.Dataset
+            Named dimensions, SI coordinates, ``units`` and ``long_name`` on every variable.
+        """
         import xarray as xr
 
         variants = list(dict.fromkeys(r["fidelity"] for r in self.rows))
@@ -267,13 +285,30 @@ class FlexibilityResult(Result):
         return xr.Dataset(data, coords=coords, attrs=attrs)
 
     def to_dataframe(self):
-        """The comparison table, one row per (variant, load), as ``flexibility.csv``."""
+        """The comparison table, one row per (variant, load), as ``flexibility.csv``.
+
+        Returns
+        -------
+        pandas.DataFrame
+            The table, the unit in each column name.
+        """
         import pandas as pd
 
         return pd.DataFrame(list(self.rows))
 
     def plot(self, ax=None):
-        """TE peak-to-peak (arcsec) against load for each variant; returns the axes."""
+        """TE peak-to-peak (arcsec) against load for each variant; returns the axes.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw on; None draws on a new Figure's axes (pyplot and the backend untouched).
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            The axes drawn on.
+        """
         ax = new_axes(ax)
         self._curves(ax, "te_pp_arcsec", 1.0)
         window = ("one output revolution" if self.scenario.revolutions == 1.0
@@ -282,7 +317,18 @@ class FlexibilityResult(Result):
         return ax
 
     def plot_windup(self, ax=None):
-        """Mean wind-up (arcsec, positive) against load for each variant; returns the axes."""
+        """Mean wind-up (arcsec, positive) against load for each variant; returns the axes.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw on; None draws on a new Figure's axes (pyplot and the backend untouched).
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            The axes drawn on.
+        """
         ax = new_axes(ax)
         self._curves(ax, "mean_windup_arcsec", -1.0)
         ax.set(xlabel="output torque (N·m)", ylabel="mean wind-up (″)", title="Mean wind-up")
@@ -297,7 +343,18 @@ class FlexibilityResult(Result):
         ax.legend()
 
     def files(self, out: Path) -> list[Path]:
-        """flexibility.csv, flexibility.md (the table) and flexibility.png."""
+        """flexibility.csv, flexibility.md (the table) and flexibility.png.
+
+        Parameters
+        ----------
+        out : pathlib.Path
+            An existing directory.
+
+        Returns
+        -------
+        list of pathlib.Path
+            The files written.
+        """
         return write_flexibility_outputs(out, list(self.rows), self.scenario)
 
 

@@ -127,7 +127,19 @@ class LoadedTE:
 @dataclass(frozen=True, eq=False)
 class LoadedTEResult(Result):
     """Loaded TE: per position the input, output and TE angles, and the pin forces and gaps
-    (quasi-static runs; a dynamic run records the angles only). ``raw`` is the solver's record."""
+    (quasi-static runs; a dynamic run records the angles only). ``raw`` is the solver's record.
+
+    Parameters
+    ----------
+    scenario : LoadedTE
+        The scenario that ran.
+    metrics : TEMetrics
+        TE peak-to-peak, minimum, maximum and mean wind-up (arcsec), the strongest orders.
+    wall_s : float
+        Wall time of the run, s.
+    raw : QuasiStaticResult
+        The solver's record (angles in rad, pin forces in N, gaps in m).
+    """
 
     raw: QuasiStaticResult
 
@@ -137,7 +149,13 @@ class LoadedTEResult(Result):
     def to_xarray(self):
         """Dataset over ``position`` (nominal output angle θ_in/i, rad) and, for quasi-static runs,
         ``disc`` × ``pin``: ``theta_out`` (rad), ``te`` (arcsec), ``pin_force`` (N), ``pin_gap`` (m);
-        the metrics in ``attrs``."""
+        the metrics in ``attrs``.
+
+        Returns
+        -------
+        xarray.Dataset
+            Named dimensions, SI coordinates, ``units`` and ``long_name`` on every variable.
+        """
         import xarray as xr
 
         r = self.raw
@@ -159,12 +177,31 @@ class LoadedTEResult(Result):
         return xr.Dataset(data, coords=coords, attrs=attrs)
 
     def to_dataframe(self):
-        """One row per position: ``position_rad``, ``theta_in_rad``, ``theta_out_rad``, ``te_arcsec``."""
+        """One row per position: ``position_rad``, ``theta_in_rad``, ``theta_out_rad``, ``te_arcsec``.
+
+        Returns
+        -------
+        pandas.DataFrame
+            The table, the unit in each column name.
+        """
         return super().to_dataframe()
 
     def plot(self, ax=None, *, label: str | None = None):
         """TE (arcsec) against the output angle (°) with the mean wind-up, on ``ax`` or a new
-        Figure's axes; the curve's ``label`` defaults to the model's fidelity. Returns the axes."""
+        Figure's axes; the curve's ``label`` defaults to the model's fidelity. Returns the axes.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw on; None draws on a new Figure's axes (pyplot and the backend untouched).
+        label : str, optional
+            The curve's label; None: the model's fidelity.
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            The axes drawn on.
+        """
         ax = new_axes(ax)
         r, m, sc = self.raw, self.metrics, self.scenario
         ax.plot(np.degrees(r.theta_in / r.ratio), r.te_rad * ARCSEC_PER_RAD, lw=1.0,
@@ -180,7 +217,18 @@ class LoadedTEResult(Result):
         return ax
 
     def plot_orders(self, ax=None):
-        """The order spectrum (amplitude in arcsec per order of the output revolution)."""
+        """The order spectrum (amplitude in arcsec per order of the output revolution).
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw on; None draws on a new Figure's axes (pyplot and the backend untouched).
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            The axes drawn on.
+        """
         ax = new_axes(ax)
         sc = self.scenario
         orders, amp = order_spectrum(self.raw.te_rad, sc.revolutions)
@@ -193,7 +241,20 @@ class LoadedTEResult(Result):
         return ax
 
     def plot_load_sharing(self, ax=None, position: int = 0):
-        """Pin normal forces (N) of each disc at ``position`` (quasi-static runs)."""
+        """Pin normal forces (N) of each disc at ``position`` (quasi-static runs).
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw on; None draws on a new Figure's axes (pyplot and the backend untouched).
+        position : int, optional
+            Index of the position drawn.
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            The axes drawn on.
+        """
         f = self.raw.pin_force_N
         if f.size == 0:
             raise SpecError("plot_load_sharing", self.scenario.mode, "a dynamic run records the angles only")
@@ -211,7 +272,18 @@ class LoadedTEResult(Result):
 
     def files(self, out: Path) -> list[Path]:
         """te.csv (per step), te.png (TE vs output angle with the order spectrum) and
-        load_sharing.png (pin forces at the first position; quasi-static runs)."""
+        load_sharing.png (pin forces at the first position; quasi-static runs).
+
+        Parameters
+        ----------
+        out : pathlib.Path
+            An existing directory.
+
+        Returns
+        -------
+        list of pathlib.Path
+            The files written.
+        """
         return write_te_outputs(out, self.raw, self.metrics, self.scenario)
 
 

@@ -101,7 +101,19 @@ def run_lost_motion(scenario: LostMotion, progress=None, *, model: ReducerModel 
 
 @dataclass(frozen=True, eq=False)
 class LostMotionResult(Result):
-    """Torsional hysteresis: per torque step the output torque and angle. ``raw`` is the solver's record."""
+    """Torsional hysteresis: per torque step the output torque and angle. ``raw`` is the solver's record.
+
+    Parameters
+    ----------
+    scenario : LostMotion
+        The scenario that ran.
+    metrics : HysteresisMetrics
+        Lost motion, hysteresis loss and backlash (arcmin), torsional stiffness (N·m/arcmin).
+    wall_s : float
+        Wall time of the run, s.
+    raw : TorqueStepResult
+        The solver's record (torque in N·m, angles in rad).
+    """
 
     raw: TorqueStepResult
 
@@ -110,7 +122,13 @@ class LostMotionResult(Result):
 
     def to_xarray(self):
         """Dataset over ``torque_step``: coordinate ``torque`` (N m), ``theta_out`` (rad) and
-        ``output_angle`` (arcmin); the metrics in ``attrs``."""
+        ``output_angle`` (arcmin); the metrics in ``attrs``.
+
+        Returns
+        -------
+        xarray.Dataset
+            Named dimensions, SI coordinates, ``units`` and ``long_name`` on every variable.
+        """
         import xarray as xr
 
         r, dims = self.raw, ("torque_step",)
@@ -122,7 +140,18 @@ class LostMotionResult(Result):
         return xr.Dataset(data, coords=coords, attrs=scenario_attrs(self.scenario, **self.metrics_dict()))
 
     def plot(self, ax=None):
-        """The hysteresis loop (torque against output angle in arcmin) with the ±3 % band; returns the axes."""
+        """The hysteresis loop (torque against output angle in arcmin) with the ±3 % band; returns the axes.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw on; None draws on a new Figure's axes (pyplot and the backend untouched).
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            The axes drawn on.
+        """
         ax = new_axes(ax, figsize=(8, 5.2))
         r, met, sc = self.raw, self.metrics, self.scenario
         ax.plot(r.theta_out * ARCSEC_PER_RAD / 60.0, r.torque_Nm, "-", lw=1.2, marker=".", ms=3)
@@ -139,7 +168,18 @@ class LostMotionResult(Result):
         return ax
 
     def files(self, out: Path) -> list[Path]:
-        """hysteresis.csv and hysteresis.png."""
+        """hysteresis.csv and hysteresis.png.
+
+        Parameters
+        ----------
+        out : pathlib.Path
+            An existing directory.
+
+        Returns
+        -------
+        list of pathlib.Path
+            The files written.
+        """
         return write_lost_motion_outputs(out, self.raw, self.metrics, self.scenario)
 
 

@@ -121,7 +121,19 @@ def run_reversal_backlash(sc: ReversalBacklash, *, model: ReducerModel | None = 
 @dataclass(frozen=True, eq=False)
 class ReversalBacklashResult(Result):
     """Forward and reverse output branches over the input window (``forward``, ``reverse``: the
-    solver's records, the reverse one in its own, descending, order)."""
+    solver's records, the reverse one in its own, descending, order).
+
+    Parameters
+    ----------
+    scenario : ReversalBacklash
+        The scenario that ran.
+    metrics : BacklashMetrics
+        The reversal backlash, arcmin.
+    wall_s : float
+        Wall time of the run, s.
+    forward, reverse : QuasiStaticResult
+        The two branches (angles in rad).
+    """
 
     forward: QuasiStaticResult
     reverse: QuasiStaticResult
@@ -131,7 +143,13 @@ class ReversalBacklashResult(Result):
 
     def to_xarray(self):
         """Dataset over ``position`` (nominal output angle θ_in/i, rad): ``te_forward`` and
-        ``te_reverse`` (arcmin) at equal input angle; the metric in ``attrs``."""
+        ``te_reverse`` (arcmin) at equal input angle; the metric in ``attrs``.
+
+        Returns
+        -------
+        xarray.Dataset
+            Named dimensions, SI coordinates, ``units`` and ``long_name`` on every variable.
+        """
         import xarray as xr
 
         f, r, dims = self.forward, self.reverse, ("position",)
@@ -143,7 +161,18 @@ class ReversalBacklashResult(Result):
         return xr.Dataset(data, coords=coords, attrs=scenario_attrs(self.scenario, **self.metrics_dict()))
 
     def plot(self, ax=None):
-        """Both branches (arcmin) against the output angle (°); returns the axes."""
+        """Both branches (arcmin) against the output angle (°); returns the axes.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw on; None draws on a new Figure's axes (pyplot and the backend untouched).
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            The axes drawn on.
+        """
         ax = new_axes(ax)
         f, r, sc = self.forward, self.reverse, self.scenario
         x = np.degrees(f.theta_in / f.ratio)
@@ -158,7 +187,18 @@ class ReversalBacklashResult(Result):
         return ax
 
     def files(self, out: Path) -> list[Path]:
-        """backlash.csv and backlash.png."""
+        """backlash.csv and backlash.png.
+
+        Parameters
+        ----------
+        out : pathlib.Path
+            An existing directory.
+
+        Returns
+        -------
+        list of pathlib.Path
+            The files written.
+        """
         return write_backlash_outputs(out, self.metrics.reversal_backlash_arcmin, self.forward, self.reverse,
                                       self.scenario)
 

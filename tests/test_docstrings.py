@@ -2,8 +2,8 @@
 reference lists) and every public method of its classes has a numpydoc docstring, and every
 physical parameter states its unit.
 
-Scope: ``rvflex.__all__`` and the methods and properties those classes define (the user's
-surface). Checked with numpydoc's own validator: a docstring (GL08) with a one-line summary
+Scope: ``rvflex.__all__``, the result class each scenario's ``run`` returns, and the methods
+and properties those classes define (the user's surface). Checked with numpydoc's own validator: a docstring (GL08) with a one-line summary
 (SS01), every parameter documented (PR01) and no stale one (PR02), a Returns section where the
 function returns a value (RT01). Units: a parameter typed ``float`` (or a tuple of floats)
 carries its SI unit in its name (``load_Nm``, ``step_s``: the DESIGN rule) or its description
@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import inspect
 import re
+import sys
 
 import pytest
 
@@ -29,13 +30,23 @@ UNIT_WORDS = re.compile(r"(\b(m|mm|µm|N|N·m|N·m/arcmin|N/m|rad|s|rpm|Hz|Pa|kg
                         r"dimensionless|fraction|revolutions|per output revolution|\bcount\b)")
 
 
+def _public_objects() -> list[object]:
+    """The public names' objects and the result types their scenarios' ``run`` returns."""
+    objs = [getattr(rvflex, n) for n in sorted(rvflex.__all__) if not n.startswith("__")]
+    results = []
+    for obj in objs:
+        returns = inspect.signature(obj.run).return_annotation if inspect.isclass(obj) and hasattr(obj, "run") else None
+        if isinstance(returns, str):  # ``from __future__ import annotations``: resolve in the class's module
+            returns = getattr(sys.modules[obj.__module__], returns)
+        if inspect.isclass(returns) and returns not in objs + results:
+            results.append(returns)
+    return objs + results
+
+
 def _surface() -> list[tuple[str, object]]:
-    """(qualified name, object) of every public name and the public members its classes define."""
+    """(qualified name, object) of every public object and the public members its classes define."""
     out = []
-    for name in sorted(rvflex.__all__):
-        if name.startswith("__"):
-            continue
-        obj = getattr(rvflex, name)
+    for obj in _public_objects():
         qual = f"{obj.__module__}.{obj.__qualname__}"
         out.append((qual, obj))
         if inspect.isclass(obj):
