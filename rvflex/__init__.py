@@ -56,10 +56,12 @@ def __getattr__(name: str):
 
     module = _LAZY.get(name)
     if module is None:
-        from rvflex.choices import did_you_mean
+        hint = ""
+        if not name.startswith("_"):  # tools probe _private/__dunder__ names: answer those without importing
+            from rvflex.choices import did_you_mean
 
-        raise AttributeError(f"module 'rvflex' has no attribute {name!r}{did_you_mean(name, __all__)}",
-                             name=name, obj=__import__(__name__))
+            hint = did_you_mean(name, __all__)
+        raise AttributeError(f"module 'rvflex' has no attribute {name!r}{hint}", name=name)
     value = getattr(importlib.import_module(module), name)
     globals()[name] = value  # later look-ups skip __getattr__
     return value

@@ -249,4 +249,9 @@ def test_dir_lists_the_public_names_only():
     assert not {"TYPE_CHECKING", "annotations", "importlib", "api", "spec"} & set(names)
     assert {"LoadedTE", "LostMotion", "ReversalBacklash", "load_reducer", "run", "Result"} <= set(names)
     assert all(getattr(rvflex, n) is not None for n in names)
+    # tools (IPython, inspect) probe private names: they are refused without loading anything
+    code = ("import sys, rvflex; hasattr(rvflex, '__wrapped__'); hasattr(rvflex, '_ipython_display_'); "
+            "print([m for m in ('numpy', 'rvflex.choices') if m in sys.modules])")
+    assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          check=True).stdout.strip() == "[]"
 
