@@ -65,8 +65,9 @@ model is built with, on the run conditions, on the recorded TE, or as another mo
 RunKind = Literal["te", "hysteresis"]
 """Kinds of bench run (:mod:`rvflex.diagnose.bench`): a loaded-TE run or a torque cycle."""
 
-Mismatch = Literal["none", "realistic"]
-"""Self-check generators: the diagnosing model's family, or another one per case."""
+Mismatch = Literal["none", "realistic", "far"]
+"""Self-check generators: the diagnosing model's family, another one per case, or another one whose
+overall stiffness is also drawn far from the model's (×0.5 … ×2)."""
 
 
 def choices(kind) -> tuple[str, ...]:

@@ -415,9 +415,15 @@ def _groups(dataset: BenchDataset) -> list[list[BenchRun]]:
     return list(out.values())
 
 
+def _is_spec_file(source: str) -> bool:
+    return str(source).endswith(".toml")
+
+
 def bench_toml(dataset: BenchDataset) -> str:
     """The ``bench.toml`` text of ``dataset``."""
-    lines = ["[reducer]", f"catalog = {_toml_value(dataset.reducer_source)}", ""]
+    src = dataset.reducer_source
+    lines = ["[reducer]", (f"spec = {_toml_value(Path(src).name)}" if _is_spec_file(src)
+                           else f"catalog = {_toml_value(src)}"), ""]
     for runs in _groups(dataset):
         r = runs[0]
         lines += ["[[run]]", f"file = {_toml_value(r.file)}", f"kind = {_toml_value(r.kind)}"]
@@ -455,11 +461,16 @@ def _csv_text(runs: list[BenchRun]) -> str:
 def write_bench(folder: str | Path, dataset: BenchDataset) -> Path:
     """Write ``dataset`` to ``folder`` (created): every file goes to a temporary name first and
     is renamed only when all are written, so a failure leaves no half-written dataset.
-    ``dataset.reducer_source`` must be a catalogue name."""
+    ``dataset.reducer_source`` is a catalogue name, or a spec file name (``*.toml``): the spec is then
+    written beside the runs under that file's name."""
+    from rvflex.spec import dumps_spec
+
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     files = {runs[0].file: _csv_text(runs) for runs in _groups(dataset)}
     files["bench.toml"] = bench_toml(dataset)
+    if _is_spec_file(dataset.reducer_source):
+        files[Path(dataset.reducer_source).name] = dumps_spec(dataset.reducer)
     tmps = []
     try:
         for name, text in files.items():

@@ -50,12 +50,13 @@ def _fmt_cal(row: dict) -> str:
 
 
 def calibration_sentence(none: Candidate, nominal_model: Candidate, chosen, settings, held: dict | None = None,
-                         open_effect: bool = False) -> str:
+                         open_effect: bool = False, anchor_scale: float = 1.0) -> str:
     """The verdict's first sentence: the calibrated nominal parameters and how much of the gap they
     close. "Nominal parameters off; no unmodelled effect" only when no effect is accepted and none is
     left open (``open_effect``: a significant candidate that was not confirmed, or whose model
-    evaluation failed — the verdict then says the gap it explains stays unexplained)."""
-    rows = describe_calibration(none)
+    evaluation failed — the verdict then says the gap it explains stays unexplained). Stiffness scales are
+    stated against the model as specified (``anchor_scale`` times the calibrated component scale)."""
+    rows = describe_calibration(none, anchor_scale=anchor_scale)
     kept = (f" Not determined by these runs, held at nominal: {', '.join(n.replace('_', ' ') for n in held)}."
             if held else "")
     if not rows:

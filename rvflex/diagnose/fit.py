@@ -49,7 +49,8 @@ from rvflex.diagnose.linear import (
     prior_penalty,
     weights,
 )
-from rvflex.diagnose.nominal import REPLACES, nominal_parameters
+from rvflex.diagnose.anchor import Anchor, anchor, scale_stiffness
+from rvflex.diagnose.nominal import NOMINAL, REPLACES, nominal_parameters
 from rvflex.diagnose.refine import refine
 from rvflex.diagnose.replay import (
     DiagnosisSettings,
@@ -68,7 +69,7 @@ from rvflex.diagnose.sensitivity import (
     signature_size,
     signature_sizes,
 )
-from rvflex.diagnose.verdict import equivalent, is_significant, verdict, withheld_check
+from rvflex.diagnose.verdict import equivalent, is_significant, undetermined_effect, verdict, withheld_check
 from rvflex.spec import ErrorSpec, ReducerSpec
 
 __all__ = ["Candidate", "Diagnosis", "available_candidates", "diagnose", "second_effect_adds",
@@ -105,6 +106,7 @@ class Diagnosis:
     calibration_ties: tuple[str, ...] = ()  # nominal parameters that can mimic the accepted effect
     separating_runs: tuple[str, ...] = ()  # runs that would separate such a tie
     undetermined: dict = dc.field(default_factory=dict)  # nominal parameters the runs do not determine: why
+    anchor: Anchor = dc.field(default_factory=Anchor)  # the global stiffness scale the calibration starts from
 
     def to_dataframe(self, table: str = "ranking"):
         """A tidy pandas table: ``"ranking"`` (one row per candidate: name, score, gap shrink, withheld
@@ -205,7 +207,7 @@ def diagnose(dataset, *, settings: DiagnosisSettings | None = None, effects: tup
     t0 = time.perf_counter()
     settings = settings or DiagnosisSettings()
     spec: ReducerSpec = dataset.reducer
-    settings = settings.for_spec(spec)  # the alias-free model grid (or the given one, checked)
+    settings = settings.for_dataset(dataset)  # the orders the bench resolves, the alias-free model grid
     errors = errors or ErrorSpec()
     plan = plan_from_dataset(dataset, settings)
     y, lay, windows = measured_runs(dataset, plan, settings)
@@ -213,12 +215,23 @@ def diagnose(dataset, *, settings: DiagnosisSettings | None = None, effects: tup
     cands, unavailable = available_candidates(effects, plan)
     replaced = {REPLACES[c.name] for c in cal if c.name in REPLACES}
     cands = tuple(e for e in cands if e.name not in replaced)
-    runner = ModelRunner(spec, errors, plan, settings, law, Path(cache_dir) if cache_dir else None, progress)
+    cache = Path(cache_dir) if cache_dir else None
+    runner = ModelRunner(spec, errors, plan, settings, law, cache, progress)
+    f0, resp0 = _baseline(runner)
 
-    base_out = runner.run([()])[0]
-    if base_out[0] is None:
-        raise EvaluationFailed(f"the baseline model does not converge under the bench conditions: {base_out[2]}")
-    f0, resp0, _ = base_out
+    # --- the data anchor: the unit's torsional stiffness against the nominal model's (rigid plus the elastic
+    # discs, the calibration's nominal point); far off, every stiffness is scaled and calibration starts there
+    f_nom = f0
+    if "disc_flexibility" in {c.name for c in cal}:
+        flex = runner.run([((NOMINAL["disc_flexibility"], np.array([1.0])),)])[0][0]
+        f_nom = f0 if flex is None else flex
+    anc = anchor(y, f_nom, lay, plan)
+    f_spec, resp_spec, runs_before = f0, resp0, runner.model_runs  # the model as specified (the gap before)
+    if anc.applied:
+        spec = scale_stiffness(spec, anc.scale)
+        runner = ModelRunner(spec, errors, plan, settings, law, cache, progress)
+        runner.model_runs = runs_before
+        f0, resp0 = _baseline(runner)
     w = weights(f0, y, lay, settings, spec.cycloid.pin_count)
     nuis = nuisance_columns(lay)
     prob = Problem.build(y, lay, w, nuis)
@@ -234,9 +247,9 @@ def diagnose(dataset, *, settings: DiagnosisSettings | None = None, effects: tup
     size = {e.name: signature_size(e, sens, w) for e in cands + cal if e.name in sens}
     usable = [e for e in cands if e.name in sens and e.name not in failed]
 
-    # --- the nominal model as specified (the gap before calibration)
-    x, nu, d, rss, A = lin_fit(prob, f0, np.zeros((n, 0)), np.zeros(0), np.zeros(0), np.zeros(0))
-    nominal_model = make_candidate((), x, nu, d, rss, A, n, n_nuis, f0, refined=True, response=resp0)
+    # --- the nominal model as specified (the gap before calibration and before the anchor)
+    x, nu, d, rss, A = lin_fit(prob, f_spec, np.zeros((n, 0)), np.zeros(0), np.zeros(0), np.zeros(0))
+    nominal_model = make_candidate((), x, nu, d, rss, A, n, n_nuis, f_spec, refined=True, response=resp_spec)
 
     # --- stage 1, calibration: the nominal parameters alone (on every feature: the wind-ups' load and direction
     # dependence, the torque cycles' slope and free play, and the orders the contact-law form and the disc
@@ -318,7 +331,7 @@ def diagnose(dataset, *, settings: DiagnosisSettings | None = None, effects: tup
     final = []
     blocked = None  # a candidate that fits better (linearised) but whose model evaluation failed
     for c in out:
-        ok = (c.refined and is_significant(c, settings)
+        ok = (c.refined and is_significant(c, settings) and not undetermined_effect(c)
               and c.withheld.get("improvement_pct") is not None
               and c.withheld["improvement_pct"] >= settings.min_withheld_pct)
         if ok and chosen is None and blocked is None:
@@ -350,8 +363,9 @@ def diagnose(dataset, *, settings: DiagnosisSettings | None = None, effects: tup
                 f"parameters {', '.join(cal_ties)} reproduce its signature, so these runs cannot tell it from them "
                 f"(a tie); {'; '.join(runs_needed)} would separate them.")
     open_effect = blocked is not None or bool(final and is_significant(final[0], settings))
-    text = (calibration_sentence(none, nominal_model, chosen if demoted is None else demoted, settings, held,
-                                 open_effect=open_effect)
+    text = (anc.sentence() + " "
+            + calibration_sentence(none, nominal_model, chosen if demoted is None else demoted, settings, held,
+                                   open_effect=open_effect, anchor_scale=anc.scale)
             + " " + text)
     if cal_ties and demoted is None:
         text += (f" Partly tied with the calibration of {', '.join(cal_ties)} (within their prior ranges they reproduce "
@@ -359,7 +373,15 @@ def diagnose(dataset, *, settings: DiagnosisSettings | None = None, effects: tup
                  "them.")
     return Diagnosis(dataset, settings, plan, lay, w, y, none, none.response or resp0, tuple(final), chosen,
                      folds, unavailable, failed, size, text, runner.model_runs,
-                     time.perf_counter() - t0, tied, nominal_model, windows, cal_ties, runs_needed, held)
+                     time.perf_counter() - t0, tied, nominal_model, windows, cal_ties, runs_needed, held, anc)
+
+
+def _baseline(runner: ModelRunner) -> tuple[np.ndarray, Response]:
+    """Features and response of the runner's model without any effect."""
+    out = runner.run([()])[0]
+    if out[0] is None:
+        raise EvaluationFailed(f"the baseline model does not converge under the bench conditions: {out[2]}")
+    return out[0], out[1]
 
 
 LAW_STARTS = {"contact_law_form": (1.0,)}

@@ -37,7 +37,8 @@ __all__ = ["NOMINAL", "REPLACES", "describe_calibration", "max_pin_force", "nomi
            "power_law_equivalent", "stiffness_scale"]
 
 COMPLIANCE_PRIOR = 0.35  # σ of the compliance change: a stiffness known to about ±30 %
-COMPLIANCE_LOW, COMPLIANCE_HIGH = -0.5, 1.5  # stiffness scale 2.0 … 0.4: beyond it the spec is wrong, not uncertain
+COMPLIANCE_LOW, COMPLIANCE_HIGH = -0.5, 1.5  # component scale 2.0 … 0.4 around the data anchor (diagnose.anchor)
+CLEARANCE_HIGH = 10 * UM  # nominal needle-bearing clearance classes of real units reach ~10 µm
 
 
 def stiffness_scale(u: float) -> float:
@@ -151,7 +152,7 @@ def _builtin() -> tuple[Effect, ...]:
                separating_runs="TE runs at two loads (the elastic TE at order 2·z_b grows with the load)"),
         # a nominal clearance class of a few µm: beyond its prior, clearance is an unmodelled effect
         Effect("crank_bearing_clearance", "nominal radial clearance of the crank (needle) bearings",
-               (Param("clearance_m", "m", 0.0, 6 * UM, 2.5 * UM),), apply=_clearance, prior_sigma=(2.5 * UM,),
+               (Param("clearance_m", "m", 0.0, CLEARANCE_HIGH, 2.5 * UM),), apply=_clearance, prior_sigma=(2.5 * UM,),
                separating_runs="a torque cycle with fine steps through ±5 % of rated torque (the free-play region)"),
     )
 
@@ -163,9 +164,11 @@ REPLACES = {"disc_flexibility": "disc_carrier_flexibility"}
 """Candidate effects a nominal parameter stands for (not attributed separately when it is calibrated)."""
 
 
-def describe_calibration(c, held: dict | None = None) -> list[dict]:
+def describe_calibration(c, held: dict | None = None, anchor_scale: float = 1.0) -> list[dict]:
     """The calibrated nominal parameters of ``c``: value, 95 % interval, nominal value, shift, and
-    for stiffnesses the stiffness scale s = 1/(1 + u) with its interval (``determined``: True). The
+    for stiffnesses the stiffness scale against the spec, ``anchor_scale``·s with s = 1/(1 + u) the
+    component scale around the data anchor (:mod:`rvflex.diagnose.anchor`), with its interval
+    (``determined``: True). The
     parameters in ``held`` (name → why; the runs do not determine them) follow at their nominal
     value with the prior's 95 % interval (``determined``: False, ``why``)."""
     out = []
@@ -185,9 +188,10 @@ def describe_calibration(c, held: dict | None = None) -> list[dict]:
                    "at_prior_bound": bool(determined and min(x[j] - prm.low, prm.high - x[j]) < 1e-3 * (prm.high - prm.low)
                                           and not (prm.low == e.center[j] == 0.0 and x[j] - prm.low < 1e-12))}
             if prm.name == "compliance_change":
-                row["stiffness_scale"] = stiffness_scale(x[j])
-                row["stiffness_scale_interval"] = sorted(stiffness_scale(min(max(v, prm.low), prm.high))
+                row["stiffness_scale"] = anchor_scale * stiffness_scale(x[j])
+                row["stiffness_scale_interval"] = sorted(anchor_scale * stiffness_scale(min(max(v, prm.low), prm.high))
                                                          for v in iv[j])
+                row["anchor_scale"] = anchor_scale
             if not determined:
                 row["why"] = held[e.name]
             out.append(row)

@@ -45,7 +45,9 @@ __all__ = [
     "features",
     "measured_features",
     "measured_runs",
+    "orders_resolved",
     "plan_from_dataset",
+    "recorded",
     "shift_measured",
 ]
 
@@ -62,8 +64,10 @@ class DiagnosisSettings:
         Model positions per output revolution (≥ 2·max_order + 2). None (default): the smallest
         grid that keeps the pin-mesh harmonics out of the analysed orders
         (:func:`alias_free_positions`, 320 for the RV-40E at 127 orders), set by :meth:`for_spec`.
-    max_order : int
-        Highest order analysed (per output revolution); ≥ 3·z_b.
+    max_order : int or None
+        Highest order analysed (per output revolution). None (default): every order the bench's TE runs
+        resolve (:func:`orders_resolved`: their samples per revolution / 4, at most MAX_ORDER_CAP; 255 for
+        1024 samples), set by :meth:`for_dataset`; DEFAULT_MAX_ORDER where no dataset is given.
     hysteresis_steps : int
         Equal torque steps of the replayed torque cycle (plus the fine ±0.5…4 % points).
     workers : int
@@ -100,7 +104,7 @@ class DiagnosisSettings:
     """
 
     positions_per_rev: int | None = None
-    max_order: int = 127
+    max_order: int | None = None
     hysteresis_steps: int = 40
     workers: int = 2
     refine_top: int = 3
@@ -118,16 +122,25 @@ class DiagnosisSettings:
     windup_floor_rel: float = 0.02
 
     def __post_init__(self) -> None:
-        if self.positions_per_rev is not None and self.positions_per_rev < 2 * self.max_order + 2:
+        k = DEFAULT_MAX_ORDER if self.max_order is None else self.max_order
+        if self.positions_per_rev is not None and self.positions_per_rev < 2 * k + 2:
             raise ValueError(f"positions_per_rev = {self.positions_per_rev}: needs ≥ 2·max_order + 2 "
-                             f"= {2 * self.max_order + 2}")
-        if self.max_order < 1 or self.hysteresis_steps < 8 or self.workers < 1:
+                             f"= {2 * k + 2}")
+        if k < 1 or self.hysteresis_steps < 8 or self.workers < 1:
             raise ValueError("max_order ≥ 1, hysteresis_steps ≥ 8 and workers ≥ 1 are required")
 
+    def for_dataset(self, dataset) -> DiagnosisSettings:
+        """These settings for a bench dataset: the analysed orders from its sampling when ``max_order``
+        is None (:func:`orders_resolved`), then :meth:`for_spec` of its reducer."""
+        s = self if self.max_order is not None else dc.replace(self, max_order=orders_resolved(dataset))
+        return s.for_spec(dataset.reducer)
 
     def for_spec(self, spec) -> DiagnosisSettings:
         """These settings for ``spec``: the position grid chosen by :func:`alias_free_positions` when
-        None, else checked by :func:`aliasing_problem` (ValueError naming the folded harmonic)."""
+        None, else checked by :func:`aliasing_problem` (ValueError naming the folded harmonic); a
+        ``max_order`` of None is DEFAULT_MAX_ORDER."""
+        if self.max_order is None:
+            return dc.replace(self, max_order=DEFAULT_MAX_ORDER).for_spec(spec)
         z_b = spec.cycloid.pin_count
         if self.positions_per_rev is None:
             return dc.replace(self, positions_per_rev=alias_free_positions(z_b, self.max_order))
@@ -136,6 +149,24 @@ class DiagnosisSettings:
             raise ValueError(f"positions_per_rev = {self.positions_per_rev}: {why}; use "
                              f"{alias_free_positions(z_b, self.max_order)} (or None to choose it)")
         return self
+
+
+DEFAULT_MAX_ORDER = 127  # analysed orders where no bench data set the sampling
+MAX_ORDER_CAP = 255  # orders beyond carry < 0.03″ of any effect (8·z_b of the RV-40E is 320) but cost model positions
+
+
+def orders_resolved(dataset) -> int:
+    """Highest order every TE run of ``dataset`` resolves: its samples per analysed revolution divided
+    by MIN_SAMPLES_PER_ORDER (two coefficients per order, twice Nyquist), at most MAX_ORDER_CAP;
+    DEFAULT_MAX_ORDER when the dataset has no TE run. 1024 samples per revolution resolve 255 orders
+    (a 3rd-harmonic pin pattern's TE sits at order 6·z_c = 234 on the RV-40E)."""
+    from rvflex.diagnose.measured import MIN_SAMPLES_PER_ORDER
+
+    per_rev = [r.window.samples // r.window.revolutions for r in dataset.runs
+               if r.kind == "te" and r.window is not None]
+    if not per_rev:
+        return DEFAULT_MAX_ORDER
+    return int(min(MAX_ORDER_CAP, min(per_rev) // MIN_SAMPLES_PER_ORDER))
 
 
 # The model's TE is sampled at N positions per revolution, so its order k > N/2 folds to |k − jN|. The
@@ -354,6 +385,7 @@ def evaluate(spec: ReducerSpec, errors: ErrorSpec, plan: tuple[PlanRun, ...], se
     if settings.positions_per_rev is None:
         settings = settings.for_spec(spec)
     variants = [(spec, errors)] * len(plan)
+    plan_c = plan
     blends = []
     try:
         for eff, x in active:
@@ -365,12 +397,14 @@ def evaluate(spec: ReducerSpec, errors: ErrorSpec, plan: tuple[PlanRun, ...], se
                         raise EvaluationFailed(f"effect {eff.name} needs '{fld}' of run {bad[0]}")
                 variants = [eff.apply_to(s, e, x, p) for (s, e), p in zip(variants, plan)]
             elif eff.kind == "conditions":
-                plan = tuple(eff.conditions(p, x, variants[0][0]) for p in plan)
+                plan_c = tuple(eff.conditions(p, x, variants[0][0]) for p in plan_c)
             elif eff.kind == "fidelity":
                 blends.append((eff, float(x[0])))
     except SpecError as err:
         raise EvaluationFailed(f"effect value breaks a spec rule: {err}") from None
     options = options or ModelOptions.rigid()
+    applied = plan  # the bench's torques, before a condition effect changes what the mesh sees
+    plan = tuple(plan_c)
     resp = base = _run_model(variants, plan, settings, options, law)
     for eff, w in blends:  # another fidelity or contact-law form, blended in by its share w
         if w == 0.0:
@@ -384,16 +418,30 @@ def evaluate(spec: ReducerSpec, errors: ErrorSpec, plan: tuple[PlanRun, ...], se
                         tuple(None if a is None else a + w * (b - a0)
                               for a, a0, b in zip(resp.theta, ref.theta, alt.theta)))
     meas = [(eff, np.asarray(x, float)) for eff, x in active if eff.kind == "measurement"]
-    if meas:
-        pos = 2 * np.pi * np.arange(settings.positions_per_rev) / settings.positions_per_rev
-        te = []
-        for a in resp.te:
-            if a is not None:
-                for eff, x in meas:
-                    a = eff.measure(pos, a, x)
-            te.append(a)
-        resp = dc.replace(resp, te=tuple(te))
-    return resp
+    return recorded(resp, applied, settings, meas, spec)
+
+
+def recorded(resp: Response, plan: tuple[PlanRun, ...], settings: DiagnosisSettings, meas, spec: ReducerSpec) -> Response:
+    """``resp`` as the bench records it with the measurement effects ``meas`` ((Effect, x) pairs): each TE
+    through ``measure``; the twist of each ``series`` compliance added at the output torque the bench applies
+    (a TE run at load L in direction d lags by it, −d·series(L), as the model's own wind-up does; a torque
+    cycle at each applied torque)."""
+    if not meas:
+        return resp
+    pos = 2 * np.pi * np.arange(settings.positions_per_rev) / settings.positions_per_rev
+    te, theta = [], []
+    for p, a, t, b in zip(plan, resp.te, resp.torque, resp.theta):
+        for eff, x in meas:
+            if a is not None and eff.measure is not None:
+                a = eff.measure(pos, a, x)
+            if eff.series is not None:
+                if a is not None:
+                    a = a - p.direction * eff.series(p.load_Nm, x, spec)
+                if b is not None:
+                    b = b + eff.series(np.asarray(t, float), x, spec)
+        te.append(a)
+        theta.append(b)
+    return dc.replace(resp, te=tuple(te), theta=tuple(theta))
 
 
 def branch_angles(torque: np.ndarray, theta: np.ndarray, torque_max: float) -> np.ndarray:

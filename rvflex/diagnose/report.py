@@ -215,7 +215,8 @@ def json_document(diag) -> dict:
     if not diag.withheld_runs:
         withheld["note"] = "no run usable for the withheld check"
     return {"where": where_list(diag), "effects": effects, "gap_before": before, "gap_after": after,
-            "gap_calibrated": calibrated, "calibration": describe_calibration(diag.baseline, diag.undetermined),
+            "gap_calibrated": calibrated, "calibration": describe_calibration(diag.baseline, diag.undetermined, diag.anchor.scale),
+            "anchor": diag.anchor.describe(),
             "calibration_shrink_pct": float(diag.baseline.gap_shrink_pct),
             "calibration_withheld_improvement_pct": diag.baseline.withheld.get("improvement_pct"),
             "calibration_ties": list(diag.calibration_ties), "separating_runs": list(diag.separating_runs),
@@ -387,9 +388,10 @@ def markdown(diag, doc: dict, pngs: list[str]) -> str:
         lines.append(f"| {diag.plan[w['run']].label} | {w['form']} | {w['samples']} / {w['samples_in_run']} | "
                      f"{w['revolutions']} | {w['coverage']:.3f} | {w['te_pp_measured_arcsec']:.2f} | "
                      f"{w['te_pp_fit_arcsec']:.2f} | {w['fit_rms_residual_arcsec']:.3f} |")
-    lines += ["", "## Calibrated nominal parameters", "",
+    lines += ["", "## Calibrated nominal parameters", "", f"**Anchor.** {diag.anchor.sentence()}", "",
               ("Uncertain nominal parameters of the model, fitted before any effect with a regulariser toward the "
-               "nominal value (prior σ); stiffnesses as compliance change u = 1/s − 1 and stiffness scale s. "
+               "nominal value (prior σ, around the anchored model); stiffnesses as compliance change u = 1/s − 1 and "
+               "stiffness scale against the spec (anchor × component). "
                f"Calibration closes {doc['calibration_shrink_pct']:.0f} % of the nominal model's weighted gap."), "",
               "| parameter | value [95 %] | nominal | prior σ | stiffness scale [95 %] | at prior bound |",
               "|---|---|---:|---:|---|:---:|"]

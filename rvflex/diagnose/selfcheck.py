@@ -38,7 +38,7 @@ from rvflex.diagnose.effects import Effect, available_effects
 from rvflex.diagnose.replay import DiagnosisSettings, PlanRun, evaluate
 from rvflex.options import ModelOptions
 from rvflex.parallel import map_warm
-from rvflex.spec import ErrorSpec, ReducerSpec
+from rvflex.spec import ErrorSpec, ReducerSpec, load_spec
 from rvflex.units import ARCSEC
 
 __all__ = [
@@ -102,10 +102,14 @@ class RealisticMismatch:
     per case: a power-law contact F = k·x^1.5 with k within ±``stiffness_spread`` of the line
     contact's equivalent, needle-bearing and mesh stiffness scaled within ±``stiffness_spread``, a
     nominal crank-bearing clearance up to ``clearance_max_m``, FE-reduced flexible discs, and TE
-    encoders sampled ``samples_per_rev`` points per revolution over [0, 2π)."""
+    encoders sampled ``samples_per_rev`` points per revolution over [0, 2π). ``global_range``: an overall
+    stiffness scale g drawn log-uniformly in it multiplies the three drawn stiffnesses (``--mismatch far``:
+    ×0.5 … ×2, a unit as far from its catalogue model as real ones are; the FE discs keep their modulus,
+    since an FE reduction per case would dominate the self-check's time)."""
 
     stiffness_spread: float = 0.4
     clearance_max_m: float = 5e-6
+    global_range: tuple[float, float] = (1.0, 1.0)
     options: ModelOptions = field(default_factory=ModelOptions.flexible_discs)
     samples_per_rev: int = 1024
     fixed: tuple[tuple[str, float], ...] = ()  # (key, value) pairs taken instead of drawn (tests)
@@ -116,8 +120,11 @@ class RealisticMismatch:
         if self.fixed:
             return dict(self.fixed)
         a, b = 1.0 - self.stiffness_spread, 1.0 + self.stiffness_spread
-        return {"contact_scale": float(rng.uniform(a, b)), "needle_bearing_scale": float(rng.uniform(a, b)),
-                "mesh_scale": float(rng.uniform(a, b)), "clearance_m": float(rng.uniform(0.0, self.clearance_max_m))}
+        lo, hi = self.global_range
+        g = float(math.exp(rng.uniform(math.log(lo), math.log(hi)))) if hi > lo else float(lo)
+        out = {"contact_scale": g * float(rng.uniform(a, b)), "needle_bearing_scale": g * float(rng.uniform(a, b)),
+               "mesh_scale": g * float(rng.uniform(a, b)), "clearance_m": float(rng.uniform(0.0, self.clearance_max_m))}
+        return out | ({"global_scale": g} if hi > lo else {})
 
     def model(self, spec: ReducerSpec, drawn: dict):
         """(spec, errors, law) of the generator for the drawn parameters."""
@@ -151,11 +158,18 @@ class SelfCheckSettings:
     realism: BenchRealism = field(default_factory=BenchRealism)
     generator: GeneratorModel = field(default_factory=GeneratorModel)
     diagnosis: DiagnosisSettings = field(default_factory=DiagnosisSettings)
-    mismatch: Mismatch = "none"  # "none": today's generator; "realistic": RealisticMismatch per case
+    mismatch: Mismatch = "none"  # "none": today's generator; "realistic"/"far": RealisticMismatch/far per case
     realistic: RealisticMismatch = field(default_factory=RealisticMismatch)
+    far: RealisticMismatch = field(default_factory=lambda: RealisticMismatch(clearance_max_m=8e-6,
+                                                                           global_range=(0.5, 2.0)))
 
     def __post_init__(self) -> None:
         check_choice("mismatch", self.mismatch, Mismatch)
+
+    @property
+    def family(self) -> RealisticMismatch | None:
+        """The generator of another model family ``mismatch`` selects (None: the diagnosing model's)."""
+        return {"none": None, "realistic": self.realistic, "far": self.far}[self.mismatch]
 
 
 def draw_truth(rng: np.random.Generator, effects: tuple[Effect, ...], n_effects: int,
@@ -314,7 +328,8 @@ def generate_case(folder: str | Path, truth_path: str | Path, spec: ReducerSpec,
                         "magnitude": e.magnitude(x)} for e, x in truth],
            "origin_rad": delta0, "offset_arcsec": offset0 / ARCSEC,
            "generator": dc.asdict(gen), "realism": dc.asdict(realism), "nominal": drawn,
-           "mismatch": "none" if realistic is None else "realistic"}
+           "mismatch": "none" if realistic is None else ("far" if realistic.global_range[1] > realistic.global_range[0]
+                                                         else "realistic")}
     Path(truth_path).parent.mkdir(parents=True, exist_ok=True)
     Path(truth_path).write_text(json.dumps(doc, indent=2), encoding="utf-8")
     return doc
@@ -330,7 +345,7 @@ def score_case(truth: dict, diag) -> dict:
            "ranked": [c.name for c in ranked[:3]],
            "gap_shrink_pct": float(chosen.gap_shrink_pct) if chosen else 0.0,
            "verdict": diag.verdict, "wall_s": diag.wall_s, "model_runs": diag.model_runs}
-    row.update(_score_calibration(truth, chosen or diag.baseline, diag.undetermined))
+    row.update(_score_calibration(truth, chosen or diag.baseline, diag.undetermined, diag.anchor.scale))
     if not hidden:
         row["correct"] = chosen is None
         return row
@@ -359,7 +374,7 @@ CALIBRATED_SCALES = {"contact_stiffness": "contact_scale", "needle_bearing_stiff
                      "mesh_stiffness": "mesh_scale"}
 
 
-def _score_calibration(truth: dict, cand, held: dict | None = None) -> dict:
+def _score_calibration(truth: dict, cand, held: dict | None = None, anchor_scale: float = 1.0) -> dict:
     """Calibrated stiffness scales against the generator's drawn ones (within ±CALIBRATION_TOL).
 
     ``calibration_ok``: every scale the diagnosis determined is within tolerance. A scale the runs
@@ -370,7 +385,7 @@ def _score_calibration(truth: dict, cand, held: dict | None = None) -> dict:
     drawn = truth.get("nominal")
     if not drawn:
         return {}
-    rows = {r["name"]: r for r in describe_calibration(cand, held)}
+    rows = {r["name"]: r for r in describe_calibration(cand, held, anchor_scale)}
     out = {}
     for name, key in CALIBRATED_SCALES.items():
         if name in rows:
@@ -420,7 +435,7 @@ def selfcheck(out_dir: str | Path, settings: SelfCheckSettings = SelfCheckSettin
 
     t0 = time.perf_counter()
     out = Path(out_dir)
-    spec = catalog.load(settings.reducer)
+    spec = load_spec(settings.reducer) if settings.reducer.endswith(".toml") else catalog.load(settings.reducer)
     settings = dc.replace(settings, diagnosis=settings.diagnosis.for_spec(spec))  # the model grid it will use
     effects, _ = available_effects(settings.effects)
     rng = np.random.default_rng(settings.seed)
@@ -455,7 +470,7 @@ def selfcheck(out_dir: str | Path, settings: SelfCheckSettings = SelfCheckSettin
         jobs.append((out / "datasets" / f"case_{k:02d}", out / "truth" / f"case_{k:02d}.json", spec,
                      tuple(e.name for e in hideable), n_eff, first, case_seed, sizes, settings.realism,
                      settings.generator, settings.reducer,
-                     settings.realistic if settings.mismatch == "realistic" else None))
+                     settings.family))
     # the benches are independent of each other and of the diagnoses: generated in the pool first
     # (each generator run is serial), then diagnosed one by one (each diagnosis uses the pool)
     generated = map_warm(_case_job, jobs, settings.diagnosis.workers if len(jobs) > 1 else 0,

@@ -4,7 +4,6 @@ candidates a dataset can evaluate."""
 
 from __future__ import annotations
 
-import dataclasses as dc
 import math
 from pathlib import Path
 
@@ -12,7 +11,7 @@ import numpy as np
 
 from rvflex.diagnose.effects import Effect, available_effects
 from rvflex.diagnose.linear import Candidate, Sensitivities, denoise_orders, weights
-from rvflex.diagnose.replay import DiagnosisSettings, EvaluationFailed, features
+from rvflex.diagnose.replay import DiagnosisSettings, EvaluationFailed, features, recorded
 from rvflex.diagnose.runs import ModelRunner
 from rvflex.spec import ErrorSpec, ReducerSpec
 
@@ -99,15 +98,13 @@ def sensitivities(runner, cands, f0, resp0, plan, settings, lay) -> tuple[Sensit
     sens: dict[str, np.ndarray] = {}
     minus: dict[str, np.ndarray] = {}
     failed: dict[str, str] = {}
-    pos = 2 * np.pi * np.arange(settings.positions_per_rev) / settings.positions_per_rev
     for e in cands:
         if e.kind == "measurement":
             cols = []
             for j, prm in enumerate(e.params):
                 x = np.zeros(e.n)
                 x[j] = prm.step
-                te = tuple(None if a is None else e.measure(pos, a, x) for a in resp0.te)
-                fj, _ = features(dc.replace(resp0, te=te), plan, settings)
+                fj, _ = features(recorded(resp0, plan, settings, [(e, x)], runner.spec), plan, settings)
                 cols.append((fj - f0) / prm.step)
             sens[e.name] = np.column_stack(cols)
     responses = {}

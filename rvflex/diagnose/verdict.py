@@ -11,8 +11,8 @@ from rvflex.diagnose.effects import Effect
 from rvflex.diagnose.linear import Candidate, Problem, bounds, lin_fit, prior_of
 from rvflex.diagnose.replay import shift_measured
 
-__all__ = ["SIGNATURE_TIE", "TIE_RSS_RATIO", "equivalent", "fmt_mag", "fmt_pct", "is_significant", "verdict",
-           "withheld_check"]
+__all__ = ["SIGNATURE_TIE", "TIE_RSS_RATIO", "equivalent", "fmt_mag", "fmt_pct", "is_significant",
+           "undetermined_effect", "verdict", "withheld_check"]
 
 def _linearisation(c: Candidate, f0: np.ndarray):
     """(base features, Jacobian, reference point, lower, upper, prior) a candidate is predicted with:
@@ -168,8 +168,10 @@ def verdict(cands, chosen, none, has_folds, settings, unavailable, failed, tied=
         why = []
         if not best.refined:
             why.append("its model-in-the-loop evaluation failed, so only its linearised fit is known")
+        if undetermined_effect(best):
+            why.append(undetermined_effect(best))
         wh = best.withheld.get("improvement_pct")
-        if wh is None or wh < settings.min_withheld_pct:
+        if best.refined and not undetermined_effect(best) and (wh is None or wh < settings.min_withheld_pct):
             why.append(f"refitted without them it predicts the withheld runs only {fmt_pct(wh)} better "
                        f"(≥ {settings.min_withheld_pct:g} % needed)")
         return (f"No effect is confirmed: the best candidate, {best.name}, removes {best.gap_shrink_pct:.0f} % "
@@ -184,6 +186,22 @@ def verdict(cands, chosen, none, has_folds, settings, unavailable, failed, tied=
 def is_significant(c: Candidate, settings) -> bool:
     """A candidate that passes the evidence and gap-shrink rules (whether or not it is confirmed)."""
     return c.score >= settings.bic_threshold and c.gap_shrink_pct >= settings.min_shrink_pct
+
+
+def undetermined_effect(c: Candidate) -> str:
+    """Why an unmodelled effect of ``c`` is not a finding ("" when every one is determined): its 95 %
+    magnitude interval reaches zero (the runs cannot tell it from no effect), or a parameter of it sits
+    at the bound of its range (its size is a limit, not an estimate; measured on a foreign bench: a
+    verdict accepted an effect at its bound with a 95 % interval from 0 to ten times its value)."""
+    for e, m, (lo, hi) in zip(c.effects, c.magnitude, c.magnitude_interval):
+        if not e.nominal and lo <= 0.0:
+            return (f"the 95 % interval of {e.name} ({fmt_mag(e, lo)} … {fmt_mag(e, hi)}) includes zero: these runs "
+                    "cannot determine it" + (f"; {e.separating_runs} would" if e.separating_runs else ""))
+    own = {e.name for e in c.attributed}
+    bound = [b for b in c.at_bound if b.split(".")[0] in own]
+    if bound:
+        return f"{bound[0]} sits at the bound of its range: its size is a limit, not an estimate"
+    return ""
 
 
 def fmt_pct(v) -> str:
