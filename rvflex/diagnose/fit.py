@@ -37,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rvflex.diagnose.anchor import Anchor, anchor, scale_stiffness
 from rvflex.diagnose.calibration import CALIBRATION_PREFERRED, calibration_sentence, calibration_ties, undetermined
 from rvflex.diagnose.linear import (
     Candidate,
@@ -49,7 +50,6 @@ from rvflex.diagnose.linear import (
     prior_penalty,
     weights,
 )
-from rvflex.diagnose.anchor import Anchor, anchor, scale_stiffness
 from rvflex.diagnose.nominal import NOMINAL, REPLACES, nominal_parameters
 from rvflex.diagnose.refine import refine
 from rvflex.diagnose.replay import (
