@@ -27,8 +27,8 @@ from rvflex.choices import BodyFidelity, SeatMarker, check_choice, choices
 from rvflex.fe import ffrf as ffrf_module
 from rvflex.fe.couplings import rbe3_virtual_nodes
 from rvflex.numerics import OUTPUT_REGULARISER_NM_RAD  # re-exported: the regulariser this builder installs
-from rvflex.spec import ErrorSpec, ReducerSpec
 from rvflex.parts import bearings
+from rvflex.spec import ErrorSpec, ReducerSpec
 
 __all__ = ["CarrierHandles", "build", "crank_axis_positions", "OUTPUT_REGULARISER_NM_RAD", "add_input_seat_bearings",
            "split_support_bearing", "SEAT_MARKERS"]
@@ -114,8 +114,14 @@ def build(mbs, spec: ReducerSpec, errors: ErrorSpec, ground_body: int, ground_co
     virtual nodes carrying the seat's RBE3 motion, ``"all_nodes"`` on all seat nodes with the
     RBE3 weights — the same coupling (to round-off), ~N times slower (tests compare the two).
     """
-    from exudyn.itemInterface import (LoadCoordinate, MarkerBodyRigid, MarkerNodeCoordinate, NodeRigidBody2D,
-                                      ObjectConnectorCoordinateSpringDamper, ObjectRigidBody2D)
+    from exudyn.itemInterface import (
+        LoadCoordinate,
+        MarkerBodyRigid,
+        MarkerNodeCoordinate,
+        NodeRigidBody2D,
+        ObjectConnectorCoordinateSpringDamper,
+        ObjectRigidBody2D,
+    )
 
     check_choice("fidelity", fidelity, BodyFidelity)
     if fidelity == "flexible":
@@ -142,9 +148,15 @@ def build(mbs, spec: ReducerSpec, errors: ErrorSpec, ground_body: int, ground_co
 def _build_flexible(mbs, spec, errors, ground_body, ground_coordinate, reduced,
                     seat_marker: SeatMarker = "virtual") -> CarrierHandles:
     """The FFRF carrier: reference frame = output face (clamped in all modes), planar-held."""
-    from exudyn.itemInterface import (CoordinateConstraint, LoadCoordinate, MarkerBodyRigid, MarkerNodeCoordinate,
-                                      MarkerNodeRigid, MarkerSuperElementRigid,
-                                      ObjectConnectorCoordinateSpringDamper)
+    from exudyn.itemInterface import (
+        CoordinateConstraint,
+        LoadCoordinate,
+        MarkerBodyRigid,
+        MarkerNodeCoordinate,
+        MarkerNodeRigid,
+        MarkerSuperElementRigid,
+        ObjectConnectorCoordinateSpringDamper,
+    )
 
     check_choice("seat_marker", seat_marker, SeatMarker)
     if reduced is None or reduced.part != "carrier" or int(ground_coordinate) < 0:

@@ -1,5 +1,5 @@
 """rvflex: rigid–flexible Exudyn models of RV reducers for loaded transmission error,
-lost motion and backlash. SI units throughout; see README.md for conventions.
+lost motion and backlash. SI units throughout; conventions in docs/conventions.md.
 
 The top-level names load on first use (PEP 562), so ``import rvflex`` stays fast::
 
@@ -11,7 +11,6 @@ The top-level names load on first use (PEP 562), so ``import rvflex`` stays fast
 
 from __future__ import annotations
 
-import importlib
 from typing import TYPE_CHECKING
 
 __version__ = "0.1.0"
@@ -34,7 +33,9 @@ _LAZY = {
     "FlexibilityEffect": "rvflex.scenarios.flexibility_effect",
 }
 
-__all__ = ["__version__", *_LAZY]
+__all__ = ["ErrorSpec", "FlexibilityEffect", "LoadedTE", "LostMotion", "ModelOptions", "PartSettings", "ReducerModel",
+           "ReducerSpec", "Result", "ReversalBacklash", "SpecError", "__version__", "build_reducer", "load_errors",
+           "load_reducer", "run"]
 
 if TYPE_CHECKING:  # for type checkers and IDEs; at run time the names load lazily
     from rvflex.api import load_errors, load_reducer, run
@@ -50,13 +51,22 @@ if TYPE_CHECKING:  # for type checkers and IDEs; at run time the names load lazi
 
 
 def __getattr__(name: str):
+    """Load a public name on first use; an unknown name is refused suggesting the closest one."""
+    import importlib
+
     module = _LAZY.get(name)
     if module is None:
-        raise AttributeError(f"module 'rvflex' has no attribute {name!r}")
+        hint = ""
+        if not name.startswith("_"):  # tools probe _private/__dunder__ names: answer those without importing
+            from rvflex.choices import did_you_mean
+
+            hint = did_you_mean(name, __all__)
+        raise AttributeError(f"module 'rvflex' has no attribute {name!r}{hint}", name=name)
     value = getattr(importlib.import_module(module), name)
     globals()[name] = value  # later look-ups skip __getattr__
     return value
 
 
 def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_LAZY))
+    """The public names (``__all__``): not the module's imports, nor the submodules it loaded."""
+    return sorted(__all__)

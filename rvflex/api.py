@@ -17,22 +17,35 @@ import os
 from pathlib import Path
 
 from rvflex import catalog
-from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
+from rvflex.spec import ErrorSpec, ReducerSpec, SpecError, load_spec
 from rvflex.spec import load_errors as load_errors_file
-from rvflex.spec import load_spec
 
 __all__ = ["SCENARIO_TYPES", "load_errors", "load_reducer", "run"]
 
 SCENARIO_TYPES = ("LoadedTE", "LostMotion", "ReversalBacklash", "FlexibilityEffect")
 
 
-def load_reducer(name_or_path: str | os.PathLike, *, field: str = "reducer") -> ReducerSpec:
-    """A built-in catalogue reducer (``"rv40e"``; :func:`rvflex.catalog.names`) or a spec TOML file.
+def load_reducer(name_or_path: str | os.PathLike, *, field: str = "name_or_path") -> ReducerSpec:
+    """Load a built-in catalogue reducer or a reducer spec TOML file.
+
+    Parameters
+    ----------
+    name_or_path : str or os.PathLike
+        A built-in name (``"rv40e"``, ``"rv80e"``; :func:`rvflex.catalog.names`) or the path of a
+        spec TOML file (a value ending in ``.toml``, containing a path separator, or a path object).
+    field : str, optional
+        The name errors give the value (the caller's parameter or flag).
+
+    Returns
+    -------
+    ReducerSpec
+        The validated spec (SI units), its profile geometry checked.
 
     Raises
     ------
     SpecError
-        Unknown name, missing file or an invalid spec (naming ``field``).
+        Unknown name (with the closest built-in name suggested), missing file or an invalid
+        spec, naming ``field``.
     """
     if not isinstance(name_or_path, (str, os.PathLike)):
         raise TypeError(f"load_reducer: expected a catalogue name or a TOML path, got {type(name_or_path).__name__}")
@@ -42,17 +55,34 @@ def load_reducer(name_or_path: str | os.PathLike, *, field: str = "reducer") -> 
         if not path.is_file():
             raise SpecError(field, name, "file not found")
         return load_spec(path)
-    return catalog.load(name)
+    return catalog.load(name, field=field)
 
 
-def load_errors(name_or_path: str | os.PathLike, spec: ReducerSpec, *, field: str = "errors") -> ErrorSpec:
-    """An ErrorSpec TOML file (omitted keys are zero) or a built-in error set (``"rv40e_seed001"``;
-    :func:`rvflex.catalog.error_set_names`), checked against ``spec``.
+def load_errors(name_or_path: str | os.PathLike, spec: ReducerSpec, *, field: str = "name_or_path") -> ErrorSpec:
+    """Load the manufacturing and assembly errors of a reducer.
+
+    Parameters
+    ----------
+    name_or_path : str or os.PathLike
+        An ErrorSpec TOML file (omitted keys are zero; lengths in m, angles in rad) or a built-in
+        error set (``"rv40e_seed001"``; :func:`rvflex.catalog.error_set_names`).
+    spec : ReducerSpec
+        The reducer the errors belong to (pin and disc counts are checked against it).
+    field : str, optional
+        The name errors give the value (the caller's parameter or flag).
+
+    Returns
+    -------
+    ErrorSpec
+        The errors, checked against ``spec``.
 
     Raises
     ------
     SpecError
-        Unknown name, missing file, or errors that do not fit ``spec`` (naming ``field``).
+        Unknown name (with the closest built-in name suggested), missing file, or errors that do
+        not fit ``spec``, naming ``field``.
+    TypeError
+        ``spec`` is not a ReducerSpec.
     """
     if not isinstance(spec, ReducerSpec):
         raise TypeError(f"load_errors: spec must be a ReducerSpec (rvflex.load_reducer(...)), got {type(spec).__name__}")
@@ -60,21 +90,32 @@ def load_errors(name_or_path: str | os.PathLike, spec: ReducerSpec, *, field: st
     if Path(name).is_file():
         return load_errors_file(name, spec)
     if not name.endswith(".toml") and os.sep not in name:
-        return catalog.load_error_set(name, spec)
+        return catalog.load_error_set(name, spec, field=field)
     raise SpecError(field, name, "file not found")
 
 
 def run(scenario, *, model=None, progress=None):
-    """Run ``scenario`` (:class:`~rvflex.scenarios.loaded_te.LoadedTE`,
-    :class:`~rvflex.scenarios.lost_motion.LostMotion`,
-    :class:`~rvflex.scenarios.reversal_backlash.ReversalBacklash` or
-    :class:`~rvflex.scenarios.flexibility_effect.FlexibilityEffect`) and return its
-    :class:`~rvflex.result.Result`.
+    """Run a scenario and return its labelled result.
 
-    ``model`` (from :func:`rvflex.build_reducer` with the scenario's spec, errors and options)
-    is reused instead of building one, and left as it was found: the same items, and the
-    loads, drive and regulariser settings and coordinates it had. ``progress(done, total)`` is
-    called as the run advances.
+    Parameters
+    ----------
+    scenario : LoadedTE, LostMotion, ReversalBacklash or FlexibilityEffect
+        What to run (:class:`~rvflex.scenarios.loaded_te.LoadedTE`,
+        :class:`~rvflex.scenarios.lost_motion.LostMotion`,
+        :class:`~rvflex.scenarios.reversal_backlash.ReversalBacklash`,
+        :class:`~rvflex.scenarios.flexibility_effect.FlexibilityEffect`).
+    model : ReducerModel, optional
+        A model from :func:`rvflex.build_reducer` with the scenario's spec, errors and options,
+        reused instead of building one and left as it was found: the same items, and the loads,
+        drive and regulariser settings and coordinates it had.
+    progress : callable, optional
+        ``progress(done, total)``, called as the run advances.
+
+    Returns
+    -------
+    Result
+        The scenario's :class:`~rvflex.result.Result`: ``.metrics``, ``.to_xarray()``,
+        ``.to_dataframe()``, ``.plot()``, ``.write(dir)``.
 
     Raises
     ------

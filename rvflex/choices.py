@@ -12,13 +12,15 @@ registered with :mod:`rvflex.sweep.registry`, checked there.
 
 from __future__ import annotations
 
+import difflib
+from collections.abc import Iterable
 from typing import Literal, get_args
 
 from rvflex.spec_types import SpecError
 
 __all__ = ["BodyFidelity", "ContactLawKind", "DesignKind", "Distribution", "EffectKind", "Executor", "FEPart",
            "Fidelity", "Mismatch", "PatchShape", "RunKind", "SeatCoupling", "SeatMarker", "TEMode", "check_choice",
-           "choices"]
+           "choices", "did_you_mean"]
 
 Fidelity = Literal["rigid", "flexible", "flexible-carrier"]
 """Names of the :class:`~rvflex.options.ModelOptions` presets (the CLI's ``--fidelity``): rigid
@@ -73,14 +75,27 @@ def choices(kind) -> tuple[str, ...]:
     return get_args(kind)
 
 
+def did_you_mean(value: object, known: Iterable[str]) -> str:
+    """``"; did you mean 'x'?"`` for the known name closest to ``value`` (difflib ratio ≥ 0.6;
+    a case-only difference always matches), else ``""``: the tail of an unknown-name message."""
+    if not isinstance(value, str):
+        return ""
+    known = list(known)
+    folded = [k for k in known if k.casefold() == value.casefold()]
+    close = folded or difflib.get_close_matches(value, known, n=1, cutoff=0.6)
+    return f"; did you mean {close[0]!r}?" if close else ""
+
+
 def check_choice(field: str, value: object, kind, source: str | None = None) -> None:
     """Refuse ``value`` unless it is one of the values of the ``Literal`` type ``kind``.
 
     Raises
     ------
     SpecError
-        Naming ``field`` (and ``source``, the file it came from), listing the allowed values.
+        Naming ``field`` (and ``source``, the file it came from), listing the allowed values and
+        suggesting the closest one.
     """
     allowed = get_args(kind)
     if not (isinstance(value, str) and value in allowed):
-        raise SpecError(field, value, f"must be one of {', '.join(map(repr, allowed))}", source)
+        raise SpecError(field, value, f"must be one of {', '.join(map(repr, allowed))}{did_you_mean(value, allowed)}",
+                        source)

@@ -20,6 +20,26 @@ from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
 
 __all__ = ["main"]
 
+# The flag of each Python parameter a command sets: the library's errors name the parameter
+# (``load_Nm``), the command's errors the flag (``--load``), with the flag's own spelling of
+# the value where it differs.
+_TE_FLAGS = {"load_Nm": "--load", "revolutions": "--revs", "positions_per_rev": "--positions", "mode": "--mode",
+             "speed_out_rpm": "--speed-out", "direction": "--direction", "options": "--fidelity"}
+_LOST_MOTION_FLAGS = {"torque_Nm": "--torque", "steps": "--steps", "options": "--fidelity"}
+_BACKLASH_FLAGS = {"load_Nm": "--load", "options": "--fidelity"}
+_SWEEP_FLAGS = {"executor": "--executor", "scheduler": "--scheduler", "workers": "--workers"}
+_FLAG_VALUES = {"--direction": {1: "forward", -1: "reverse"}}
+
+
+def _flag_error(err: SpecError, flags: dict[str, str]) -> SpecError:
+    """``err`` naming the command's flag instead of the Python parameter it sets (unchanged when
+    the field is not one of ``flags``)."""
+    flag = flags.get(err.field)
+    if flag is None:
+        return err
+    value = _FLAG_VALUES.get(flag, {}).get(err.value, err.value)
+    return SpecError(flag, value, err.rule, err.source)
+
 
 def _with_progress(total: int, desc: str, run):
     """Call ``run(progress)`` under a progress bar on stderr; returns its result and the wall time (s)."""
@@ -314,18 +334,18 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--direction", choices=("forward", "reverse"), default="forward",
                    help="direction of the input rotation (default forward)")
     _output_arguments(t, "te.csv, te.png, load_sharing.png and te.nc (the labelled result, netCDF)")
-    t.set_defaults(func=_cmd_te)
+    t.set_defaults(func=_cmd_te, flags=_TE_FLAGS)
     lm = sub.add_parser("lost-motion", help="torsional hysteresis: lost motion, stiffness, backlash")
     _model_arguments(lm)
     lm.add_argument("--torque", type=float, help="torque amplitude, N·m (default: rated)")
     lm.add_argument("--steps", type=int, default=200, help="torque steps over the cycle (default 200)")
     _output_arguments(lm, "hysteresis.csv, hysteresis.png and hysteresis.nc")
-    lm.set_defaults(func=_cmd_lost_motion)
+    lm.set_defaults(func=_cmd_lost_motion, flags=_LOST_MOTION_FLAGS)
     bl = sub.add_parser("backlash", help="reversal backlash: output angle lost when the input reverses")
     _model_arguments(bl)
     bl.add_argument("--load", type=float, help="load resisting the motion, N·m (default: 3 %% of rated)")
     _output_arguments(bl, "backlash.csv, backlash.png and backlash.nc")
-    bl.set_defaults(func=_cmd_backlash)
+    bl.set_defaults(func=_cmd_backlash, flags=_BACKLASH_FLAGS)
     sw = sub.add_parser("sweep", help="parameter sweep / tolerance design from a design TOML",
                         description="Evaluate every point of a design TOML: [sweep] (reducer, scenario, kind, load, "
                                     "resolution), [[factor]] tables, and an optional [model] table with the model "
@@ -343,7 +363,7 @@ def build_parser() -> argparse.ArgumentParser:
                          f"here; serial uses 1)")
     sw.add_argument("--json", help="write the summary as JSON to this path")
     sw.add_argument("--out", help="directory for the store and table.csv (default out/sweeps/NAME)")
-    sw.set_defaults(func=_cmd_sweep)
+    sw.set_defaults(func=_cmd_sweep, flags=_SWEEP_FLAGS)
     b = sub.add_parser("bench", help="benchmarks")
     bsub = b.add_subparsers(dest="bench", required=True)
     bc = bsub.add_parser("contact", help="cycloid–pin contact: rvflex element vs ObjectContactCurveCircles",
@@ -382,7 +402,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return args.func(args)
     except SpecError as err:
-        print(f"rvflex: error: {err}", file=sys.stderr)
+        print(f"rvflex: error: {_flag_error(err, getattr(args, 'flags', {}))}", file=sys.stderr)
         return 2
 
 

@@ -29,7 +29,7 @@ __all__ = ["ReducerModel", "build_reducer", "check_fidelity", "default_contact_l
 # FIDELITIES (rvflex.options): the preset names build_reducer maps to ModelOptions, re-exported here
 
 
-def check_fidelity(fidelity: Fidelity, field: str = "--fidelity") -> None:
+def check_fidelity(fidelity: Fidelity, field: str = "fidelity") -> None:
     """Refuse a fidelity name that is not a preset (SpecError naming ``field``)."""
     as_options(fidelity, field)
 
@@ -45,7 +45,32 @@ def default_contact_law(spec: ReducerSpec) -> ContactLaw:
 
 @dataclass(frozen=True, eq=False)
 class ReducerModel:
-    """An assembled reducer: the Exudyn system and the handles of every part."""
+    """An assembled reducer: the Exudyn system and the handles of every part.
+
+    Built by :func:`build_reducer` (not by hand) and then only read; the fields are its inputs
+    and the Exudyn item handles of its parts.
+
+    Parameters
+    ----------
+    spec : ReducerSpec
+        The reducer.
+    errors : ErrorSpec
+        Its errors.
+    options : ModelOptions
+        The fidelity of each part.
+    system_container, mbs : exudyn.SystemContainer, exudyn.MainSystem
+        The Exudyn system.
+    sun, carrier, cranks, discs, pins : part handles
+        Item indices of each part (:mod:`rvflex.parts`).
+    reference : numpy.ndarray
+        Absolute reference coordinates of all ODE2 coordinates (m, rad, modal).
+    crank_axes, disc_centres : numpy.ndarray
+        Nominal crank axes and disc centres in the carrier frame (m).
+    input_seat_supports : tuple, optional
+        Flexible carrier: each crank's second support bearing (input-plate seat).
+    reduced_disc, reduced_carrier : ReducedPart, optional
+        The FE reductions of the discs and the carrier (flexible parts), else None.
+    """
 
     spec: ReducerSpec
     errors: ErrorSpec
@@ -93,8 +118,14 @@ class ReducerModel:
         return self.spec.nominal_ratio
 
     def node_slices(self) -> dict[str, slice]:
-        """ODE2 coordinate ranges of the planar (x, y, θ) nodes: sun, rigid carrier, cranks and rigid
-        discs (FFRF bodies have no contiguous (x, y, θ): use :meth:`planar_index`)."""
+        """ODE2 coordinate ranges of the planar (x, y, θ) nodes.
+
+        Returns
+        -------
+        dict of str to slice
+            Sun, rigid carrier, cranks and rigid discs (FFRF bodies have no contiguous
+            (x, y, θ): use :meth:`planar_index`).
+        """
         idx = {"sun": self.sun.node} if self.flexible_carrier else {"sun": self.sun.node, "carrier": self.carrier.node}
         idx.update({f"crank{k}": n for k, n in enumerate(self.cranks.nodes)})
         if not self.discs.modal_nodes:
@@ -106,8 +137,14 @@ class ReducerModel:
         return out
 
     def planar_index(self) -> dict[str, np.ndarray]:
-        """ODE2 indices of (x, y, θ) of every body, discs and carrier included (a flexible disc's or
-        carrier's reference node is a NodeRigidBodyRxyz: x, y, ψz)."""
+        """ODE2 indices of (x, y, θ) of every body, discs and carrier included.
+
+        Returns
+        -------
+        dict of str to numpy.ndarray
+            Three indices per body (a flexible disc's or carrier's reference node is a
+            NodeRigidBodyRxyz: x, y, ψz).
+        """
         out = {name: np.arange(s.start, s.stop) for name, s in self.node_slices().items()}
         if self.flexible_carrier:
             i = self.mbs.GetNodeODE2Index(self.carrier.node)
@@ -118,7 +155,18 @@ class ReducerModel:
         return out
 
     def kinematic_coordinates(self, theta_in: float) -> np.ndarray:
-        """Absolute ODE2 coordinates of the ideal (rigid, error-free kinematics) reducer at input angle θ_in."""
+        """Absolute ODE2 coordinates of the ideal (rigid, error-free kinematics) reducer.
+
+        Parameters
+        ----------
+        theta_in : float
+            Input angle θ_in, rad.
+
+        Returns
+        -------
+        numpy.ndarray
+            The coordinates (m, rad; modal coordinates zero).
+        """
         q = self.reference.copy()
         sl = self.planar_index()
         th_c = theta_in / self.ratio
@@ -148,9 +196,7 @@ class ReducerModel:
 def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None,
                   options: ModelOptions | str | None = None, *, law: ContactLaw | None = None,
                   reduced_disc=None, reduced_carrier=None) -> ReducerModel:
-    """Assemble the reducer of ``spec`` with ``errors`` (None: none) and ``options`` (a
-    :class:`~rvflex.options.ModelOptions`; a preset name ``"rigid"``, ``"flexible"`` or
-    ``"flexible-carrier"`` maps to its preset; None is rigid).
+    """Assemble the Exudyn model of a reducer.
 
     Rigid parts are planar rigid bodies. FE discs (``options.discs`` a ``PartSettings``) are
     Craig–Bampton-reduced FFRF bodies reduced from ``spec`` with those settings (cached on
@@ -160,6 +206,25 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None,
     (docs/flexible.md). ``reduced_disc`` / ``reduced_carrier`` (:class:`rvflex.fe.reduce.ReducedPart`)
     inject an existing reduction: that part is then flexible with the reduction's own settings,
     which the model's ``options`` record. ``law`` overrides ``options.contact_law``.
+
+    Parameters
+    ----------
+    spec : ReducerSpec
+        The reducer.
+    errors : ErrorSpec, optional
+        Its errors; None: none.
+    options : ModelOptions or str, optional
+        A :class:`~rvflex.options.ModelOptions`, or a preset name ``"rigid"``, ``"flexible"`` or
+        ``"flexible-carrier"``; None is rigid.
+    law : ContactLaw, optional
+        Overrides ``options.contact_law``.
+    reduced_disc, reduced_carrier : ReducedPart, optional
+        An existing reduction of the disc or the carrier to use.
+
+    Returns
+    -------
+    ReducerModel
+        The assembled model (run it with :func:`rvflex.run` and a scenario).
 
     Raises
     ------

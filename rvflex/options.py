@@ -26,7 +26,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal
 
-from rvflex.choices import Fidelity, SeatCoupling, SeatMarker, check_choice, choices
+from rvflex.choices import Fidelity, SeatCoupling, SeatMarker, check_choice, choices, did_you_mean
 from rvflex.fe.reduce import DEFAULTS, PartSettings
 from rvflex.spec import SpecError
 
@@ -67,6 +67,8 @@ MODEL_TABLE_KEYS = ("fidelity", "discs", "carrier", "carrier_seat_marker")
 class ModelOptions:
     """Fidelity of each part of the reducer model.
 
+    Parameters
+    ----------
     discs, carrier : ``"rigid"`` or :class:`PartSettings`
         Rigid planar bodies, or Craig–Bampton FFRF bodies reduced with these settings
         (cached on disk). The other parts (sun, cranks, pin ring) are rigid in every preset.
@@ -114,8 +116,18 @@ class ModelOptions:
 
     @classmethod
     def preset(cls, fidelity: Fidelity) -> ModelOptions:
-        """The preset of a fidelity name: ``"rigid"``, ``"flexible"`` (discs) or ``"flexible-carrier"``
-        (discs and carrier)."""
+        """The preset of a fidelity name.
+
+        Parameters
+        ----------
+        fidelity : {"rigid", "flexible", "flexible-carrier"}
+            Rigid parts; FE-reduced discs; FE-reduced discs and carrier.
+
+        Returns
+        -------
+        ModelOptions
+            The preset.
+        """
         check_choice("fidelity", fidelity, Fidelity)
         presets = {"rigid": cls.rigid, "flexible": cls.flexible_discs,
                    "flexible-carrier": cls.flexible_discs_and_carrier}
@@ -130,6 +142,20 @@ class ModelOptions:
         preset's reduction of the part (:class:`PartSettings` field names, SI: ``maxh_m``,
         ``n_modes``, ``attach_per_tooth`` …; the part must be flexible in the preset);
         ``carrier_seat_marker`` is a :data:`SeatMarker`. No other key is accepted.
+
+        Parameters
+        ----------
+        table : Mapping
+            The parsed TOML table.
+        where : str, optional
+            The table's name in messages.
+        source : str, optional
+            The file it came from, in messages.
+
+        Returns
+        -------
+        ModelOptions
+            The options.
 
         Raises
         ------
@@ -191,8 +217,25 @@ class ModelOptions:
         return "flexible" if self.flexible_discs_on else "rigid"
 
     def with_fe(self, part: Literal["discs", "carrier"], **settings) -> ModelOptions:
-        """These options with the reduction of ``part`` changed (``PartSettings`` field names, e.g.
-        ``n_modes=24``); the part must be flexible."""
+        """These options with the reduction of one flexible part changed.
+
+        Parameters
+        ----------
+        part : {"discs", "carrier"}
+            The part; it must be flexible in these options.
+        **settings
+            :class:`PartSettings` fields to change (SI: ``maxh_m``; ``n_modes=24`` …).
+
+        Returns
+        -------
+        ModelOptions
+            New options.
+
+        Raises
+        ------
+        SpecError
+            The part is rigid, or a name is not a PartSettings field.
+        """
         current = getattr(self, part, None)
         if not isinstance(current, PartSettings):
             raise SpecError(part, current, "is rigid in these options: FE settings apply to a flexible part only")
@@ -202,7 +245,13 @@ class ModelOptions:
             raise SpecError(part, settings, f"not PartSettings fields ({err})") from None
 
     def describe(self) -> str:
-        """One line naming each part's fidelity and reduction."""
+        """One line naming each part's fidelity and reduction.
+
+        Returns
+        -------
+        str
+            E.g. ``discs FE 6 mm order 2, 12 modes, 0 attachment patches/tooth; carrier rigid``.
+        """
 
         def part(p) -> str:
             if not isinstance(p, PartSettings):
@@ -216,7 +265,13 @@ class ModelOptions:
         return f"discs {part(self.discs)}; carrier {car}"
 
     def as_dict(self) -> dict:
-        """Plain values (for result attributes and JSON): part settings as dicts, the law by kind."""
+        """Plain values (for result attributes and JSON).
+
+        Returns
+        -------
+        dict
+            Part settings as dicts, the contact law by kind.
+        """
         def part(p):
             return dataclasses.asdict(p) if isinstance(p, PartSettings) else p
         return {"discs": part(self.discs), "carrier": part(self.carrier),
@@ -234,7 +289,8 @@ def as_options(value: ModelOptions | Fidelity | None, field: str = "options") ->
         return value
     if isinstance(value, str):
         if value not in FIDELITIES:
-            raise SpecError(field, value, f"must be ModelOptions or one of {', '.join(map(repr, FIDELITIES))}")
+            raise SpecError(field, value, f"must be ModelOptions or one of {', '.join(map(repr, FIDELITIES))}"
+                                          f"{did_you_mean(value, FIDELITIES)}")
         return ModelOptions.preset(value)
     raise SpecError(field, value, f"must be ModelOptions or one of {', '.join(map(repr, FIDELITIES))} "
                                   f"(got a {type(value).__name__})")

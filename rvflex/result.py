@@ -88,7 +88,16 @@ def new_axes(ax=None, **figure_kw):
 
 @dataclass(frozen=True, eq=False)
 class Result:
-    """What a scenario run returns.
+    """What a scenario run returns (built by the scenario's ``run``, not by hand).
+
+    Parameters
+    ----------
+    scenario : object
+        The scenario that ran.
+    metrics : object
+        Its scalar results.
+    wall_s : float
+        Wall time of the run (s).
 
     Attributes
     ----------
@@ -109,7 +118,13 @@ class Result:
     main_dim = "position"  # the dimension of :meth:`to_dataframe`'s rows
 
     def metrics_dict(self) -> dict:
-        """The metrics as a plain dict (JSON-ready)."""
+        """The metrics as a plain dict (JSON-ready).
+
+        Returns
+        -------
+        dict
+            Field name (unit in the name, e.g. ``te_pp_arcsec``) to value.
+        """
         return dataclasses.asdict(self.metrics)
 
     def to_xarray(self):
@@ -117,8 +132,14 @@ class Result:
         raise NotImplementedError
 
     def to_dataframe(self):
-        """Tidy table: one row per element of :attr:`main_dim`, one column per variable (and
-        coordinate) along it, the unit in the column name (``te_arcsec``)."""
+        """The labelled data as a tidy table.
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per element of :attr:`main_dim`, one column per variable (and coordinate)
+            along it, the unit in the column name (``te_arcsec``).
+        """
         ds = self.to_xarray()
         names = [n for n, v in {**ds.coords, **ds.data_vars}.items() if v.dims == (self.main_dim,)]
         df = ds[[n for n in names if n in ds.data_vars]].to_dataframe().reset_index()
@@ -126,17 +147,51 @@ class Result:
         return df.rename(columns={n: _column(n, ds[n].attrs.get("units", "")) for n in names})
 
     def plot(self, ax=None):
-        """Draw the main curve on ``ax`` (or on a new Figure's axes) and return the axes (subclasses)."""
+        """Draw the main curve (subclasses).
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw on; None draws on a new :class:`matplotlib.figure.Figure` (pyplot and the
+            backend are not touched).
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            The axes drawn on.
+        """
         raise NotImplementedError
 
     def files(self, out: Path) -> list[Path]:
-        """Write the CSV/PNG files into the existing directory ``out`` (subclasses)."""
+        """Write the CLI's CSV/PNG files (subclasses).
+
+        Parameters
+        ----------
+        out : pathlib.Path
+            An existing directory.
+
+        Returns
+        -------
+        list of pathlib.Path
+            The files written.
+        """
         raise NotImplementedError
 
     def write(self, out: str | os.PathLike) -> list[Path]:
-        """Write the CLI's files and ``<name>.nc`` (the Dataset, netCDF-4 via h5netcdf) into the
-        directory ``out`` (created if missing). Everything is written into a temporary directory
-        first and moved in at the end, so a failure leaves nothing half-written.
+        """Write the CLI's files and ``<name>.nc`` (the Dataset, netCDF-4 via h5netcdf).
+
+        Everything is written into a temporary directory first and moved in at the end, so a
+        failure leaves nothing half-written.
+
+        Parameters
+        ----------
+        out : str or os.PathLike
+            The directory (created if missing).
+
+        Returns
+        -------
+        list of pathlib.Path
+            The files written, in ``out``.
 
         Raises
         ------

@@ -70,7 +70,20 @@ class SpecError(ValueError):
         return (type(self), (self.field, self.value, self.rule, self.source))
 
     def within(self, prefix: str = "", source: str | None = None) -> "SpecError":
-        """Return the same error with a table prefix and/or a source file attached."""
+        """Return the same error with a table prefix and/or a source file attached.
+
+        Parameters
+        ----------
+        prefix : str, optional
+            Table name put before the field (``cycloid`` → ``cycloid.pin_radius_m``).
+        source : str, optional
+            File the value came from (kept from this error when None).
+
+        Returns
+        -------
+        SpecError
+            The new error.
+        """
         name = f"{prefix}.{self.field}" if prefix and not self.field.startswith(prefix + ".") else self.field
         return SpecError(name, self.value, self.rule, source or self.source)
 
@@ -364,6 +377,31 @@ class ReducerSpec:
     """A whole RV reducer (housing and pins fixed, carrier is the output).
 
     ``ratio`` is the catalogue ratio; it must equal 1 + (z2/z1)·z_b.
+
+    Parameters
+    ----------
+    name : str
+        Identifier (letters, digits, ``-``, ``_``).
+    description : str
+        One line for people.
+    ratio : float
+        Catalogue ratio input/output (dimensionless).
+    rated_torque_Nm, momentary_max_torque_Nm : float
+        Rated and momentary maximum output torque, N·m.
+    rated_output_speed_rpm : float
+        Rated output speed, rpm.
+    input_stage : InputStage
+        The involute sun–planet stage.
+    cycloid : CycloidStage
+        Pins, discs and profile modification.
+    cranks : Cranks
+        The crankshafts.
+    bearings : Bearings
+        Stiffness and clearance of every bearing.
+    carrier : Carrier
+        The output carrier.
+    materials : Materials
+        Elastic constants of the parts.
     """
 
     name: str
@@ -406,7 +444,22 @@ class ReducerSpec:
                             f"needs one eccentric per disc ({self.cycloid.disc_count})")
 
     def check_torque(self, field_name: str, value: float, *, allow_zero: bool = False) -> None:
-        """Refuse an output torque outside (0, momentary maximum] N·m ([0, …] with ``allow_zero``)."""
+        """Refuse an output torque outside (0, momentary maximum] N·m ([0, …] with ``allow_zero``).
+
+        Parameters
+        ----------
+        field_name : str
+            The name the error gives the value (the caller's parameter or flag).
+        value : float
+            The torque, N·m.
+        allow_zero : bool, optional
+            Accept zero torque.
+
+        Raises
+        ------
+        SpecError
+            Naming ``field_name``, the value and the allowed range.
+        """
         lo_ok = value >= 0.0 if allow_zero else value > 0.0
         if not (lo_ok and value <= self.momentary_max_torque_Nm):
             bracket = "[0" if allow_zero else "(0"
@@ -435,6 +488,48 @@ class ErrorSpec:
     disc pitch errors are cumulative, arc length at the pin circle, positive CCW.
     ``eccentric_bearing_clearance_m`` is ordered crank-major: entry k·disc_count + d is the
     bearing of crank k in disc d.
+
+    Parameters
+    ----------
+    sun_base_eccentricity_m, sun_base_eccentricity_phase_rad : float
+        Eccentricity of the sun's base circle (m) and its phase (rad).
+    sun_runout_m, sun_runout_phase_rad : float
+        Radial runout of the sun (m) and its phase (rad).
+    sun_pitch_radius_error_m : float
+        Pitch-radius error of the sun, m.
+    planet_base_eccentricity_m, planet_base_eccentricity_phase_rad : tuple of float
+        Per planet: base-circle eccentricity (m) and its phase (rad).
+    planet_runout_m, planet_pitch_radius_error_m, planet_base_pitch_error_m : tuple of float
+        Per planet: radial runout, pitch-radius error and base-pitch error, m.
+    pin_radial_m, pin_tangential_m : tuple of float
+        Per pin: position errors, radial (outward) and tangential (CCW, at the pin circle), m.
+    pin_radius_error_m : float
+        Radius error common to all pins, m.
+    pin_radius_individual_m : tuple of float
+        Per pin: radius error, m.
+    pin_circle_radius_error_m : float
+        Error of the pin-circle radius, m.
+    pin_ring_runout_m, pin_ring_runout_phase_rad : float
+        Runout of the pin ring (m) and its phase (rad).
+    carrier_bore_eccentricity_m, carrier_bore_eccentricity_phase_rad : tuple of float
+        Per crank: eccentricity of its carrier bore (m) and its phase (rad).
+    carrier_runout_m, carrier_runout_phase_rad : float
+        Runout of the carrier (m) and its phase (rad).
+    input_carrier_hole_distance_error_m, output_carrier_hole_distance_error_m : float
+        Crank-hole distance errors of the input and output carrier plates, m.
+    crank_eccentricity_error_m, crank_phase_error_rad : tuple of float
+        Per crank: eccentricity error (m) and phase error (rad).
+    crank_support_clearance_m, eccentric_bearing_clearance_m : tuple of float
+        Radial clearance added to the nominal one of each crank support bearing (per crank) and
+        each eccentric (needle) bearing (per crank and disc, crank-major), m.
+    main_bearing_clearance_m : float
+        Radial clearance added to the main bearing's, m.
+    disc_pitch_error_m, disc_profile_error_m : tuple of tuple of float
+        Per disc and tooth: cumulative pitch error (arc length at the pin circle, CCW) and
+        profile error (material added), m.
+    disc_bore_distance_error_m, disc_moved_error_m, disc_equidistant_error_m : tuple of float
+        Per disc: crank-bore distance error and errors of the moved and equidistant
+        modification, m.
     """
 
     # first stage
@@ -496,7 +591,13 @@ class ErrorSpec:
                     _range(name, x, 0.0, limit, "a clearance cannot be negative")
 
     def check_against(self, spec: ReducerSpec) -> None:
-        """Raise :class:`SpecError` if a per-item tuple does not match ``spec``'s item counts."""
+        """Raise :class:`SpecError` if a per-item tuple does not match ``spec``'s item counts.
+
+        Parameters
+        ----------
+        spec : ReducerSpec
+            The reducer these errors belong to.
+        """
         nc, nd = spec.cranks.count, spec.cycloid.disc_count
         self.check_cycloid(spec.cycloid, spec.name)
         self._check_counts({
@@ -511,7 +612,15 @@ class ErrorSpec:
 
     def check_cycloid(self, stage: CycloidStage, name: str = "the stage") -> None:
         """Raise :class:`SpecError` if the pin and disc errors do not match ``stage``'s pins,
-        discs and teeth."""
+        discs and teeth.
+
+        Parameters
+        ----------
+        stage : CycloidStage
+            The cycloid stage.
+        name : str, optional
+            The reducer's name, for the message.
+        """
         zb, zc, nd = stage.pin_count, stage.disc_teeth, stage.disc_count
         self._check_counts({
             "pin_radial_m": (zb, "pin"), "pin_tangential_m": (zb, "pin"), "pin_radius_individual_m": (zb, "pin"),

@@ -39,12 +39,30 @@ __all__ = ["FlexibilityEffect", "FlexibilityMetrics", "FlexibilityResult", "run_
 
 @dataclass(frozen=True)
 class FlexibilityEffect:
-    """Reducer, errors (None: none), load fractions of rated torque, TE positions per output
-    revolution, hysteresis torque steps, the disc reduction (default
-    :data:`rvflex.options.DISC_FE`: global deformation, 6 bore + 12 fixed-interface modes on 6 mm
-    quadratic tets), the carrier reduction of the ``flexible+carrier`` row (None leaves that
-    row out; the script runs it with :data:`rvflex.options.CARRIER_FE`) and the TE window in
-    output revolutions (default one; 1/z_b is one crank turn)."""
+    """Rigid against flexible discs (and carrier): loaded TE, wind-up and the torsional test
+    of each model at several loads.
+
+    Parameters
+    ----------
+    spec : ReducerSpec
+        The reducer (:func:`rvflex.load_reducer`).
+    errors : ErrorSpec, optional
+        Manufacturing and assembly errors (:func:`rvflex.load_errors`); None: none.
+    load_fractions : tuple of float, optional
+        Loads of the TE runs as fractions of the rated torque (dimensionless, ≥ 0).
+    positions_per_rev : int, optional
+        TE positions per output revolution.
+    steps : int, optional
+        Torque steps of each hysteresis cycle.
+    discs : PartSettings, optional
+        The disc reduction (default :data:`rvflex.options.DISC_FE`: global deformation, 6 bore
+        + 12 fixed-interface modes on 6 mm quadratic tets).
+    carrier : PartSettings, optional
+        The carrier reduction of the ``flexible+carrier`` row; None leaves that row out (the
+        script runs it with :data:`rvflex.options.CARRIER_FE`).
+    revolutions : float, optional
+        The TE window in output revolutions (1/z_b is one crank turn).
+    """
 
     spec: ReducerSpec
     errors: ErrorSpec | None = None
@@ -68,7 +86,7 @@ class FlexibilityEffect:
         for f in self.load_fractions:
             if not f >= 0:
                 raise SpecError("load_fractions", f, "must be non-negative fractions of rated torque")
-            self.spec.check_torque("load", f * self.spec.rated_torque_Nm, allow_zero=True)
+            self.spec.check_torque("load_fractions", f * self.spec.rated_torque_Nm, allow_zero=True)
         for name in ("discs", "carrier"):
             value = getattr(self, name)
             if not (isinstance(value, PartSettings) or (name == "carrier" and value is None)):
@@ -86,8 +104,20 @@ class FlexibilityEffect:
 
     def run(self, *, model=None, progress=None) -> FlexibilityResult:
         """Build each variant's model once and run the loaded TE at every load and the torque
-        cycle on it; ``progress(done, total)`` per run. ``model`` must be None (the scenario
-        compares several models)."""
+        cycle on it.
+
+        Parameters
+        ----------
+        model : None
+            Must be None: the scenario builds one model per variant.
+        progress : callable, optional
+            ``progress(done, total)``, called per run.
+
+        Returns
+        -------
+        FlexibilityResult
+            One row per (variant, load).
+        """
         if model is not None:
             raise TypeError("FlexibilityEffect.run: model must be None — the scenario builds one model per variant "
                             f"({', '.join(self.variants)}); got {type(model).__name__}")
@@ -187,7 +217,19 @@ def flexibility_metrics(rows: list[dict]) -> FlexibilityMetrics:
 
 @dataclass(frozen=True, eq=False)
 class FlexibilityResult(Result):
-    """The comparison table: one row (dict) per (variant, load)."""
+    """The comparison table: one row (dict) per (variant, load).
+
+    Parameters
+    ----------
+    scenario : FlexibilityEffect
+        The scenario that ran.
+    metrics : FlexibilityMetrics
+        The elastic shares of the comparison.
+    wall_s : float
+        Wall time of the run, s.
+    rows : tuple of dict
+        One row per (variant, load), units in the keys.
+    """
 
     rows: tuple[dict, ...]
 
@@ -197,7 +239,13 @@ class FlexibilityResult(Result):
     def to_xarray(self):
         """Dataset over ``variant`` × ``load`` (N m; ``load_fraction`` of rated alongside): ``te_pp``,
         ``mean_windup`` (arcsec), elastic and carrier shares (1); over ``variant``: ``lost_motion``
-        (arcmin), ``torsional_stiffness`` (N m/arcmin) and their shares."""
+        (arcmin), ``torsional_stiffness`` (N m/arcmin) and their shares.
+
+        Returns
+        -------
+        xarray.Dataset
+            Named dimensions, SI coordinates, ``units`` and ``long_name`` on every variable.
+        """
         import xarray as xr
 
         variants = list(dict.fromkeys(r["fidelity"] for r in self.rows))
@@ -237,13 +285,30 @@ class FlexibilityResult(Result):
         return xr.Dataset(data, coords=coords, attrs=attrs)
 
     def to_dataframe(self):
-        """The comparison table, one row per (variant, load), as ``flexibility.csv``."""
+        """The comparison table, one row per (variant, load), as ``flexibility.csv``.
+
+        Returns
+        -------
+        pandas.DataFrame
+            The table, the unit in each column name.
+        """
         import pandas as pd
 
         return pd.DataFrame(list(self.rows))
 
     def plot(self, ax=None):
-        """TE peak-to-peak (arcsec) against load for each variant; returns the axes."""
+        """TE peak-to-peak (arcsec) against load for each variant; returns the axes.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw on; None draws on a new Figure's axes (pyplot and the backend untouched).
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            The axes drawn on.
+        """
         ax = new_axes(ax)
         self._curves(ax, "te_pp_arcsec", 1.0)
         window = ("one output revolution" if self.scenario.revolutions == 1.0
@@ -252,7 +317,18 @@ class FlexibilityResult(Result):
         return ax
 
     def plot_windup(self, ax=None):
-        """Mean wind-up (arcsec, positive) against load for each variant; returns the axes."""
+        """Mean wind-up (arcsec, positive) against load for each variant; returns the axes.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw on; None draws on a new Figure's axes (pyplot and the backend untouched).
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            The axes drawn on.
+        """
         ax = new_axes(ax)
         self._curves(ax, "mean_windup_arcsec", -1.0)
         ax.set(xlabel="output torque (N·m)", ylabel="mean wind-up (″)", title="Mean wind-up")
@@ -267,7 +343,18 @@ class FlexibilityResult(Result):
         ax.legend()
 
     def files(self, out: Path) -> list[Path]:
-        """flexibility.csv, flexibility.md (the table) and flexibility.png."""
+        """flexibility.csv, flexibility.md (the table) and flexibility.png.
+
+        Parameters
+        ----------
+        out : pathlib.Path
+            An existing directory.
+
+        Returns
+        -------
+        list of pathlib.Path
+            The files written.
+        """
         return write_flexibility_outputs(out, list(self.rows), self.scenario)
 
 
@@ -331,7 +418,6 @@ if __name__ == "__main__":
     import sys
 
     from rvflex import catalog
-
     from rvflex.options import CARRIER_FE
 
     result = FlexibilityEffect(catalog.load("rv40e"), carrier=CARRIER_FE).run(

@@ -12,6 +12,7 @@ import math
 import time
 from dataclasses import dataclass
 from pathlib import Path
+
 import numpy as np
 
 from rvflex.choices import TEMode, check_choice
@@ -30,13 +31,44 @@ __all__ = ["LoadedTE", "LoadedTEResult", "perfect_spec", "run_loaded_te", "seed0
 
 @dataclass(frozen=True)
 class LoadedTE:
-    """Loaded transmission error over whole output revolutions.
+    """Loaded transmission error over whole output revolutions (``rvflex te``).
 
-    Reducer, errors (None: none), output load resisting the motion (N·m; None: rated),
-    output revolutions, positions per output revolution, direction (+1 forward, −1 reverse),
-    mode (quasi-static stepping or a generalized-α run), output speed (rpm) and time step (s)
-    of the dynamic mode, and the model options (:class:`~rvflex.options.ModelOptions` or a
-    preset name: ``"rigid"``, ``"flexible"``, ``"flexible-carrier"``)."""
+    Parameters
+    ----------
+    spec : ReducerSpec
+        The reducer (:func:`rvflex.load_reducer`).
+    errors : ErrorSpec, optional
+        Manufacturing and assembly errors (:func:`rvflex.load_errors`); None: none.
+    load_Nm : float, optional
+        Output torque resisting the motion, N·m; None: the rated torque.
+    revolutions : float, optional
+        Output revolutions of the run.
+    positions_per_rev : int, optional
+        Input positions per output revolution (at least 16).
+    direction : {1, -1}, optional
+        +1 turns the input forward, −1 in reverse (quasi-static only).
+    mode : {"quasi-static", "dynamic"}, optional
+        Quasi-static stepping, or a generalized-α time integration from the loaded static state.
+    speed_out_rpm : float, optional
+        Output speed of the dynamic mode, rpm.
+    step_s : float, optional
+        Time step of the dynamic mode, s.
+    options : ModelOptions or str, optional
+        Model fidelity per part: a :class:`~rvflex.options.ModelOptions` or a preset name
+        (``"rigid"``, ``"flexible"``, ``"flexible-carrier"``).
+
+    Raises
+    ------
+    SpecError
+        A value out of range, naming the parameter (``load_Nm = -5.0: must lie in [0, …] N·m``).
+
+    Examples
+    --------
+    >>> import rvflex
+    >>> spec = rvflex.load_reducer("rv40e")
+    >>> r = rvflex.run(rvflex.LoadedTE(spec, load_Nm=412.0, positions_per_rev=64))  # doctest: +SKIP
+    >>> r.metrics.te_pp_arcsec  # doctest: +SKIP
+    """
 
     spec: ReducerSpec
     errors: ErrorSpec | None = None
@@ -53,18 +85,18 @@ class LoadedTE:
         check_scenario_inputs(self)
         if self.load_Nm is None:
             object.__setattr__(self, "load_Nm", self.spec.rated_torque_Nm)
-        self.spec.check_torque("--load", self.load_Nm, allow_zero=True)
+        self.spec.check_torque("load_Nm", self.load_Nm, allow_zero=True)
         if not self.revolutions > 0:
-            raise SpecError("--revs", self.revolutions, "must be positive (output revolutions)")
+            raise SpecError("revolutions", self.revolutions, "must be positive (output revolutions)")
         if not self.positions_per_rev >= 16:
-            raise SpecError("--positions", self.positions_per_rev, "must be at least 16 per output revolution")
+            raise SpecError("positions_per_rev", self.positions_per_rev, "must be at least 16 per output revolution")
         if self.direction not in (1, -1):
             raise SpecError("direction", self.direction, "must be +1 (forward) or -1 (reverse)")
-        check_choice("--mode", self.mode, TEMode)
+        check_choice("mode", self.mode, TEMode)
         if self.mode == "dynamic" and not self.speed_out_rpm > 0:
-            raise SpecError("--speed-out", self.speed_out_rpm, "must be positive in dynamic mode (rpm at the output)")
+            raise SpecError("speed_out_rpm", self.speed_out_rpm, "must be positive in dynamic mode (rpm at the output)")
         if self.mode == "dynamic" and self.direction < 0:
-            raise SpecError("--direction", "reverse", "dynamic runs go forward (reverse: quasi-static)")
+            raise SpecError("direction", self.direction, "dynamic runs go forward (reverse: quasi-static)")
 
     @property
     def n_positions(self) -> int:
@@ -72,8 +104,21 @@ class LoadedTE:
         return int(round(self.positions_per_rev * self.revolutions))
 
     def run(self, *, model: ReducerModel | None = None, progress=None) -> LoadedTEResult:
-        """Run on ``model`` (built here when None; it must come from this scenario's spec, errors
-        and options) and return the labelled result; ``progress(done, total)`` per position."""
+        """Run the scenario (:func:`rvflex.run` calls this).
+
+        Parameters
+        ----------
+        model : ReducerModel, optional
+            A model from :func:`rvflex.build_reducer` with this scenario's spec, errors and
+            options, reused instead of building one; None builds it.
+        progress : callable, optional
+            ``progress(done, total)``, called as the run advances (per position).
+
+        Returns
+        -------
+        LoadedTEResult
+            The labelled result.
+        """
         t0 = time.perf_counter()
         res, met = run_loaded_te(self, progress, model=model)
         return LoadedTEResult(self, met, time.perf_counter() - t0, res)
@@ -82,7 +127,19 @@ class LoadedTE:
 @dataclass(frozen=True, eq=False)
 class LoadedTEResult(Result):
     """Loaded TE: per position the input, output and TE angles, and the pin forces and gaps
-    (quasi-static runs; a dynamic run records the angles only). ``raw`` is the solver's record."""
+    (quasi-static runs; a dynamic run records the angles only). ``raw`` is the solver's record.
+
+    Parameters
+    ----------
+    scenario : LoadedTE
+        The scenario that ran.
+    metrics : TEMetrics
+        TE peak-to-peak, minimum, maximum and mean wind-up (arcsec), the strongest orders.
+    wall_s : float
+        Wall time of the run, s.
+    raw : QuasiStaticResult
+        The solver's record (angles in rad, pin forces in N, gaps in m).
+    """
 
     raw: QuasiStaticResult
 
@@ -92,7 +149,13 @@ class LoadedTEResult(Result):
     def to_xarray(self):
         """Dataset over ``position`` (nominal output angle θ_in/i, rad) and, for quasi-static runs,
         ``disc`` × ``pin``: ``theta_out`` (rad), ``te`` (arcsec), ``pin_force`` (N), ``pin_gap`` (m);
-        the metrics in ``attrs``."""
+        the metrics in ``attrs``.
+
+        Returns
+        -------
+        xarray.Dataset
+            Named dimensions, SI coordinates, ``units`` and ``long_name`` on every variable.
+        """
         import xarray as xr
 
         r = self.raw
@@ -114,12 +177,31 @@ class LoadedTEResult(Result):
         return xr.Dataset(data, coords=coords, attrs=attrs)
 
     def to_dataframe(self):
-        """One row per position: ``position_rad``, ``theta_in_rad``, ``theta_out_rad``, ``te_arcsec``."""
+        """One row per position: ``position_rad``, ``theta_in_rad``, ``theta_out_rad``, ``te_arcsec``.
+
+        Returns
+        -------
+        pandas.DataFrame
+            The table, the unit in each column name.
+        """
         return super().to_dataframe()
 
     def plot(self, ax=None, *, label: str | None = None):
         """TE (arcsec) against the output angle (°) with the mean wind-up, on ``ax`` or a new
-        Figure's axes; the curve's ``label`` defaults to the model's fidelity. Returns the axes."""
+        Figure's axes; the curve's ``label`` defaults to the model's fidelity. Returns the axes.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw on; None draws on a new Figure's axes (pyplot and the backend untouched).
+        label : str, optional
+            The curve's label; None: the model's fidelity.
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            The axes drawn on.
+        """
         ax = new_axes(ax)
         r, m, sc = self.raw, self.metrics, self.scenario
         ax.plot(np.degrees(r.theta_in / r.ratio), r.te_rad * ARCSEC_PER_RAD, lw=1.0,
@@ -135,7 +217,18 @@ class LoadedTEResult(Result):
         return ax
 
     def plot_orders(self, ax=None):
-        """The order spectrum (amplitude in arcsec per order of the output revolution)."""
+        """The order spectrum (amplitude in arcsec per order of the output revolution).
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw on; None draws on a new Figure's axes (pyplot and the backend untouched).
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            The axes drawn on.
+        """
         ax = new_axes(ax)
         sc = self.scenario
         orders, amp = order_spectrum(self.raw.te_rad, sc.revolutions)
@@ -148,7 +241,20 @@ class LoadedTEResult(Result):
         return ax
 
     def plot_load_sharing(self, ax=None, position: int = 0):
-        """Pin normal forces (N) of each disc at ``position`` (quasi-static runs)."""
+        """Pin normal forces (N) of each disc at ``position`` (quasi-static runs).
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw on; None draws on a new Figure's axes (pyplot and the backend untouched).
+        position : int, optional
+            Index of the position drawn.
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            The axes drawn on.
+        """
         f = self.raw.pin_force_N
         if f.size == 0:
             raise SpecError("plot_load_sharing", self.scenario.mode, "a dynamic run records the angles only")
@@ -166,7 +272,18 @@ class LoadedTEResult(Result):
 
     def files(self, out: Path) -> list[Path]:
         """te.csv (per step), te.png (TE vs output angle with the order spectrum) and
-        load_sharing.png (pin forces at the first position; quasi-static runs)."""
+        load_sharing.png (pin forces at the first position; quasi-static runs).
+
+        Parameters
+        ----------
+        out : pathlib.Path
+            An existing directory.
+
+        Returns
+        -------
+        list of pathlib.Path
+            The files written.
+        """
         return write_te_outputs(out, self.raw, self.metrics, self.scenario)
 
 

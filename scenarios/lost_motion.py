@@ -28,9 +28,28 @@ __all__ = ["LostMotion", "LostMotionResult", "run_lost_motion", "write_lost_moti
 
 @dataclass(frozen=True)
 class LostMotion:
-    """Catalogue torsional test. Reducer, errors (None: none), torque amplitude (N·m; None:
-    rated), torque steps over the cycle and the model options (:class:`~rvflex.options.ModelOptions`
-    or a preset name)."""
+    """The catalogue torsional test (``rvflex lost-motion``): input locked, output torque
+    0 → +T → −T → 0; lost motion, hysteresis loss, torsional stiffness and backlash.
+
+    Parameters
+    ----------
+    spec : ReducerSpec
+        The reducer (:func:`rvflex.load_reducer`).
+    errors : ErrorSpec, optional
+        Manufacturing and assembly errors (:func:`rvflex.load_errors`); None: none.
+    torque_Nm : float, optional
+        Torque amplitude T, N·m; None: the rated torque.
+    steps : int, optional
+        Torque steps over the whole cycle (at least 40).
+    options : ModelOptions or str, optional
+        Model fidelity per part: a :class:`~rvflex.options.ModelOptions` or a preset name
+        (``"rigid"``, ``"flexible"``, ``"flexible-carrier"``).
+
+    Raises
+    ------
+    SpecError
+        A value out of range, naming the parameter.
+    """
 
     spec: ReducerSpec
     errors: ErrorSpec | None = None
@@ -42,9 +61,9 @@ class LostMotion:
         check_scenario_inputs(self)
         if self.torque_Nm is None:
             object.__setattr__(self, "torque_Nm", self.spec.rated_torque_Nm)
-        self.spec.check_torque("--torque", self.torque_Nm)
+        self.spec.check_torque("torque_Nm", self.torque_Nm)
         if not self.steps >= 40:
-            raise SpecError("--steps", self.steps, "must be at least 40 torque steps")
+            raise SpecError("steps", self.steps, "must be at least 40 torque steps")
 
     @property
     def torques_Nm(self) -> np.ndarray:
@@ -52,8 +71,21 @@ class LostMotion:
         return hysteresis_cycle(self.torque_Nm, self.steps)
 
     def run(self, *, model: ReducerModel | None = None, progress=None) -> LostMotionResult:
-        """Run on ``model`` (built here when None; it must come from this scenario's spec, errors
-        and options); ``progress(done, total)`` per torque step."""
+        """Run the scenario (:func:`rvflex.run` calls this).
+
+        Parameters
+        ----------
+        model : ReducerModel, optional
+            A model from :func:`rvflex.build_reducer` with this scenario's spec, errors and
+            options, reused instead of building one; None builds it.
+        progress : callable, optional
+            ``progress(done, total)``, called as the run advances (per torque step).
+
+        Returns
+        -------
+        LostMotionResult
+            The labelled result.
+        """
         t0 = time.perf_counter()
         res, met = run_lost_motion(self, progress, model=model)
         return LostMotionResult(self, met, time.perf_counter() - t0, res)
@@ -69,7 +101,19 @@ def run_lost_motion(scenario: LostMotion, progress=None, *, model: ReducerModel 
 
 @dataclass(frozen=True, eq=False)
 class LostMotionResult(Result):
-    """Torsional hysteresis: per torque step the output torque and angle. ``raw`` is the solver's record."""
+    """Torsional hysteresis: per torque step the output torque and angle. ``raw`` is the solver's record.
+
+    Parameters
+    ----------
+    scenario : LostMotion
+        The scenario that ran.
+    metrics : HysteresisMetrics
+        Lost motion, hysteresis loss and backlash (arcmin), torsional stiffness (N·m/arcmin).
+    wall_s : float
+        Wall time of the run, s.
+    raw : TorqueStepResult
+        The solver's record (torque in N·m, angles in rad).
+    """
 
     raw: TorqueStepResult
 
@@ -78,7 +122,13 @@ class LostMotionResult(Result):
 
     def to_xarray(self):
         """Dataset over ``torque_step``: coordinate ``torque`` (N m), ``theta_out`` (rad) and
-        ``output_angle`` (arcmin); the metrics in ``attrs``."""
+        ``output_angle`` (arcmin); the metrics in ``attrs``.
+
+        Returns
+        -------
+        xarray.Dataset
+            Named dimensions, SI coordinates, ``units`` and ``long_name`` on every variable.
+        """
         import xarray as xr
 
         r, dims = self.raw, ("torque_step",)
@@ -90,7 +140,18 @@ class LostMotionResult(Result):
         return xr.Dataset(data, coords=coords, attrs=scenario_attrs(self.scenario, **self.metrics_dict()))
 
     def plot(self, ax=None):
-        """The hysteresis loop (torque against output angle in arcmin) with the ±3 % band; returns the axes."""
+        """The hysteresis loop (torque against output angle in arcmin) with the ±3 % band; returns the axes.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw on; None draws on a new Figure's axes (pyplot and the backend untouched).
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            The axes drawn on.
+        """
         ax = new_axes(ax, figsize=(8, 5.2))
         r, met, sc = self.raw, self.metrics, self.scenario
         ax.plot(r.theta_out * ARCSEC_PER_RAD / 60.0, r.torque_Nm, "-", lw=1.2, marker=".", ms=3)
@@ -107,7 +168,18 @@ class LostMotionResult(Result):
         return ax
 
     def files(self, out: Path) -> list[Path]:
-        """hysteresis.csv and hysteresis.png."""
+        """hysteresis.csv and hysteresis.png.
+
+        Parameters
+        ----------
+        out : pathlib.Path
+            An existing directory.
+
+        Returns
+        -------
+        list of pathlib.Path
+            The files written.
+        """
         return write_lost_motion_outputs(out, self.raw, self.metrics, self.scenario)
 
 

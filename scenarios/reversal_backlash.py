@@ -34,9 +34,30 @@ DEFAULT_LOAD_FRACTION = 0.03
 
 @dataclass(frozen=True)
 class ReversalBacklash:
-    """Reducer, errors (None: none), resisting load (N·m; None: :data:`DEFAULT_LOAD_FRACTION` of
-    rated), input window (output degrees), positions and the model options
-    (:class:`~rvflex.options.ModelOptions` or a preset name)."""
+    """Reversal backlash (``rvflex backlash``): the output angle lost when the input reverses
+    under a load that resists the motion.
+
+    Parameters
+    ----------
+    spec : ReducerSpec
+        The reducer (:func:`rvflex.load_reducer`).
+    errors : ErrorSpec, optional
+        Manufacturing and assembly errors (:func:`rvflex.load_errors`); None: none.
+    load_Nm : float, optional
+        Load resisting the motion, N·m; None: :data:`DEFAULT_LOAD_FRACTION` of the rated torque.
+    window_out_deg : float, optional
+        Input travel of each branch, in degrees of output rotation.
+    positions : int, optional
+        Positions per branch (at least 8).
+    options : ModelOptions or str, optional
+        Model fidelity per part: a :class:`~rvflex.options.ModelOptions` or a preset name
+        (``"rigid"``, ``"flexible"``, ``"flexible-carrier"``).
+
+    Raises
+    ------
+    SpecError
+        A value out of range, naming the parameter.
+    """
 
     spec: ReducerSpec
     errors: ErrorSpec | None = None
@@ -49,13 +70,26 @@ class ReversalBacklash:
         check_scenario_inputs(self)
         if self.load_Nm is None:
             object.__setattr__(self, "load_Nm", DEFAULT_LOAD_FRACTION * self.spec.rated_torque_Nm)
-        self.spec.check_torque("--load", self.load_Nm)
+        self.spec.check_torque("load_Nm", self.load_Nm)
         if not self.positions >= 8:
-            raise SpecError("--positions", self.positions, "must be at least 8")
+            raise SpecError("positions", self.positions, "must be at least 8")
 
     def run(self, *, model: ReducerModel | None = None, progress=None) -> ReversalBacklashResult:
-        """Run on ``model`` (built here when None; it must come from this scenario's spec, errors
-        and options); ``progress(done, total)`` after each branch."""
+        """Run the scenario (:func:`rvflex.run` calls this).
+
+        Parameters
+        ----------
+        model : ReducerModel, optional
+            A model from :func:`rvflex.build_reducer` with this scenario's spec, errors and
+            options, reused instead of building one; None builds it.
+        progress : callable, optional
+            ``progress(done, total)``, called as the run advances (after each branch).
+
+        Returns
+        -------
+        ReversalBacklashResult
+            The labelled result.
+        """
         t0 = time.perf_counter()
         lost, fwd, rev = run_reversal_backlash(self, model=model, progress=progress)
         return ReversalBacklashResult(self, BacklashMetrics(lost), time.perf_counter() - t0, fwd, rev)
@@ -87,7 +121,19 @@ def run_reversal_backlash(sc: ReversalBacklash, *, model: ReducerModel | None = 
 @dataclass(frozen=True, eq=False)
 class ReversalBacklashResult(Result):
     """Forward and reverse output branches over the input window (``forward``, ``reverse``: the
-    solver's records, the reverse one in its own, descending, order)."""
+    solver's records, the reverse one in its own, descending, order).
+
+    Parameters
+    ----------
+    scenario : ReversalBacklash
+        The scenario that ran.
+    metrics : BacklashMetrics
+        The reversal backlash, arcmin.
+    wall_s : float
+        Wall time of the run, s.
+    forward, reverse : QuasiStaticResult
+        The two branches (angles in rad).
+    """
 
     forward: QuasiStaticResult
     reverse: QuasiStaticResult
@@ -97,7 +143,13 @@ class ReversalBacklashResult(Result):
 
     def to_xarray(self):
         """Dataset over ``position`` (nominal output angle θ_in/i, rad): ``te_forward`` and
-        ``te_reverse`` (arcmin) at equal input angle; the metric in ``attrs``."""
+        ``te_reverse`` (arcmin) at equal input angle; the metric in ``attrs``.
+
+        Returns
+        -------
+        xarray.Dataset
+            Named dimensions, SI coordinates, ``units`` and ``long_name`` on every variable.
+        """
         import xarray as xr
 
         f, r, dims = self.forward, self.reverse, ("position",)
@@ -109,7 +161,18 @@ class ReversalBacklashResult(Result):
         return xr.Dataset(data, coords=coords, attrs=scenario_attrs(self.scenario, **self.metrics_dict()))
 
     def plot(self, ax=None):
-        """Both branches (arcmin) against the output angle (°); returns the axes."""
+        """Both branches (arcmin) against the output angle (°); returns the axes.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw on; None draws on a new Figure's axes (pyplot and the backend untouched).
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            The axes drawn on.
+        """
         ax = new_axes(ax)
         f, r, sc = self.forward, self.reverse, self.scenario
         x = np.degrees(f.theta_in / f.ratio)
@@ -124,7 +187,18 @@ class ReversalBacklashResult(Result):
         return ax
 
     def files(self, out: Path) -> list[Path]:
-        """backlash.csv and backlash.png."""
+        """backlash.csv and backlash.png.
+
+        Parameters
+        ----------
+        out : pathlib.Path
+            An existing directory.
+
+        Returns
+        -------
+        list of pathlib.Path
+            The files written.
+        """
         return write_backlash_outputs(out, self.metrics.reversal_backlash_arcmin, self.forward, self.reverse,
                                       self.scenario)
 

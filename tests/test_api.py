@@ -186,3 +186,72 @@ def test_sweep_table_as_dataframe_and_dataset(tmp_path):
     assert np.array_equal(ds[metric].to_numpy(), df[metric].to_numpy())
     assert ds[metric].attrs["units"] == metric.rsplit("_", 1)[1]
     assert all(ds[f.name].attrs["units"] == "m" for f in design.factors)
+
+
+def test_python_errors_name_the_parameter_and_the_cli_the_flag(rv40e, tmp_path, capsys):
+    """An error raised through the Python API names the Python parameter; the same error from the
+    command names its flag (with the flag's spelling of the value)."""
+    from rvflex.cli import main
+
+    cases = [(dict(load_Nm=-5.0), r"^load_Nm = -5.0: must lie in \[0, 2058\] N·m",
+              ["--load", "-5"], "--load = -5.0: must lie in [0, 2058] N·m"),
+             (dict(positions_per_rev=8), r"^positions_per_rev = 8: must be at least 16",
+              ["--positions", "8"], "--positions = 8: must be at least 16"),
+             (dict(revolutions=0.0), r"^revolutions = 0.0: must be positive",
+              ["--revs", "0"], "--revs = 0.0: must be positive"),
+             (dict(mode="dynamic", direction=-1), r"^direction = -1: dynamic runs go forward",
+              ["--mode", "dynamic", "--direction", "reverse"], "--direction = 'reverse': dynamic runs go forward")]
+    for kwargs, python_message, argv, cli_message in cases:
+        with pytest.raises(rvflex.SpecError, match=python_message):
+            rvflex.LoadedTE(rv40e, **kwargs)
+        assert main(["te", "--reducer", "rv40e", *argv, "--json", str(tmp_path / "t.json")]) == 2
+        assert cli_message in capsys.readouterr().err
+    with pytest.raises(rvflex.SpecError, match=r"^torque_Nm = 3000.0: must lie in \(0, 2058\] N·m"):
+        rvflex.LostMotion(rv40e, torque_Nm=3000.0)
+    assert main(["lost-motion", "--reducer", "rv40e", "--torque", "3000"]) == 2
+    assert "--torque = 3000.0: must lie in (0, 2058] N·m" in capsys.readouterr().err
+    assert not (tmp_path / "t.json").exists()
+
+
+def test_unknown_names_get_a_did_you_mean(rv40e, capsys):
+    """A misspelt built-in reducer, error set, preset, choice or top-level name is refused with
+    the closest known name suggested (in Python and on the command line); a name close to
+    nothing gets no suggestion."""
+    from rvflex.cli import main
+
+    with pytest.raises(rvflex.SpecError, match=r"^name_or_path = 'rv40': unknown reducer; built-in: rv40e, rv80e; "
+                                               r"did you mean 'rv40e'\?$"):
+        rvflex.load_reducer("rv40")
+    with pytest.raises(rvflex.SpecError, match=r"did you mean 'rv80e'\?$"):
+        rvflex.load_reducer("RV80E")
+    with pytest.raises(rvflex.SpecError, match=r"unknown reducer; built-in: rv40e, rv80e$"):
+        rvflex.load_reducer("harmonic")
+    with pytest.raises(rvflex.SpecError, match=r"did you mean 'rv40e_seed001'\?$"):
+        rvflex.load_errors("rv40e_seed01", rv40e)
+    with pytest.raises(rvflex.SpecError, match=r"^options = 'flexble'.*did you mean 'flexible'\?$"):
+        rvflex.LoadedTE(rv40e, options="flexble")
+    with pytest.raises(rvflex.SpecError, match=r"^mode = 'dynamc'.*did you mean 'dynamic'\?$"):
+        rvflex.LoadedTE(rv40e, mode="dynamc")
+    with pytest.raises(AttributeError, match=r"no attribute 'LoadTE'; did you mean 'LoadedTE'\?$"):
+        rvflex.LoadTE  # noqa: B018 -- the attribute access is the test
+    assert main(["te", "--reducer", "rv40"]) == 2
+    assert "--reducer = 'rv40': unknown reducer; built-in: rv40e, rv80e; did you mean 'rv40e'?" in \
+        capsys.readouterr().err
+
+
+def test_dir_lists_the_public_names_only():
+    """``dir(rvflex)`` is the curated surface (``__all__``), each name resolvable; the module's own
+    imports and the submodules loading a name pulled in stay out."""
+    import rvflex.api  # noqa: F401 -- a loaded submodule must not show up in dir()
+
+    names = dir(rvflex)
+    assert names == sorted(rvflex.__all__)
+    assert not {"TYPE_CHECKING", "annotations", "importlib", "api", "spec"} & set(names)
+    assert {"LoadedTE", "LostMotion", "ReversalBacklash", "load_reducer", "run", "Result"} <= set(names)
+    assert all(getattr(rvflex, n) is not None for n in names)
+    # tools (IPython, inspect) probe private names: they are refused without loading anything
+    code = ("import sys, rvflex; hasattr(rvflex, '__wrapped__'); hasattr(rvflex, '_ipython_display_'); "
+            "print([m for m in ('numpy', 'rvflex.choices') if m in sys.modules])")
+    assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          check=True).stdout.strip() == "[]"
+

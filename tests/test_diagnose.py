@@ -22,14 +22,14 @@ from rvflex.diagnose.bench import (
 )
 from rvflex.diagnose.effects import EFFECTS, Effect, Param, available_effects
 from rvflex.diagnose.fit import withheld_folds, withheld_split
-from rvflex.options import ModelOptions
-from rvflex.spec import ErrorSpec
 from rvflex.diagnose.replay import (
     DiagnosisSettings,
     PlanRun,
     branch_angles,
     shift_measured,
 )
+from rvflex.options import ModelOptions
+from rvflex.spec import ErrorSpec
 
 SPEC = catalog.load("rv40e")
 RATIO = SPEC.nominal_ratio

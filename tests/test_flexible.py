@@ -8,11 +8,11 @@ import dataclasses
 
 import numpy as np
 import pytest
+from conftest import COARSE_DISC
 
 from rvflex.geometry.formulas import ARCSEC_PER_RAD
 from rvflex.model import build_reducer
 from rvflex.solve import quasi_static
-from conftest import COARSE_DISC
 
 pytestmark = pytest.mark.flexible
 
@@ -121,9 +121,8 @@ def test_flexibility_effect_scenario_writes_its_table(setup, tmp_path):
     """Smoke run of the scenario at coarse settings: the elastic share of the wind-up at
     rated torque is positive and below one half (the pin contacts, bearings and first stage
     stay the larger compliance), and the files are written."""
-    from rvflex.scenarios.flexibility_effect import (FlexibilityEffect, run_flexibility_effect,
-                                                     write_flexibility_outputs)
     from rvflex.options import DISC_FE
+    from rvflex.scenarios.flexibility_effect import FlexibilityEffect, run_flexibility_effect, write_flexibility_outputs
     from rvflex.spec import ErrorSpec
 
     spec, _, _, _ = setup

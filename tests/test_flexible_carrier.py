@@ -10,12 +10,12 @@ import dataclasses
 
 import numpy as np
 import pytest
+from conftest import COARSE_DISC
 
 from rvflex.geometry.formulas import ARCSEC_PER_RAD
 from rvflex.model import build_reducer
 from rvflex.options import CARRIER_FE, DISC_FE, ModelOptions
 from rvflex.solve import quasi_static
-from conftest import COARSE_DISC
 
 pytestmark = pytest.mark.flexible
 
@@ -227,8 +227,7 @@ def test_cli_fidelity_maps_to_the_presets():
 def test_flexibility_effect_scenario_has_the_carrier_row(setup, tmp_path):
     """Smoke run of the scenario with the flexible+carrier row (coarse reductions): the
     carrier's share of the wind-up and of the compliance is positive, and the table says so."""
-    from rvflex.scenarios.flexibility_effect import (FlexibilityEffect, run_flexibility_effect,
-                                                     write_flexibility_outputs)
+    from rvflex.scenarios.flexibility_effect import FlexibilityEffect, run_flexibility_effect, write_flexibility_outputs
     from rvflex.spec import ErrorSpec
 
     spec = setup[0]

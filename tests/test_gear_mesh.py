@@ -15,8 +15,15 @@ import math
 import exudyn as exu
 import numpy as np
 import pytest
-from exudyn.itemInterface import (LoadCoordinate, MarkerNodeCoordinate, NodePoint2D, NodePointGround,
-                                  NodeRigidBody2D, ObjectConnectorCoordinate, ObjectRigidBody2D)
+from exudyn.itemInterface import (
+    LoadCoordinate,
+    MarkerNodeCoordinate,
+    NodePoint2D,
+    NodePointGround,
+    NodeRigidBody2D,
+    ObjectConnectorCoordinate,
+    ObjectRigidBody2D,
+)
 
 from rvflex import catalog
 from rvflex.contact.gear_mesh import SMOOTHING_M, add_gear_mesh, evaluate, mesh_state, normal_backlash_m

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-
 import numpy as np
 import pytest
 
@@ -70,7 +69,7 @@ def test_chord_newton_finds_the_equilibria_of_exudyns_static_solver(rv40e):
 
 
 def test_bad_te_input_is_refused(rv40e, tmp_path, capsys):
-    with pytest.raises(SpecError, match=r"--load = 3000.0: must lie in \[0, 2058\] N·m"):
+    with pytest.raises(SpecError, match=r"^load_Nm = 3000.0: must lie in \[0, 2058\] N·m"):
         LoadedTE(rv40e, ErrorSpec(), 3000.0)
     assert main(["te", "--reducer", "rv40e", "--load", "-5", "--json", str(tmp_path / "t.json")]) == 2
     assert "--load = -5.0: must lie in [0, 2058] N·m" in capsys.readouterr().err
@@ -139,9 +138,9 @@ def test_compensated_modification_reduces_backlash_by_the_compensated_approach(r
     compensation at the pitch lever arm, 2·δ_max/(e·z_c), within 10 %; the 50–100 % slope does not
     fall, and the secant stiffness over ±T_r (free play included: seed 002's 72 → 95 N·m/arcmin
     kind of figure) rises, to 2T/(2T/k + backlash) within 1 % (elastic lines straight above 50 %)."""
-    from rvflex.scenarios.modification_comparison import compensated_spec, compensation_amount_m
-    from rvflex.scenarios.lost_motion import LostMotion, run_lost_motion
     from rvflex.geometry.formulas import ARCMIN_PER_RAD
+    from rvflex.scenarios.lost_motion import LostMotion, run_lost_motion
+    from rvflex.scenarios.modification_comparison import compensated_spec, compensation_amount_m
 
     delta = compensation_amount_m(rv40e)
     assert 0.5e-6 < delta < 5e-6  # a few µm of Hertz approach at ~700 N on a 10 mm line

@@ -4,14 +4,14 @@ the ε formula's partial derivatives."""
 from __future__ import annotations
 
 import pytest
+
+from rvflex import catalog
+from rvflex.geometry.formulas import ARCMIN_PER_RAD
 from rvflex.scenarios.sensitivity import (
     formula_sensitivity,
     kinematic_coupling,
     run_sensitivity,
 )
-
-from rvflex import catalog
-from rvflex.geometry.formulas import ARCMIN_PER_RAD
 
 
 @pytest.fixture(scope="module")

@@ -96,7 +96,7 @@ def test_dead_scheduler_is_refused_quickly_and_leaves_no_store(tmp_path):
     import time
 
     t0 = time.perf_counter()
-    with pytest.raises(SpecError, match=r"--scheduler = 'tcp://127.0.0.1:1': does not answer within 5 s"):
+    with pytest.raises(SpecError, match=r"^scheduler = 'tcp://127.0.0.1:1': does not answer within 5 s"):
         sweep(load_design(SMOKE), tmp_path / "x.sqlite", executor="dask", scheduler="tcp://127.0.0.1:1")
     assert time.perf_counter() - t0 < 15.0
     assert not (tmp_path / "x.sqlite").exists()

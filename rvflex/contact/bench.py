@@ -15,12 +15,17 @@ import numpy as np
 
 from rvflex import catalog
 from rvflex.contact.cycloid_pin import ContactLaw, add_cycloid_pin_contact
-from rvflex.contact.single_disc import (arc_length_segments, build_dynamic_disc, build_single_disc, quasi_static_te,
-                                        run_dynamic)
+from rvflex.contact.single_disc import (
+    arc_length_segments,
+    build_dynamic_disc,
+    build_single_disc,
+    quasi_static_te,
+    run_dynamic,
+)
 from rvflex.geometry.clearance import initial_clearance_numeric
-from rvflex.units import ARCSEC_PER_RAD
 from rvflex.geometry.pins import nominal_disc_pose, pin_centres, pin_radii, to_disc_frame
 from rvflex.geometry.profile import build_profile
+from rvflex.units import ARCSEC_PER_RAD
 
 __all__ = ["CROSSCHECK", "bench_contact", "crosscheck_te", "polygon_interference_m"]
 

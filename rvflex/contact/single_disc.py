@@ -56,9 +56,15 @@ def build_single_disc(stage: CycloidStage, law: ContactLaw, *, errors: ErrorSpec
     ``resisting_torque_Nm`` acts on the disc against its motion (N·m).
     """
     import exudyn as exu
-    from exudyn.itemInterface import (LoadCoordinate, MarkerNodeCoordinate, NodePointGround, NodeRigidBody2D,
-                                      ObjectConnectorCoordinate, ObjectConnectorCoordinateSpringDamper,
-                                      ObjectRigidBody2D)
+    from exudyn.itemInterface import (
+        LoadCoordinate,
+        MarkerNodeCoordinate,
+        NodePointGround,
+        NodeRigidBody2D,
+        ObjectConnectorCoordinate,
+        ObjectConnectorCoordinateSpringDamper,
+        ObjectRigidBody2D,
+    )
 
     sc = exu.SystemContainer()
     mbs = sc.AddSystem()
@@ -187,10 +193,20 @@ def build_dynamic_disc(stage: CycloidStage, *, law: ContactLaw | None = None, cu
     starts on its kinematic path at TE = ``start_te_rad`` with consistent velocities.
     """
     import exudyn as exu
-    from exudyn.itemInterface import (LoadCoordinate, MarkerBodyPosition, MarkerBodyRigid, MarkerNodeCoordinate,
-                                      NodeGenericData, NodePointGround, NodeRigidBody2D, ObjectConnectorCoordinate,
-                                      ObjectContactCurveCircles, ObjectJointRevolute2D, ObjectRigidBody2D,
-                                      SensorNode)
+    from exudyn.itemInterface import (
+        LoadCoordinate,
+        MarkerBodyPosition,
+        MarkerBodyRigid,
+        MarkerNodeCoordinate,
+        NodeGenericData,
+        NodePointGround,
+        NodeRigidBody2D,
+        ObjectConnectorCoordinate,
+        ObjectContactCurveCircles,
+        ObjectJointRevolute2D,
+        ObjectRigidBody2D,
+        SensorNode,
+    )
 
     sc = exu.SystemContainer()
     mbs = sc.AddSystem()

@@ -56,12 +56,12 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
 
     from tqdm import tqdm
 
-    from rvflex.io import emit
     from rvflex.diagnose.bench import read_bench
     from rvflex.diagnose.effects import EFFECTS
     from rvflex.diagnose.fit import diagnose
     from rvflex.diagnose.replay import DiagnosisSettings
     from rvflex.diagnose.report import json_document, write_report
+    from rvflex.io import emit
     from rvflex.spec import SpecError
 
     dataset = read_bench(args.bench_dir)  # every bad input is refused here, before anything runs or is written
@@ -97,10 +97,10 @@ def _cmd_selfcheck(args: argparse.Namespace) -> int:
     import json
     import tempfile
 
-    from rvflex.io import write_atomic
+    from rvflex.api import load_reducer
     from rvflex.diagnose.replay import DiagnosisSettings
     from rvflex.diagnose.selfcheck import SelfCheckSettings, selfcheck
-    from rvflex.api import load_reducer
+    from rvflex.io import write_atomic
     from rvflex.spec import SpecError
 
     if args.cases < 1:

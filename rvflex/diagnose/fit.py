@@ -37,10 +37,12 @@ from pathlib import Path
 
 import numpy as np
 
+from rvflex.diagnose.anchor import Anchor, anchor, scale_stiffness
+from rvflex.diagnose.calibration import CALIBRATION_PREFERRED, calibration_sentence, calibration_ties, undetermined
 from rvflex.diagnose.linear import (
     Candidate,
-    bounds,
     Problem,
+    bounds,
     lin_fit,
     make_candidate,
     nuisance_columns,
@@ -48,7 +50,6 @@ from rvflex.diagnose.linear import (
     prior_penalty,
     weights,
 )
-from rvflex.diagnose.anchor import Anchor, anchor, scale_stiffness
 from rvflex.diagnose.nominal import NOMINAL, REPLACES, nominal_parameters
 from rvflex.diagnose.refine import refine
 from rvflex.diagnose.replay import (
@@ -61,7 +62,6 @@ from rvflex.diagnose.replay import (
     plan_from_dataset,
 )
 from rvflex.diagnose.runs import ModelRunner
-from rvflex.diagnose.calibration import CALIBRATION_PREFERRED, calibration_sentence, calibration_ties, undetermined
 from rvflex.diagnose.sensitivity import (
     available_candidates,
     second_effect_adds,

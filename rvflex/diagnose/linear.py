@@ -314,7 +314,7 @@ def weights(f0: np.ndarray, y: np.ndarray, lay: Layout, s: DiagnosisSettings, pi
         floor = np.sqrt(s.order_floor_arcsec**2 + noise**2 + (rel * amp) ** 2)
         w[lay.cos[r]] = w[lay.sin[r]] = 1.0 / floor
         w[lay.dc[r]] = 1.0 / (s.windup_floor_arcsec + s.windup_floor_rel * abs(f0[lay.dc[r]]))
-    for r, sl in lay.hyst.items():
+    for _r, sl in lay.hyst.items():
         w[sl] = 1.0 / (s.windup_floor_arcsec + s.windup_floor_rel * np.abs(f0[sl] - np.mean(f0[sl])))
     return w
 

@@ -16,10 +16,10 @@ import numpy as np
 
 from rvflex.diagnose.linear import (
     Candidate,
-    denoise_orders,
     Problem,
     Sensitivities,
     bounds,
+    denoise_orders,
     lin_fit,
     make_candidate,
     prior_of,

@@ -193,7 +193,7 @@ def undetermined_effect(c: Candidate) -> str:
     magnitude interval reaches zero (the runs cannot tell it from no effect), or a parameter of it sits
     at the bound of its range (its size is a limit, not an estimate; measured on a foreign bench: a
     verdict accepted an effect at its bound with a 95 % interval from 0 to ten times its value)."""
-    for e, m, (lo, hi) in zip(c.effects, c.magnitude, c.magnitude_interval):
+    for e, _m, (lo, hi) in zip(c.effects, c.magnitude, c.magnitude_interval):
         if not e.nominal and lo <= 0.0:
             return (f"the 95 % interval of {e.name} ({fmt_mag(e, lo)} … {fmt_mag(e, hi)}) includes zero: these runs "
                     "cannot determine it" + (f"; {e.separating_runs} would" if e.separating_runs else ""))

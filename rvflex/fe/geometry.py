@@ -126,7 +126,7 @@ def check_disc_layout(spec: ReducerSpec, profile: CycloidProfile | None = None) 
                                       f"at {r_root * 1e3:.2f} mm less a {MIN_WEB_M * 1e3:g} mm web: it breaks the "
                                       f"disc outline")
     for i, (n1, f1, x1, y1, r1) in enumerate(holes):
-        for n2, f2, x2, y2, r2 in holes[i + 1:]:
+        for n2, _f2, x2, y2, r2 in holes[i + 1:]:
             d = math.hypot(x1 - x2, y1 - y2)
             if d < r1 + r2 + MIN_WEB_M:
                 raise SpecError(f1, r1, f"disc holes {n1} and {n2} leave a {(d - r1 - r2) * 1e3:.2f} mm web "

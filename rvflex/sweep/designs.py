@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rvflex.choices import DesignKind, Distribution, check_choice, choices
+from rvflex.choices import DesignKind, Distribution, check_choice, choices, did_you_mean
 from rvflex.options import ModelOptions
 from rvflex.spec import SpecError
 from rvflex.sweep import registry
@@ -146,12 +146,14 @@ def load_design(path: str | Path) -> Design:
             raise SpecError(f"[sweep].{key}", None, "missing key", src)
     if sw["scenario"] not in registry.names():
         raise SpecError("[sweep].scenario", sw["scenario"], f"must be one of {', '.join(registry.names())} "
-                                                            f"(the registered sweep scenarios)", src)
+                                                            f"(the registered sweep scenarios)"
+                                                            f"{did_you_mean(sw['scenario'], registry.names())}", src)
     factors = []
     for k, f in enumerate(data.get("factor", [])):
         name = f.get("name")
         if name not in FACTORS:
-            raise SpecError(f"factor[{k}].name", name, f"unknown factor; valid: {', '.join(FACTORS)}", src)
+            raise SpecError(f"factor[{k}].name", name, f"unknown factor; valid: {', '.join(FACTORS)}"
+                                                          f"{did_you_mean(name, FACTORS)}", src)
         fac = Factor(name, tuple(float(x) for x in f.get("levels", ())), float(f.get("low", math.nan)),
                      float(f.get("high", math.nan)), float(f.get("sigma", math.nan)))
         for v in fac.levels + tuple(x for x in (fac.low, fac.high) if not math.isnan(x)):
@@ -166,6 +168,7 @@ def load_design(path: str | Path) -> Design:
     extra = set(sw) - known
     if extra:
         hint = " (model options go in the [model] table)" if min(extra) in ("fidelity", "options") else ""
+        hint = hint or did_you_mean(min(extra), known)
         raise SpecError(f"[sweep].{min(extra)}", sw[min(extra)], f"unknown key{hint}", src)
     top = sorted(set(data) - {"sweep", "factor", "model"})
     if top:

@@ -119,7 +119,7 @@ def sweep(design: Design, store_path: str | Path, *, executor: Executor = "proce
     ``executor``: "serial", "process" (a local process pool) or "dask" (a LocalCluster of
     ``workers`` single-threaded worker processes, or the cluster at ``scheduler``,
     ``tcp://HOST:PORT``)."""
-    check_choice("--executor", executor, Executor)
+    check_choice("executor", executor, Executor)
     points = design_points(design)
     workers = 1 if executor == "serial" else (workers or os.cpu_count() or 1)
     with contextlib.ExitStack() as stack:
@@ -210,7 +210,7 @@ def _dask_client(workers: int, scheduler: str | None):
         try:
             client = Client(scheduler, timeout=f"{DASK_CONNECT_TIMEOUT_S}s")
         except (OSError, TimeoutError) as err:
-            raise SpecError("--scheduler", scheduler, f"does not answer within {DASK_CONNECT_TIMEOUT_S:g} s "
+            raise SpecError("scheduler", scheduler, f"does not answer within {DASK_CONNECT_TIMEOUT_S:g} s "
                                                       f"({type(err).__name__})") from None
         with client:
             yield client
