@@ -84,8 +84,9 @@ def _brute_force_minima(profile, c, t_mid, half_window, r_pin, coarse=20001, fin
 
 @pytest.mark.parametrize("theta", [-0.06, -0.02, 0.0, 0.013, 0.05])
 def test_every_minimum_near_the_root_is_found_exactly(relieved, bench, theta):
-    """All pins at a pressed pose: the contact's points are the local minima of the distance
-    found by brute force, each gap to 1e-12 m; pin 0 (in or beside the root) has 2 or 3."""
+    """All 40 pins at a pressed pose: the contact's points are the local minima of the
+    distance within half a tooth pitch found by brute force, each gap to 1e-12 m; pin 0 (in
+    or beside the root) has 2 or 3 (both rims; the bottom, 9 µm open, around θ = 0)."""
     contact = bench.contact
     q = _pressed(relieved, theta)
     *_, pout, count, _ = contact.evaluate_points(q)
@@ -93,11 +94,11 @@ def test_every_minimum_near_the_root_is_found_exactly(relieved, bench, theta):
     x = to_disc_frame(pin_centres(relieved), q[:2], q[2] + contact.offset_rad)
     r = pin_radii(relieved)
     half = math.pi / relieved.disc_teeth
-    for i in (0, 1, relieved.pin_count - 1, 10):
+    for i in range(relieved.pin_count):
         ref = _brute_force_minima(contact.profile, complex(*x[i]), pout[i, 0, K.O_T], half, r[i])
-        ours = sorted(pout[i, :count[i], K.O_GAP])
+        ours = sorted(g for g in pout[i, :count[i], K.O_GAP] if g < K.CONTACT_RANGE_M)  # the closest point always counts
         assert len(ours) == len(ref), (i, ours, ref)
-        assert np.max(np.abs(np.subtract(ours, ref))) <= 1e-12
+        assert np.all(np.abs(np.subtract(ours, ref)) <= 1e-12)
 
 
 def _roll(contact, stage, thetas):

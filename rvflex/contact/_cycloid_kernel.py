@@ -18,9 +18,14 @@ Where the profile is convex, or concave with a radius of curvature larger than t
 solve finds it. Two minima need a maximum between them, and a maximum of the distance at
 distance d needs a concave stretch of radius of curvature below d (1 + κ·d < 0): a relieved
 root whose radius is smaller than the pin. The contact precomputes those stretches
-("zones", see ``concave_zones`` in :mod:`rvflex.contact.cycloid_pin`); a pin whose circle
-(plus the contact range) reaches a zone's bounding circle gets a Newton solve from each
-edge and the middle of the zone, and every distinct minimum it converges to is a point.
+("zones", see ``concave_zones`` in :mod:`rvflex.contact.cycloid_pin`). For a pin whose
+circle, widened by the contact range and the relief depth, reaches one of a zone's
+bounding circles, the slope of the distance at the zone's sample points tells where further
+minima lie (left of it, right of it, between two samples); a bracketed Newton solve finds
+each, and every distinct minimum within the contact range is a point. The samples bound
+every stretch where the radius of curvature is below the pin's minus the contact range
+(there the distance has at most one critical point, a maximum, so no minimum hides between
+two samples) and split the stretches between them in four.
 Each point's gap, ∂g/∂q and ∂²g/∂q² are those of an ordinary closest point (the implicit
 function theorem holds at any non-degenerate minimum), so the Jacobian stays exact. A
 profile without zones pays nothing.
@@ -46,9 +51,15 @@ O_GAP, O_FORCE, O_PX, O_PY, O_T, O_FT = range(6)
 N_OUT = 6
 MAX_POINTS = 4  # contact points per pin: two rims and the bottom of a relieved root need 3
 CONTACT_RANGE_M = 50e-6  # a further local minimum with a gap below this is a contact point (the guard's depth)
-# concave-zone table columns: parameter range [t_a, t_b] in [0, 2π) (t_a sorted), bounding circle of Q([t_a, t_b])
-Z_TA, Z_TB, Z_CX, Z_CY, Z_R = range(5)
-N_ZONE = 5
+# concave-zone table columns: parameter range [t_a, t_b] in [0, 2π) (t_a sorted); the number of slope
+# samples and their parameters (offsets from t_a, ascending, t_a and t_b included); the bounding
+# circles (x, y, R) of ZONE_ARCS equal parameter pieces of Q([t_a, t_b])
+ZONE_ARCS = 8
+ZONE_SLOPE_MAX = 16
+Z_TA, Z_TB, Z_NS, Z_S0 = 0, 1, 2, 3
+Z_CX, Z_CY, Z_R = Z_S0 + ZONE_SLOPE_MAX, Z_S0 + ZONE_SLOPE_MAX + 1, Z_S0 + ZONE_SLOPE_MAX + 2
+N_ZONE = Z_S0 + ZONE_SLOPE_MAX + 3 * ZONE_ARCS
+ZONE_REACH_M = 50e-6  # a pin bridging a zone is this much farther from it than from its rims, at most (relief depth)
 LOCAL_NEWTON_TOL_T = 1e-11  # rad of t, as the closest-point solve
 LOCAL_NEWTON_MAXIT = 40
 DUPLICATE_T = 1e-8  # two Newton solves ending closer than this found the same minimum (rad of t)
@@ -139,16 +150,14 @@ def _curvature(t, par, herr, hpsi):
 
 
 @_jit
-def _local_minimum(c, t, max_step, par, herr, hpsi):
+def _local_minimum(c, t, a, b, max_step, par, herr, hpsi):
     """Newton on (Q(t) − c)·Q'(t) = 0 from ``t`` that ends only at a minimum of |Q(t) − c|.
 
     Downhill steps of at most ``max_step`` until the slope changes sign, then Newton kept
-    inside the bracket [a, b] (slope < 0 at a, > 0 at b), bisecting where it would leave it
-    or where the distance is not convex. Returns t, d, Q, N, κ (as :func:`closest_point`)
-    and convergence.
+    inside the bracket [a, b] (slope < 0 at a, > 0 at b; ±inf: not known yet), bisecting
+    where it would leave it or where the distance is not convex. Returns t, d, Q, N, κ (as
+    :func:`closest_point`) and convergence.
     """
-    a = -math.inf
-    b = math.inf
     ok = False
     q, q1, q2 = profile_point(t, par, herr, hpsi)
     for _ in range(LOCAL_NEWTON_MAXIT):
@@ -185,15 +194,16 @@ def _local_minimum(c, t, max_step, par, herr, hpsi):
 def _zone_points(c, r_pin, t1, zones, window, par, herr, hpsi, pts, npts):
     """Add to ``pts`` (rows t, d, Q.x, Q.y, N.x, N.y, κ; ``npts`` filled) every further local
     minimum of the distance from ``c`` found from the concave zones within ``window`` of t1
-    whose bounding circle the pin (plus the contact range) reaches. Returns the new count and
-    the number of minima dropped because ``pts`` was full."""
+    that the pin's circle, widened by CONTACT_RANGE_M + ZONE_REACH_M, reaches. Returns the
+    new count and the number of minima dropped because ``pts`` was full."""
     nz = zones.shape[0]
     two_pi = 2.0 * math.pi
     tw = t1 % two_pi
     base = t1 - tw
     j0 = np.searchsorted(zones[:, Z_TA], tw)
     dropped = 0
-    reach = r_pin + CONTACT_RANGE_M
+    reach = r_pin + CONTACT_RANGE_M + ZONE_REACH_M
+    slope = np.empty(ZONE_SLOPE_MAX)
     for direction in range(2):
         for step in range(nz):
             jj = j0 + step if direction == 0 else j0 - 1 - step
@@ -203,12 +213,38 @@ def _zone_points(c, r_pin, t1, zones, window, par, herr, hpsi, pts, npts):
             tb = zones[j, Z_TB] + shift
             if (direction == 0 and ta - tw > window) or (direction == 1 and tw - tb > window):
                 break
-            dx = c.real - zones[j, Z_CX]
-            dy = c.imag - zones[j, Z_CY]
-            if math.sqrt(dx * dx + dy * dy) - zones[j, Z_R] > reach:
+            near = False
+            for b in range(ZONE_ARCS):
+                dx = c.real - zones[j, Z_CX + 3 * b]
+                dy = c.imag - zones[j, Z_CY + 3 * b]
+                if math.sqrt(dx * dx + dy * dy) - zones[j, Z_R + 3 * b] <= reach:
+                    near = True
+                    break
+            if not near:
                 continue
-            for seed in (ta, 0.5 * (ta + tb), tb):
-                t, d, q, nq, kap, ok = _local_minimum(c, base + seed, tb - ta, par, herr, hpsi)
+            # slope of the squared distance at the zone's samples (see concave_zones): a minimum
+            # lies left of t_a if the slope is positive there, right of t_b if negative there,
+            # and between two samples where it turns from negative to positive
+            ns = int(zones[j, Z_NS])
+            for k in range(ns):
+                qk, q1k, _ = profile_point(base + ta + zones[j, Z_S0 + k], par, herr, hpsi)
+                slope[k] = (qk.real - c.real) * q1k.real + (qk.imag - c.imag) * q1k.imag
+            for k in range(-1, ns):
+                if k == -1:  # left of the zone; already known if the closest point lies there
+                    if slope[0] <= 0.0 or base + ta - window < t1 < base + ta:
+                        continue
+                    seed, lo, hi = base + ta, -math.inf, base + ta
+                elif k == ns - 1:  # right of the zone
+                    if slope[k] >= 0.0 or base + tb < t1 < base + tb + window:
+                        continue
+                    seed, lo, hi = base + tb, base + tb, math.inf
+                else:
+                    lo = base + ta + zones[j, Z_S0 + k]
+                    hi = base + ta + zones[j, Z_S0 + k + 1]
+                    if not (slope[k] < 0.0 <= slope[k + 1]):
+                        continue
+                    seed = 0.5 * (lo + hi)
+                t, d, q, nq, kap, ok = _local_minimum(c, seed, lo, hi, tb - ta, par, herr, hpsi)
                 if not ok or d - r_pin >= CONTACT_RANGE_M:
                     continue
                 new = True

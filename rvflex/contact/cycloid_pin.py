@@ -37,6 +37,7 @@ DEFAULT_INITIAL_INTERFERENCE_M = 1e-6
 MAX_POINTS = K.MAX_POINTS
 ZONE_SAMPLES_PER_TOOTH = 4096  # curvature samples of the concave-zone search: 0.09° of tooth phase
 ZONE_PAD_SAMPLES = 2  # each zone widened by this many samples per side, so sampling cannot clip it
+ZONE_FINE_SAMPLES = 1025  # curvature samples across one zone when placing its slope samples
 
 
 class ContactError(RuntimeError):
@@ -196,7 +197,7 @@ class CycloidPinContact:
         (n_grid, 2, m) modal flank displacement in the profile frame on the uniform grid of
         the profile parameter, see :func:`rvflex.contact._cycloid_kernel.evaluate` (m = 0: rigid).
     zones : ndarray
-        (n_zones, 5) concave zones of the profile where a pin can touch at several points
+        (n_zones, N_ZONE) concave zones of the profile where a pin can touch at several points
         (:func:`concave_zones`); empty for a profile where it cannot.
     zone_window_rad : float
         Zones are searched within this profile-parameter distance of a pin's closest point (rad).
@@ -370,7 +371,7 @@ def install_penetration_guard(mbs, contacts: list[CycloidPinContact]) -> None:
     mbs.SetPostNewtonUserFunction(post_newton)
 
 
-def concave_zones(profile: CycloidProfile, max_pin_radius_m: float) -> np.ndarray:
+def concave_zones(profile: CycloidProfile, max_pin_radius_m: float, min_pin_radius_m: float | None = None) -> np.ndarray:
     """Stretches of ``profile`` where a pin of radius up to ``max_pin_radius_m`` can touch at
     more than one point.
 
@@ -380,13 +381,19 @@ def concave_zones(profile: CycloidProfile, max_pin_radius_m: float) -> np.ndarra
     κ < −1/(r_max + CONTACT_RANGE_M), sampled ``ZONE_SAMPLES_PER_TOOTH`` per tooth and
     widened by ``ZONE_PAD_SAMPLES`` samples each side.
 
+    ``min_pin_radius_m`` (default: ``max_pin_radius_m``) places the slope samples the
+    contact evaluates across a zone (``_slope_samples``).
+
     Returns
     -------
-    ndarray (n_zones, 5)
-        Rows (t_a, t_b, x, y, R): parameter range (rad, t_a in [0, 2π) ascending, t_b > t_a,
-        possibly past 2π) and the zone's bounding circle in the profile frame (m). Empty for
-        every unrelieved cycloid (its root radius exceeds the pin's).
+    ndarray (n_zones, N_ZONE)
+        Rows with the columns ``Z_*`` of :mod:`rvflex.contact._cycloid_kernel`: parameter
+        range (t_a, t_b) (rad, t_a in [0, 2π) ascending, t_b > t_a, possibly past 2π), the
+        slope samples, and the bounding circles of ZONE_ARCS equal parameter pieces of the
+        zone in the profile frame (m). Empty for every unrelieved cycloid (its root radius
+        exceeds the pin's).
     """
+    min_pin_radius_m = max_pin_radius_m if min_pin_radius_m is None else min_pin_radius_m
     n = profile.stage.disc_teeth * ZONE_SAMPLES_PER_TOOTH
     h = 2 * np.pi / n
     ts = np.arange(n) * h
@@ -406,13 +413,45 @@ def concave_zones(profile: CycloidProfile, max_pin_radius_m: float) -> np.ndarra
         b = a
         while wide[(b + 1) % n]:
             b += 1
-        tz = np.linspace(a * h, b * h, 4 * (b - a) + 2)
-        qz, _, _ = profile.evaluate(tz)
-        centre = 0.5 * (complex(qz.real.min(), qz.imag.min()) + complex(qz.real.max(), qz.imag.max()))
-        # sample chords sag by less than the pad: the radius bound holds for the curve between samples
-        radius = float(np.abs(qz - centre).max()) + float(np.abs(np.diff(qz)).max())
-        rows.append((a * h, b * h, centre.real, centre.imag, radius))
-    return np.array(sorted(rows))
+        ta, tb = a * h, b * h
+        row = np.zeros(K.N_ZONE)
+        row[K.Z_TA], row[K.Z_TB] = ta, tb
+        offsets = _slope_samples(profile, ta, tb, min_pin_radius_m)
+        row[K.Z_NS] = len(offsets)
+        row[K.Z_S0:K.Z_S0 + len(offsets)] = offsets
+        edges = np.linspace(ta, tb, K.ZONE_ARCS + 1)
+        for k, (lo, hi) in enumerate(zip(edges[:-1], edges[1:])):
+            qz, _, _ = profile.evaluate(np.linspace(lo, hi, 64))
+            centre = 0.5 * (complex(qz.real.min(), qz.imag.min()) + complex(qz.real.max(), qz.imag.max()))
+            # chords between the samples sag far less than their length: the circle covers the arc
+            row[K.Z_CX + 3 * k:K.Z_CX + 3 * k + 3] = (centre.real, centre.imag,
+                                                      float(np.abs(qz - centre).max() + np.abs(np.diff(qz)).max()))
+        rows.append(row)
+    return np.array(sorted(rows, key=lambda r: r[K.Z_TA]))
+
+
+def _slope_samples(profile: CycloidProfile, ta: float, tb: float, min_pin_radius_m: float) -> np.ndarray:
+    """Offsets from ``ta`` of the slope samples of the zone [ta, tb] (rad, ascending, 0 and
+    tb − ta included): both ends of every stretch whose radius of curvature is below
+    r_min − CONTACT_RANGE_M (at most one critical point of the distance there, a maximum)
+    and the quarter points of the stretches between them; uniform if that needs more than
+    ZONE_SLOPE_MAX samples."""
+    t = np.linspace(ta, tb, ZONE_FINE_SAMPLES)
+    strict = profile.curvature(t) < -1.0 / (min_pin_radius_m - K.CONTACT_RANGE_M)
+    cuts = [0]
+    for k in range(1, len(t) - 1):
+        if strict[k] and not (strict[k - 1] and strict[k + 1]):  # first or last sample of a strict stretch
+            cuts.append(k)
+    cuts.append(len(t) - 1)
+    out = [t[cuts[0]]]
+    for lo, hi in zip(cuts[:-1], cuts[1:]):
+        if not (strict[lo] and strict[hi] and strict[lo:hi + 1].all()):
+            out += list(np.linspace(t[lo], t[hi], 5)[1:-1])
+        out.append(t[hi])
+    out = np.unique(np.array(out) - ta)
+    if len(out) > K.ZONE_SLOPE_MAX:
+        out = np.linspace(0.0, tb - ta, K.ZONE_SLOPE_MAX)
+    return out
 
 
 def _exu():
@@ -491,7 +530,7 @@ def add_cycloid_pin_contact(mbs, disc_node: int, stage: CycloidStage, law: Conta
         max_penetration_m=max_penetration_m, _law_vec=law.vector(),
         _t_cache=np.full(len(radii), np.nan),
         _work=_Workspace.for_pins(len(radii), rigid_index, len(ref), m),
-        zones=concave_zones(prof, float(radii.max())), zone_window_rad=math.pi / stage.disc_teeth,
+        zones=concave_zones(prof, float(radii.max()), float(radii.min())), zone_window_rad=math.pi / stage.disc_teeth,
         modal_node=modal_node, phi=phi, rigid_index=rigid_index)
     _, _, _, out, _ = contact.evaluate(init[list(rigid_index)])
     worst = int(np.argmin(out[:, K.O_GAP]))
