@@ -26,6 +26,13 @@ each, and every distinct minimum within the contact range is a point. The sample
 every stretch where the radius of curvature is below the pin's minus the contact range
 (there the distance has at most one critical point, a maximum, so no minimum hides between
 two samples) and split the stretches between them in four.
+
+What stays a model limit: a point is born or dies where a minimum and a maximum of the
+distance merge, at a flank point whose radius of curvature equals the pin centre's distance.
+Were the pin penetrating there, its force would start or stop with a step; that needs a
+flank as tight as the pin to within the penetration (a conformal contact, which a line law
+does not describe anyway). It did not occur on seed 003's relieved roots: there the points
+appear and vanish with gaps of several µm (tests/test_contact_multipoint.py).
 Each point's gap, ∂g/∂q and ∂²g/∂q² are those of an ordinary closest point (the implicit
 function theorem holds at any non-degenerate minimum), so the Jacobian stays exact. A
 profile without zones pays nothing.
@@ -147,6 +154,15 @@ def _curvature(t, par, herr, hpsi):
     _q, q1, q2 = profile_point(t, par, herr, hpsi)
     s = math.sqrt(q1.real * q1.real + q1.imag * q1.imag)
     return (q1.real * q2.imag - q1.imag * q2.real) / (s * s * s)
+
+
+def empty_points(n_pins: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per-point outputs (n, MAX_POINTS, N_OUT) with every row unused (NaN, zero force and
+    friction) and their counts (n,) = 0, as :func:`evaluate` expects them on a first call."""
+    pout = np.full((n_pins, MAX_POINTS, N_OUT), np.nan)
+    pout[:, :, O_FORCE] = 0.0
+    pout[:, :, O_FT] = 0.0
+    return pout, np.zeros(n_pins, dtype=np.int64)
 
 
 @_jit
@@ -284,7 +300,9 @@ def evaluate(q, qd, offset, pins, radii, par, herr, hpsi, law, t_cache, phi, eta
     points (none: one point per pin), searched within ``zone_window`` (rad of t) of the
     closest point. ``out`` (n, N_OUT) sums each pin's points: the force and friction summed,
     the gap, point and parameter of its deepest point; ``pout`` (n, MAX_POINTS, N_OUT) has
-    every point (NaN rows unused) and ``npts_out`` (n,) their count.
+    every point and ``npts_out`` (n,) their count. On entry ``npts_out`` must hold the count
+    of the previous call on these arrays, rows past it unused (NaN, zero force): fresh arrays
+    come from :func:`empty_points`.
 
     Returns the largest penetration (m) and the number of closest-point failures (a pin
     with more than MAX_POINTS points counts as a failure).
@@ -335,15 +353,17 @@ def evaluate(q, qd, offset, pins, radii, par, herr, hpsi, law, t_cache, phi, eta
         if nz > 0 and ok:
             npts, dropped = _zone_points(c, radii[i], t, zones, zone_window, par, herr, hpsi, pts, npts)
             bad += dropped
-        npts_out[i] = npts
-        out[i, O_GAP] = math.inf
-        out[i, O_FORCE] = 0.0
-        out[i, O_FT] = 0.0
-        for p in range(npts, pout.shape[1]):
+        # rows past the previous call's count are unused already (see ``pout``): clear only those
+        # this call leaves, so a profile without zones never touches rows 1…
+        for p in range(npts, min(npts_out[i], pout.shape[1])):
             for col in range(N_OUT):
                 pout[i, p, col] = math.nan
             pout[i, p, O_FORCE] = 0.0
             pout[i, p, O_FT] = 0.0
+        npts_out[i] = npts
+        out[i, O_GAP] = math.inf
+        out[i, O_FORCE] = 0.0
+        out[i, O_FT] = 0.0
         for p in range(npts):
             t = pts[p, 0]
             d = pts[p, 1]

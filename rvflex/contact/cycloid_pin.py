@@ -244,7 +244,7 @@ class CycloidPinContact:
         eta_d = np.zeros(m) if eta_d is None else np.asarray(eta_d, float)
         n, npin = 3 + m, len(self.radii_m)
         f, k, d, out = np.empty(n), np.empty((n, n)), np.empty((n, n)), np.empty((npin, K.N_OUT))
-        pout, count = np.empty((npin, K.MAX_POINTS, K.N_OUT)), np.empty(npin, dtype=np.int64)
+        pout, count = K.empty_points(npin)
         pen, bad = K.evaluate(np.asarray(q, float), qd, self.offset_rad, self.pins_m, self.radii_m,
                               self.profile.par, self.profile.herr, self.profile.hpsi, self._law_vec,
                               self._t_cache, self.phi, eta, eta_d, f, k, d, out, self.zones, self.zone_window_rad,
@@ -351,7 +351,7 @@ class _Workspace:
         if tuple(rigid_index) != (0, 1, 2) or node_coords != 3:
             scatter = np.array(list(rigid_index) + list(range(node_coords, nobj)), dtype=np.intp)
         return cls(np.full(3, np.nan), np.full(3, np.nan), np.zeros(k), np.zeros((k, k)), np.zeros((k, k)),
-                   np.zeros((n, K.N_OUT)), np.zeros((n, K.MAX_POINTS, K.N_OUT)), np.zeros(n, dtype=np.int64), b"",
+                   np.zeros((n, K.N_OUT)), *K.empty_points(n), b"",
                    np.zeros(0), scatter,
                    np.asarray(rigid_index, dtype=np.intp), np.zeros(nobj), np.zeros((nobj, nobj)))
 
