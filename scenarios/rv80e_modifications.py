@@ -14,10 +14,12 @@ involute + pressure-angle 30.9″. Here the same three cycloid profiles on the c
 
 The 15 µm root relief, blended in over the short stretch beyond 75°, makes the root concave
 with a radius of curvature of 2.2 mm, smaller than the 3 mm pin: a pin sitting in the root
-touches the two rims of the dimple at once. Our contact element has one closest point per
-pin, so its force jumps from one rim to the other and neither the quasi-static Newton solve
-nor the generalized-α step converges; the run records the solver's message for that scheme
-(``{"error": ...}``) and goes on. The tip-only variant isolates what the tip relief does.
+touches the two rims of the dimple at once. The contact element gives each rim its own
+contact point (every separate local minimum of the pin–profile distance, see
+:mod:`rvflex.contact.cycloid_pin`), so the force follows the pin continuously through the
+root and both solvers converge. A run that does not converge all the same records the
+solver's message for that scheme (``{"error": ...}``) and the others go on. The tip-only
+variant isolates what the tip relief does.
 
 Seed 003 gives no error amounts (its "composite meshing error" comes from Romax), and its
 involute lead/profile crowning is not modelled (our mesh is a line-of-action spring): the runs

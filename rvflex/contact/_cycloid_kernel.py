@@ -4,12 +4,39 @@ Coordinates of the disc: q = (x, y, θ) of a planar rigid body (NodeRigidBody2D)
 profile frame is the body frame turned by a constant ``offset`` (disc phase). Pins are
 fixed circles in the ring (ground) frame.
 
-For each pin i the exact gap g_i(q) (closest point on the profile, see
+For each pin the exact gap g(q) (closest point on the profile, see
 :mod:`rvflex.geometry._kernels`) gives the potential-based generalised force
 Q = Σ f_i·∂g_i/∂q with f_i = f(x_i) ≥ 0, x_i = −g_i the penetration; the Jacobian of the
 left-hand side is K = Σ f'_i·∂g_i/∂q ⊗ ∂g_i/∂q − f_i·∂²g_i/∂q² (symmetric without friction)
 and D = Σ c·∂g_i/∂q ⊗ ∂g_i/∂q. A flexible disc adds columns (the contact point's mode-shape
 row projected on the normal) to ∂g_i/∂q; the law layer below is unchanged.
+
+Multi-point contact: the sum runs over contact points, not pins. A pin has one point per
+separate local minimum of its distance to the profile with a gap below ``CONTACT_RANGE_M``.
+Where the profile is convex, or concave with a radius of curvature larger than the pin
+(every unmodified cycloid), the distance has one minimum near the pin and the closest-point
+solve finds it. Two minima need a maximum between them, and a maximum of the distance at
+distance d needs a concave stretch of radius of curvature below d (1 + κ·d < 0): a relieved
+root whose radius is smaller than the pin. The contact precomputes those stretches
+("zones", see ``concave_zones`` in :mod:`rvflex.contact.cycloid_pin`). For a pin whose
+circle, widened by the contact range and the relief depth, reaches one of a zone's
+bounding circles, the slope of the distance at the zone's sample points tells where further
+minima lie (left of it, right of it, between two samples); a bracketed Newton solve finds
+each, and every distinct minimum within the contact range is a point. The samples bound
+every stretch where the radius of curvature is below the pin's minus the contact range
+(there the distance has at most one critical point, a maximum, so no minimum hides between
+two samples) and split the stretches between them in four.
+
+What stays a model limit: a point is born or dies where a minimum and a maximum of the
+distance merge, at a flank point whose radius of curvature equals the pin centre's distance.
+Were the pin penetrating there, its force would start or stop with a step; that needs a
+flank as tight as the pin to within the penetration (a conformal contact, which a line law
+does not describe anyway). It does not occur on seed 003's relieved roots: the rim points
+persist, and the root-bottom point appears and vanishes at least 5 µm open even with the
+disc pressed 10 µm into the root (measured rolling over ±0.3 rad of eccentric angle).
+Each point's gap, ∂g/∂q and ∂²g/∂q² are those of an ordinary closest point (the implicit
+function theorem holds at any non-degenerate minimum), so the Jacobian stays exact. A
+profile without zones pays nothing.
 """
 
 from __future__ import annotations
@@ -27,9 +54,23 @@ STRIP_FACTOR = 4.0 * math.sqrt(2.0) / 3.0
 L_KIND, L_K, L_EXP, L_C, L_MU, L_VREG, L_WIDTH, L_COMPL1, L_COMPL2, L_INV_RB = range(10)
 N_LAW = 10
 CURVATURE_STEP_T = 1e-6  # profile-parameter step of the central difference dκ/dt (error ~1e-12 relative)
-# per-pin output columns
+# per-pin and per-point output columns
 O_GAP, O_FORCE, O_PX, O_PY, O_T, O_FT = range(6)
 N_OUT = 6
+MAX_POINTS = 4  # contact points per pin: two rims and the bottom of a relieved root need 3
+CONTACT_RANGE_M = 50e-6  # a further local minimum with a gap below this is a contact point (the guard's depth)
+# concave-zone table columns: parameter range [t_a, t_b] in [0, 2π) (t_a sorted); the number of slope
+# samples and their parameters (offsets from t_a, ascending, t_a and t_b included); the bounding
+# circles (x, y, R) of ZONE_ARCS equal parameter pieces of Q([t_a, t_b])
+ZONE_ARCS = 8
+ZONE_SLOPE_MAX = 16
+Z_TA, Z_TB, Z_NS, Z_S0 = 0, 1, 2, 3
+Z_CX, Z_CY, Z_R = Z_S0 + ZONE_SLOPE_MAX, Z_S0 + ZONE_SLOPE_MAX + 1, Z_S0 + ZONE_SLOPE_MAX + 2
+N_ZONE = Z_S0 + ZONE_SLOPE_MAX + 3 * ZONE_ARCS
+ZONE_REACH_M = 50e-6  # a pin bridging a zone is this much farther from it than from its rims, at most (relief depth)
+LOCAL_NEWTON_TOL_T = 1e-11  # rad of t, as the closest-point solve
+LOCAL_NEWTON_MAXIT = 40
+DUPLICATE_T = 1e-8  # two Newton solves ending closer than this found the same minimum (rad of t)
 
 _jit = nb.njit(cache=True, nogil=True)
 
@@ -116,8 +157,137 @@ def _curvature(t, par, herr, hpsi):
     return (q1.real * q2.imag - q1.imag * q2.real) / (s * s * s)
 
 
+def empty_points(n_pins: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per-point outputs (n, MAX_POINTS, N_OUT) with every row unused (NaN, zero force and
+    friction) and their counts (n,) = 0, as :func:`evaluate` expects them on a first call."""
+    pout = np.full((n_pins, MAX_POINTS, N_OUT), np.nan)
+    pout[:, :, O_FORCE] = 0.0
+    pout[:, :, O_FT] = 0.0
+    return pout, np.zeros(n_pins, dtype=np.int64)
+
+
 @_jit
-def evaluate(q, qd, offset, pins, radii, par, herr, hpsi, law, t_cache, phi, eta, eta_d, force, kmat, dmat, out):
+def _local_minimum(c, t, a, b, max_step, par, herr, hpsi):
+    """Newton on (Q(t) − c)·Q'(t) = 0 from ``t`` that ends only at a minimum of |Q(t) − c|.
+
+    Downhill steps of at most ``max_step`` until the slope changes sign, then Newton kept
+    inside the bracket [a, b] (slope < 0 at a, > 0 at b; ±inf: not known yet), bisecting
+    where it would leave it or where the distance is not convex. Returns t, d, Q, N, κ (as
+    :func:`closest_point`) and convergence.
+    """
+    ok = False
+    q, q1, q2 = profile_point(t, par, herr, hpsi)
+    for _ in range(LOCAL_NEWTON_MAXIT):
+        dq = q - c
+        f = dq.real * q1.real + dq.imag * q1.imag
+        df = q1.real * q1.real + q1.imag * q1.imag + dq.real * q2.real + dq.imag * q2.imag
+        if f < 0.0:
+            a = t
+        else:
+            b = t
+        if df > 0.0:
+            tn = t - f / df
+            if abs(tn - t) < LOCAL_NEWTON_TOL_T:
+                ok = True
+                break
+        else:
+            tn = math.nan
+        if a > -math.inf and b < math.inf:
+            if not a < tn < b:  # NaN too
+                tn = 0.5 * (a + b)
+        elif math.isnan(tn) or abs(tn - t) > max_step:
+            tn = t + (max_step if f < 0.0 else -max_step)
+        t = tn
+        q, q1, q2 = profile_point(t, par, herr, hpsi)
+    s = math.sqrt(q1.real * q1.real + q1.imag * q1.imag)
+    nq = -1j * q1 / s
+    dq = c - q
+    d = dq.real * nq.real + dq.imag * nq.imag
+    kappa = (q1.real * q2.imag - q1.imag * q2.real) / (s * s * s)
+    return t, d, q, nq, kappa, ok
+
+
+@_jit
+def _zone_points(c, r_pin, t1, zones, window, par, herr, hpsi, pts, npts):
+    """Add to ``pts`` (rows t, d, Q.x, Q.y, N.x, N.y, κ; ``npts`` filled) every further local
+    minimum of the distance from ``c`` found from the concave zones within ``window`` of t1
+    that the pin's circle, widened by CONTACT_RANGE_M + ZONE_REACH_M, reaches. Returns the
+    new count and the number of minima dropped because ``pts`` was full."""
+    nz = zones.shape[0]
+    two_pi = 2.0 * math.pi
+    tw = t1 % two_pi
+    base = t1 - tw
+    j0 = np.searchsorted(zones[:, Z_TA], tw)
+    dropped = 0
+    reach = r_pin + CONTACT_RANGE_M + ZONE_REACH_M
+    slope = np.empty(ZONE_SLOPE_MAX)
+    for direction in range(2):
+        for step in range(nz):
+            jj = j0 + step if direction == 0 else j0 - 1 - step
+            j = jj % nz
+            shift = two_pi * ((jj - j) // nz)
+            ta = zones[j, Z_TA] + shift
+            tb = zones[j, Z_TB] + shift
+            if (direction == 0 and ta - tw > window) or (direction == 1 and tw - tb > window):
+                break
+            near = False
+            for b in range(ZONE_ARCS):
+                dx = c.real - zones[j, Z_CX + 3 * b]
+                dy = c.imag - zones[j, Z_CY + 3 * b]
+                if math.sqrt(dx * dx + dy * dy) - zones[j, Z_R + 3 * b] <= reach:
+                    near = True
+                    break
+            if not near:
+                continue
+            # slope of the squared distance at the zone's samples (see concave_zones): a minimum
+            # lies left of t_a if the slope is positive there, right of t_b if negative there,
+            # and between two samples where it turns from negative to positive
+            ns = int(zones[j, Z_NS])
+            for k in range(ns):
+                qk, q1k, _ = profile_point(base + ta + zones[j, Z_S0 + k], par, herr, hpsi)
+                slope[k] = (qk.real - c.real) * q1k.real + (qk.imag - c.imag) * q1k.imag
+            for k in range(-1, ns):
+                if k == -1:  # left of the zone; already known if the closest point lies there
+                    if slope[0] <= 0.0 or base + ta - window < t1 < base + ta:
+                        continue
+                    seed, lo, hi = base + ta, -math.inf, base + ta
+                elif k == ns - 1:  # right of the zone
+                    if slope[k] >= 0.0 or base + tb < t1 < base + tb + window:
+                        continue
+                    seed, lo, hi = base + tb, base + tb, math.inf
+                else:
+                    lo = base + ta + zones[j, Z_S0 + k]
+                    hi = base + ta + zones[j, Z_S0 + k + 1]
+                    if not (slope[k] < 0.0 <= slope[k + 1]):
+                        continue
+                    seed = 0.5 * (lo + hi)
+                t, d, q, nq, kap, ok = _local_minimum(c, seed, lo, hi, tb - ta, par, herr, hpsi)
+                if not ok or d - r_pin >= CONTACT_RANGE_M:
+                    continue
+                new = True
+                for p in range(npts):
+                    if abs(pts[p, 0] - t) < DUPLICATE_T:
+                        new = False
+                        break
+                if not new:
+                    continue
+                if npts == pts.shape[0]:
+                    dropped += 1
+                    continue
+                pts[npts, 0] = t
+                pts[npts, 1] = d
+                pts[npts, 2] = q.real
+                pts[npts, 3] = q.imag
+                pts[npts, 4] = nq.real
+                pts[npts, 5] = nq.imag
+                pts[npts, 6] = kap
+                npts += 1
+    return npts, dropped
+
+
+@_jit
+def evaluate(q, qd, offset, pins, radii, par, herr, hpsi, law, t_cache, phi, eta, eta_d, force, kmat, dmat, out,
+             zones, zone_window, pout, npts_out):
     """Generalised force (3 + m,), LHS Jacobians K, D ((3 + m)²) and per-pin outputs (n, N_OUT)
     of a disc with rigid coordinates ``q = (x, y, θ)`` and m modal coordinates ``eta``.
 
@@ -127,7 +297,16 @@ def evaluate(q, qd, offset, pins, radii, par, herr, hpsi, law, t_cache, phi, eta
     disc passes m = 0. The sliding of the sample point t(q) is in ∂g/∂q and K; left out of K,
     second order in u: ∂²(N·u)/∂q² and the change of the closest point with η.
 
-    Returns the largest penetration (m) and the number of closest-point failures.
+    ``zones`` (n_zones, N_ZONE) lists the concave zones where a pin can have further contact
+    points (none: one point per pin), searched within ``zone_window`` (rad of t) of the
+    closest point. ``out`` (n, N_OUT) sums each pin's points: the force and friction summed,
+    the gap, point and parameter of its deepest point; ``pout`` (n, MAX_POINTS, N_OUT) has
+    every point and ``npts_out`` (n,) their count. On entry ``npts_out`` must hold the count
+    of the previous call on these arrays, rows past it unused (NaN, zero force): fresh arrays
+    come from :func:`empty_points`.
+
+    Returns the largest penetration (m) and the number of closest-point failures (a pin
+    with more than MAX_POINTS points counts as a failure).
     """
     x0 = q[0]
     y0 = q[1]
@@ -149,157 +328,195 @@ def evaluate(q, qd, offset, pins, radii, par, herr, hpsi, law, t_cache, phi, eta
     h_grid = 2.0 * math.pi / max(ng, 1)
     hq = np.empty((3, 3))
     gt = np.empty(3)
+    pts = np.empty((pout.shape[1], 7))  # a pin's contact points: t, d, Q.x, Q.y, N.x, N.y, κ
+    nz = zones.shape[0]
     for i in range(pins.shape[0]):
         # pin centre in the profile frame: c = R(−θ)(P − C)
         dx = pins[i, 0] - x0
         dy = pins[i, 1] - y0
         cx = ct * dx + st * dy
         cy = -st * dx + ct * dy
-        t, d, qp, nq, kap, ok = closest_point(complex(cx, cy), par, herr, hpsi, t_cache[i])
+        c = complex(cx, cy)
+        t, d, qp, nq, kap, ok = closest_point(c, par, herr, hpsi, t_cache[i])
         if ok:
             t_cache[i] = t
         else:  # never warm-start from a failed solve
             bad += 1
             t_cache[i] = math.nan
-        gap = d - radii[i]
-        nx = nq.real
-        ny = nq.imag
-        if m > 0:
-            # modal flank displacement at t, normal component: ∂g/∂η_k = −N·Φ_k(t)
-            s = (t / (2.0 * math.pi)) % 1.0 * ng
-            j0 = int(s) % ng
-            j1 = (j0 + 1) % ng
-            w = s - math.floor(s)
-            for k in range(m):
-                un = (nx * ((1.0 - w) * phi[j0, 0, k] + w * phi[j1, 0, k])
-                      + ny * ((1.0 - w) * phi[j0, 1, k] + w * phi[j1, 1, k]))
-                gq[3 + k] = -un
-                gap -= un * eta[k]
-        pen = -gap
-        if pen > max_pen:
-            max_pen = pen
-        # world normal n = R(θ)N and world contact point (on the disc)
-        wnx = ct * nx - st * ny
-        wny = st * nx + ct * ny
-        px = x0 + ct * qp.real - st * qp.imag
-        py = y0 + st * qp.real + ct * qp.imag
-        out[i, O_GAP] = gap
-        out[i, O_PX] = px
-        out[i, O_PY] = py
-        out[i, O_T] = t
+        pts[0, 0] = t
+        pts[0, 1] = d
+        pts[0, 2] = qp.real
+        pts[0, 3] = qp.imag
+        pts[0, 4] = nq.real
+        pts[0, 5] = nq.imag
+        pts[0, 6] = kap
+        npts = 1
+        if nz > 0 and ok:
+            npts, dropped = _zone_points(c, radii[i], t, zones, zone_window, par, herr, hpsi, pts, npts)
+            bad += dropped
+        # rows past the previous call's count are unused already (see ``pout``): clear only those
+        # this call leaves, so a profile without zones never touches rows 1…
+        for p in range(npts, min(npts_out[i], pout.shape[1])):
+            for col in range(N_OUT):
+                pout[i, p, col] = math.nan
+            pout[i, p, O_FORCE] = 0.0
+            pout[i, p, O_FT] = 0.0
+        npts_out[i] = npts
+        out[i, O_GAP] = math.inf
         out[i, O_FORCE] = 0.0
         out[i, O_FT] = 0.0
-        if pen <= 0.0:
-            continue
-        # ∂g/∂q: −n for translation, −(c × N) for rotation
-        gq[0] = -wnx
-        gq[1] = -wny
-        gq[2] = -(cx * ny - cy * nx)
-        # columns of ∂c/∂q: a1 = −R(−θ)e_x, a2 = −R(−θ)e_y, a3 = −J c
-        a1x, a1y = -ct, st
-        a2x, a2y = -st, -ct
-        a3x, a3y = cy, -cx
-        if m > 0:
-            # the flank point of the modal displacement slides with t(q): ∂(N·Φ_k)/∂q =
-            # s_k·∂t/∂q, s_k = N'·Φ_k + N·Φ_k'; it enters ∂g/∂q (through u = Φη) and the
-            # modal–rigid blocks of K (fn·s_k·∂t/∂q, symmetric)
-            q1, q2, wt0, wt1, wt2 = _parameter_rate(t, par, herr, hpsi, cx, cy, a1x, a1y, a2x, a2y, a3x, a3y)
-            sq = math.sqrt(q1.real * q1.real + q1.imag * q1.imag)
-            d12 = (q1.real * q2.real + q1.imag * q2.imag) / (sq * sq * sq)
-            dnx = q2.imag / sq - q1.imag * d12
-            dny = -q2.real / sq + q1.real * d12
-            su = 0.0
-            for k in range(m):
-                phx = (1.0 - w) * phi[j0, 0, k] + w * phi[j1, 0, k]
-                phy = (1.0 - w) * phi[j0, 1, k] + w * phi[j1, 1, k]
-                sk[k] = (dnx * phx + dny * phy + nx * (phi[j1, 0, k] - phi[j0, 0, k]) / h_grid
-                         + ny * (phi[j1, 1, k] - phi[j0, 1, k]) / h_grid)
-                su += sk[k] * eta[k]
-            gq[0] -= su * wt0
-            gq[1] -= su * wt1
-            gq[2] -= su * wt2
-        pen_rate = -(gq[0] * qd[0] + gq[1] * qd[1] + gq[2] * qd[2])
-        for k in range(m):
-            pen_rate -= gq[3 + k] * eta_d[k]
-        f_el, df_el, dfk = _normal_law(pen, kap, radii[i], law)
-        fn = f_el + law[L_C] * pen_rate
-        if fn <= 0.0:  # the damper would pull: the pin leaves the flank
-            continue
-        out[i, O_FORCE] = fn
-        # ∂²g/∂q²: level-set curvature of the distance plus the rotation of c
-        tx = -ny  # profile tangent (disc frame), N = −i·T  ⇒  T = i·N
-        ty = nx
-        keff = kap / (1.0 + kap * d)
-        s1 = tx * a1x + ty * a1y
-        s2 = tx * a2x + ty * a2y
-        s3 = tx * a3x + ty * a3y
-        sv = (s1, s2, s3)
-        for a in range(3):
-            for b in range(3):
-                hq[a, b] = keff * sv[a] * sv[b]
-        if dfk != 0.0:
-            # the law depends on the curvature at the contact point, which slides along the
-            # flank: ∂κ/∂q = κ'(t)·∂t/∂q (∂t/∂q already known for a flexible disc)
-            if m == 0:
+        for p in range(npts):
+            t = pts[p, 0]
+            d = pts[p, 1]
+            qp = complex(pts[p, 2], pts[p, 3])
+            nq = complex(pts[p, 4], pts[p, 5])
+            kap = pts[p, 6]
+            gap = d - radii[i]
+            nx = nq.real
+            ny = nq.imag
+            if m > 0:
+                # modal flank displacement at t, normal component: ∂g/∂η_k = −N·Φ_k(t)
+                s = (t / (2.0 * math.pi)) % 1.0 * ng
+                j0 = int(s) % ng
+                j1 = (j0 + 1) % ng
+                w = s - math.floor(s)
+                for k in range(m):
+                    un = (nx * ((1.0 - w) * phi[j0, 0, k] + w * phi[j1, 0, k])
+                          + ny * ((1.0 - w) * phi[j0, 1, k] + w * phi[j1, 1, k]))
+                    gq[3 + k] = -un
+                    gap -= un * eta[k]
+            pen = -gap
+            if pen > max_pen:
+                max_pen = pen
+            # world normal n = R(θ)N and world contact point (on the disc)
+            wnx = ct * nx - st * ny
+            wny = st * nx + ct * ny
+            px = x0 + ct * qp.real - st * qp.imag
+            py = y0 + st * qp.real + ct * qp.imag
+            pout[i, p, O_GAP] = gap
+            pout[i, p, O_PX] = px
+            pout[i, p, O_PY] = py
+            pout[i, p, O_T] = t
+            pout[i, p, O_FORCE] = 0.0
+            pout[i, p, O_FT] = 0.0
+            if gap < out[i, O_GAP]:  # the pin's gap, point and parameter: its deepest point's
+                out[i, O_GAP] = gap
+                out[i, O_PX] = px
+                out[i, O_PY] = py
+                out[i, O_T] = t
+            if pen <= 0.0:
+                continue
+            # ∂g/∂q: −n for translation, −(c × N) for rotation
+            gq[0] = -wnx
+            gq[1] = -wny
+            gq[2] = -(cx * ny - cy * nx)
+            # columns of ∂c/∂q: a1 = −R(−θ)e_x, a2 = −R(−θ)e_y, a3 = −J c
+            a1x, a1y = -ct, st
+            a2x, a2y = -st, -ct
+            a3x, a3y = cy, -cx
+            if m > 0:
+                # the flank point of the modal displacement slides with t(q): ∂(N·Φ_k)/∂q =
+                # s_k·∂t/∂q, s_k = N'·Φ_k + N·Φ_k'; it enters ∂g/∂q (through u = Φη) and the
+                # modal–rigid blocks of K (fn·s_k·∂t/∂q, symmetric)
                 q1, q2, wt0, wt1, wt2 = _parameter_rate(t, par, herr, hpsi, cx, cy, a1x, a1y, a2x, a2y, a3x, a3y)
-            h = CURVATURE_STEP_T
-            gk = dfk * (_curvature(t + h, par, herr, hpsi) - _curvature(t - h, par, herr, hpsi)) / (2.0 * h)
-            dk0 = gk * wt0
-            dk1 = gk * wt1
-            dk2 = gk * wt2
-            for a in range(n):
-                kmat[a, 0] -= gq[a] * dk0
-                kmat[a, 1] -= gq[a] * dk1
-                kmat[a, 2] -= gq[a] * dk2
-        # N·∂²c/∂θ∂x = N·J R(−θ)e_x, N·∂²c/∂θ² = −N·c
-        jx = (st, ct)  # J·R(−θ)e_x with R(−θ)e_x = (ct, −st) and J(v) = (−v_y, v_x)
-        jy = (-ct, st)  # J·R(−θ)e_y with R(−θ)e_y = (st, ct)
-        hx = nx * jx[0] + ny * jx[1]
-        hy = nx * jy[0] + ny * jy[1]
-        hq[0, 2] += hx
-        hq[2, 0] += hx
-        hq[1, 2] += hy
-        hq[2, 1] += hy
-        hq[2, 2] += -(nx * cx + ny * cy)
-        for a in range(n):
-            force[a] += fn * gq[a]
-            for b in range(n):
-                kmat[a, b] += df_el * gq[a] * gq[b]
-                dmat[a, b] += law[L_C] * gq[a] * gq[b]
-        for a in range(3):
-            for b in range(3):
-                kmat[a, b] -= fn * hq[a, b]
-        if m > 0:
+                sq = math.sqrt(q1.real * q1.real + q1.imag * q1.imag)
+                d12 = (q1.real * q2.real + q1.imag * q2.imag) / (sq * sq * sq)
+                dnx = q2.imag / sq - q1.imag * d12
+                dny = -q2.real / sq + q1.real * d12
+                su = 0.0
+                for k in range(m):
+                    phx = (1.0 - w) * phi[j0, 0, k] + w * phi[j1, 0, k]
+                    phy = (1.0 - w) * phi[j0, 1, k] + w * phi[j1, 1, k]
+                    sk[k] = (dnx * phx + dny * phy + nx * (phi[j1, 0, k] - phi[j0, 0, k]) / h_grid
+                             + ny * (phi[j1, 1, k] - phi[j0, 1, k]) / h_grid)
+                    su += sk[k] * eta[k]
+                gq[0] -= su * wt0
+                gq[1] -= su * wt1
+                gq[2] -= su * wt2
+            pen_rate = -(gq[0] * qd[0] + gq[1] * qd[1] + gq[2] * qd[2])
             for k in range(m):
-                c0 = fn * sk[k]
-                kmat[3 + k, 0] += c0 * wt0
-                kmat[3 + k, 1] += c0 * wt1
-                kmat[3 + k, 2] += c0 * wt2
-                kmat[0, 3 + k] += c0 * wt0
-                kmat[1, 3 + k] += c0 * wt1
-                kmat[2, 3 + k] += c0 * wt2
-        mu = law[L_MU]
-        if mu > 0.0:
-            # regularised Coulomb friction at the contact point, opposing the disc's sliding
-            wtx = -wny
-            wty = wnx
-            rx = px - x0
-            ry = py - y0
-            gt[0] = wtx
-            gt[1] = wty
-            gt[2] = rx * wty - ry * wtx
-            vt = gt[0] * qd[0] + gt[1] * qd[1] + gt[2] * qd[2]
-            vr = law[L_VREG]
-            th_v = math.tanh(vt / vr)
-            ft = -mu * fn * th_v
-            out[i, O_FT] = ft
-            sech2 = 1.0 - th_v * th_v
+                pen_rate -= gq[3 + k] * eta_d[k]
+            f_el, df_el, dfk = _normal_law(pen, kap, radii[i], law)
+            fn = f_el + law[L_C] * pen_rate
+            if fn <= 0.0:  # the damper would pull: the pin leaves the flank
+                continue
+            pout[i, p, O_FORCE] = fn
+            out[i, O_FORCE] += fn
+            # ∂²g/∂q²: level-set curvature of the distance plus the rotation of c
+            tx = -ny  # profile tangent (disc frame), N = −i·T  ⇒  T = i·N
+            ty = nx
+            keff = kap / (1.0 + kap * d)
+            s1 = tx * a1x + ty * a1y
+            s2 = tx * a2x + ty * a2y
+            s3 = tx * a3x + ty * a3y
+            sv = (s1, s2, s3)
             for a in range(3):
-                force[a] += ft * gt[a]
                 for b in range(3):
-                    # F_t = −μ·F_n·tanh(v_t/v_reg), F_n = f(x) − c·∂g/∂q·q̇
-                    dmat[a, b] += mu * fn * sech2 / vr * gt[a] * gt[b] - mu * th_v * law[L_C] * gt[a] * gq[b]
-                    kmat[a, b] += mu * th_v * gt[a] * (-df_el * gq[b])
-            # friction acts on the rigid coordinates only: the tangential flank displacement of
-            # the modes is left out (friction is off in the catalogue models)
+                    hq[a, b] = keff * sv[a] * sv[b]
+            if dfk != 0.0:
+                # the law depends on the curvature at the contact point, which slides along the
+                # flank: ∂κ/∂q = κ'(t)·∂t/∂q (∂t/∂q already known for a flexible disc)
+                if m == 0:
+                    q1, q2, wt0, wt1, wt2 = _parameter_rate(t, par, herr, hpsi, cx, cy, a1x, a1y, a2x, a2y, a3x, a3y)
+                h = CURVATURE_STEP_T
+                gk = dfk * (_curvature(t + h, par, herr, hpsi) - _curvature(t - h, par, herr, hpsi)) / (2.0 * h)
+                dk0 = gk * wt0
+                dk1 = gk * wt1
+                dk2 = gk * wt2
+                for a in range(n):
+                    kmat[a, 0] -= gq[a] * dk0
+                    kmat[a, 1] -= gq[a] * dk1
+                    kmat[a, 2] -= gq[a] * dk2
+            # N·∂²c/∂θ∂x = N·J R(−θ)e_x, N·∂²c/∂θ² = −N·c
+            jx = (st, ct)  # J·R(−θ)e_x with R(−θ)e_x = (ct, −st) and J(v) = (−v_y, v_x)
+            jy = (-ct, st)  # J·R(−θ)e_y with R(−θ)e_y = (st, ct)
+            hx = nx * jx[0] + ny * jx[1]
+            hy = nx * jy[0] + ny * jy[1]
+            hq[0, 2] += hx
+            hq[2, 0] += hx
+            hq[1, 2] += hy
+            hq[2, 1] += hy
+            hq[2, 2] += -(nx * cx + ny * cy)
+            for a in range(n):
+                force[a] += fn * gq[a]
+                for b in range(n):
+                    kmat[a, b] += df_el * gq[a] * gq[b]
+                    dmat[a, b] += law[L_C] * gq[a] * gq[b]
+            for a in range(3):
+                for b in range(3):
+                    kmat[a, b] -= fn * hq[a, b]
+            if m > 0:
+                for k in range(m):
+                    c0 = fn * sk[k]
+                    kmat[3 + k, 0] += c0 * wt0
+                    kmat[3 + k, 1] += c0 * wt1
+                    kmat[3 + k, 2] += c0 * wt2
+                    kmat[0, 3 + k] += c0 * wt0
+                    kmat[1, 3 + k] += c0 * wt1
+                    kmat[2, 3 + k] += c0 * wt2
+            mu = law[L_MU]
+            if mu > 0.0:
+                # regularised Coulomb friction at the contact point, opposing the disc's sliding
+                wtx = -wny
+                wty = wnx
+                rx = px - x0
+                ry = py - y0
+                gt[0] = wtx
+                gt[1] = wty
+                gt[2] = rx * wty - ry * wtx
+                vt = gt[0] * qd[0] + gt[1] * qd[1] + gt[2] * qd[2]
+                vr = law[L_VREG]
+                th_v = math.tanh(vt / vr)
+                ft = -mu * fn * th_v
+                pout[i, p, O_FT] = ft
+                out[i, O_FT] += ft
+                sech2 = 1.0 - th_v * th_v
+                for a in range(3):
+                    force[a] += ft * gt[a]
+                    for b in range(3):
+                        # F_t = −μ·F_n·tanh(v_t/v_reg), F_n = f(x) − c·∂g/∂q·q̇
+                        dmat[a, b] += mu * fn * sech2 / vr * gt[a] * gt[b] - mu * th_v * law[L_C] * gt[a] * gq[b]
+                        kmat[a, b] += mu * th_v * gt[a] * (-df_el * gq[b])
+                # friction acts on the rigid coordinates only: the tangential flank displacement of
+                # the modes is left out (friction is off in the catalogue models)
     return max_pen, bad

@@ -7,6 +7,11 @@ closest-point gap of :mod:`rvflex.geometry` — no polygon, no Python loop over 
 force call stores the Jacobian it computes alongside, so Newton's Jacobian request at the
 same state costs nothing.
 
+A pin has one contact point per separate local minimum of its distance to the profile
+within the contact range (``CONTACT_RANGE_M`` of the kernel), each with its own force: a
+relieved root whose radius of curvature is smaller than the pin is touched on both rims
+(:func:`concave_zones` finds where the profile allows that).
+
 Which deformation it carries: the local contact compliance only (the normal law). Global
 deformation of the disc belongs to the flexible body (Craig–Bampton modes), not here.
 """
@@ -25,10 +30,14 @@ from rvflex.geometry.profile import CycloidProfile, build_profile
 from rvflex.spec import CycloidStage, ErrorSpec, Material
 
 __all__ = ["ContactError", "ContactLaw", "CycloidPinContact", "PinState", "add_cycloid_pin_contact",
-           "install_penetration_guard", "DEFAULT_MAX_PENETRATION_M"]
+           "concave_zones", "install_penetration_guard", "DEFAULT_MAX_PENETRATION_M", "MAX_POINTS"]
 
 DEFAULT_MAX_PENETRATION_M = 50e-6  # beyond any elastic approach of steel pins (a few µm): a run gone wrong
 DEFAULT_INITIAL_INTERFERENCE_M = 1e-6
+MAX_POINTS = K.MAX_POINTS
+ZONE_SAMPLES_PER_TOOTH = 4096  # curvature samples of the concave-zone search: 0.09° of tooth phase
+ZONE_PAD_SAMPLES = 2  # each zone widened by this many samples per side, so sampling cannot clip it
+ZONE_FINE_SAMPLES = 1025  # curvature samples across one zone when placing its slope samples
 
 
 class ContactError(RuntimeError):
@@ -142,9 +151,12 @@ class ContactLaw:
 class PinState:
     """Per-pin contact state (arrays of one row per pin, pin order).
 
-    gap_m: signed gap (m, negative = penetration); force_N: normal force (N);
-    tangential_force_N: friction force along the flank (N); point_m: contact point on the
-    disc in the ring frame (n, 2) (m); t: profile parameter of the contact point.
+    gap_m: signed gap (m, negative = penetration) of the pin's deepest point; force_N: normal
+    force (N), summed over the pin's contact points; tangential_force_N: friction force along
+    the flank (N), summed likewise; point_m: deepest contact point on the disc in the ring
+    frame (n, 2) (m); t: its profile parameter. ``points_*`` hold every contact point
+    (n, MAX_POINTS) (gap in m, normal force in N, profile parameter), NaN gap and t where a
+    pin has fewer points; ``point_count`` (n,) how many it has (1 on an unrelieved profile).
     """
 
     gap_m: np.ndarray
@@ -152,6 +164,10 @@ class PinState:
     tangential_force_N: np.ndarray
     point_m: np.ndarray
     t: np.ndarray
+    points_gap_m: np.ndarray | None = None
+    points_force_N: np.ndarray | None = None
+    points_t: np.ndarray | None = None
+    point_count: np.ndarray | None = None
 
     @property
     def in_contact(self) -> np.ndarray:
@@ -180,6 +196,11 @@ class CycloidPinContact:
     phi : ndarray
         (n_grid, 2, m) modal flank displacement in the profile frame on the uniform grid of
         the profile parameter, see :func:`rvflex.contact._cycloid_kernel.evaluate` (m = 0: rigid).
+    zones : ndarray
+        (n_zones, N_ZONE) concave zones of the profile where a pin can touch at several points
+        (:func:`concave_zones`); empty for a profile where it cannot.
+    zone_window_rad : float
+        Zones are searched within this profile-parameter distance of a pin's closest point (rad).
     """
 
     object_index: int
@@ -194,6 +215,8 @@ class CycloidPinContact:
     _law_vec: np.ndarray = field(repr=False)
     _t_cache: np.ndarray = field(repr=False)
     _work: "_Workspace" = field(repr=False)
+    zones: np.ndarray = field(default_factory=lambda: np.zeros((0, K.N_ZONE)), repr=False)
+    zone_window_rad: float = 0.0
     modal_node: int = -1
     phi: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 0)), repr=False)
     rigid_index: tuple[int, int, int] = (0, 1, 2)  # (x, y, θ) within the node's coordinates
@@ -208,18 +231,28 @@ class CycloidPinContact:
         """Force (3 + m,), LHS Jacobians K and D ((3 + m)²), per-pin outputs and max penetration
         at absolute rigid coordinates ``q = (x, y, θ)``, velocities ``qd`` and modal
         coordinates ``eta`` (m,) with rates ``eta_d``."""
+        f, k, d, out, _, _, pen = self.evaluate_points(q, qd, eta, eta_d)
+        return f, k, d, out, pen
+
+    def evaluate_points(self, q: np.ndarray, qd: np.ndarray | None = None, eta: np.ndarray | None = None,
+                        eta_d: np.ndarray | None = None):
+        """As :meth:`evaluate`, with every contact point: force, K, D, per-pin outputs (n, N_OUT),
+        per-point outputs (n, MAX_POINTS, N_OUT), point counts (n,) and max penetration."""
         m = self.n_modes
         qd = np.zeros(3) if qd is None else np.asarray(qd, float)
         eta = np.zeros(m) if eta is None else np.asarray(eta, float)
         eta_d = np.zeros(m) if eta_d is None else np.asarray(eta_d, float)
-        n = 3 + m
-        f, k, d, out = np.empty(n), np.empty((n, n)), np.empty((n, n)), np.empty((len(self.radii_m), K.N_OUT))
+        n, npin = 3 + m, len(self.radii_m)
+        f, k, d, out = np.empty(n), np.empty((n, n)), np.empty((n, n)), np.empty((npin, K.N_OUT))
+        pout, count = K.empty_points(npin)
         pen, bad = K.evaluate(np.asarray(q, float), qd, self.offset_rad, self.pins_m, self.radii_m,
                               self.profile.par, self.profile.herr, self.profile.hpsi, self._law_vec,
-                              self._t_cache, self.phi, eta, eta_d, f, k, d, out)
+                              self._t_cache, self.phi, eta, eta_d, f, k, d, out, self.zones, self.zone_window_rad,
+                              pout, count)
         if bad:
-            raise RuntimeError(f"cycloid–pin contact on node {self.node}: closest-point solve failed for {bad} pins")
-        return f, k, d, out, pen
+            raise RuntimeError(f"cycloid–pin contact on node {self.node}: closest-point solve failed for {bad} pins "
+                               f"(or a pin has more than {K.MAX_POINTS} contact points)")
+        return f, k, d, out, pout, count, pen
 
     def pin_state(self, mbs) -> PinState:
         """Per-pin gap, force and contact point at the system's current state."""
@@ -236,9 +269,10 @@ class CycloidPinContact:
                      eta_d: np.ndarray | None = None) -> PinState:
         """Per-pin state at absolute rigid coordinates ``q = (x, y, θ)`` and rates ``qd`` (and
         modal coordinates): e.g. replayed from a dynamic run's recorded disc states."""
-        _, _, _, out, _ = self.evaluate(q, qd, eta, eta_d)
+        _, _, _, out, pout, count, _ = self.evaluate_points(q, qd, eta, eta_d)
         return PinState(out[:, K.O_GAP].copy(), out[:, K.O_FORCE].copy(), out[:, K.O_FT].copy(),
-                        out[:, [K.O_PX, K.O_PY]].copy(), out[:, K.O_T].copy())
+                        out[:, [K.O_PX, K.O_PY]].copy(), out[:, K.O_T].copy(), pout[:, :, K.O_GAP].copy(),
+                        pout[:, :, K.O_FORCE].copy(), pout[:, :, K.O_T].copy(), count)
 
     # ------------------------------------------------------------------ user functions
     def _force_uf(self, mbs, t, item, q, q_t):
@@ -257,7 +291,8 @@ class CycloidPinContact:
             eta, eta_d = q[nn:], q_t[nn:]
         w.penetration, w.bad = K.evaluate(w.q, w.qd, self.offset_rad, self.pins_m, self.radii_m, self.profile.par,
                                           self.profile.herr, self.profile.hpsi, self._law_vec, self._t_cache,
-                                          self.phi, eta, eta_d, w.f, w.k, w.d, w.out)
+                                          self.phi, eta, eta_d, w.f, w.k, w.d, w.out, self.zones,
+                                          self.zone_window_rad, w.pout, w.count)
         if w.scatter is None:
             return w.f
         w.f_obj[w.scatter] = w.f
@@ -296,6 +331,8 @@ class _Workspace:
     k: np.ndarray
     d: np.ndarray
     out: np.ndarray
+    pout: np.ndarray  # per contact point (n, MAX_POINTS, N_OUT)
+    count: np.ndarray  # contact points per pin (n,)
     key: bytes  # the object's coordinates and velocities at the last evaluation
     no_modes: np.ndarray  # empty modal coordinates of a rigid disc
     scatter: np.ndarray | None  # positions of (x, y, θ, η…) in the object's coordinates; None: identity
@@ -314,7 +351,8 @@ class _Workspace:
         if tuple(rigid_index) != (0, 1, 2) or node_coords != 3:
             scatter = np.array(list(rigid_index) + list(range(node_coords, nobj)), dtype=np.intp)
         return cls(np.full(3, np.nan), np.full(3, np.nan), np.zeros(k), np.zeros((k, k)), np.zeros((k, k)),
-                   np.zeros((n, K.N_OUT)), b"", np.zeros(0), scatter,
+                   np.zeros((n, K.N_OUT)), *K.empty_points(n), b"",
+                   np.zeros(0), scatter,
                    np.asarray(rigid_index, dtype=np.intp), np.zeros(nobj), np.zeros((nobj, nobj)))
 
 
@@ -331,6 +369,89 @@ def install_penetration_guard(mbs, contacts: list[CycloidPinContact]) -> None:
         return [0.0, 0.0]
 
     mbs.SetPostNewtonUserFunction(post_newton)
+
+
+def concave_zones(profile: CycloidProfile, max_pin_radius_m: float, min_pin_radius_m: float | None = None) -> np.ndarray:
+    """Stretches of ``profile`` where a pin of radius up to ``max_pin_radius_m`` can touch at
+    more than one point.
+
+    Two local minima of the distance from a pin centre need a maximum between them, and a
+    maximum at distance d needs a concave stretch with radius of curvature below d
+    (1 + κ·d < 0). Within the contact range d ≤ r + CONTACT_RANGE_M, so the zones are where
+    κ < −1/(r_max + CONTACT_RANGE_M), sampled ``ZONE_SAMPLES_PER_TOOTH`` per tooth and
+    widened by ``ZONE_PAD_SAMPLES`` samples each side.
+
+    ``min_pin_radius_m`` (default: ``max_pin_radius_m``) places the slope samples the
+    contact evaluates across a zone (``_slope_samples``).
+
+    Returns
+    -------
+    ndarray (n_zones, N_ZONE)
+        Rows with the columns ``Z_*`` of :mod:`rvflex.contact._cycloid_kernel`: parameter
+        range (t_a, t_b) (rad, t_a in [0, 2π) ascending, t_b > t_a, possibly past 2π), the
+        slope samples, and the bounding circles of ZONE_ARCS equal parameter pieces of the
+        zone in the profile frame (m). Empty for every unrelieved cycloid (its root radius
+        exceeds the pin's).
+    """
+    min_pin_radius_m = max_pin_radius_m if min_pin_radius_m is None else min_pin_radius_m
+    n = profile.stage.disc_teeth * ZONE_SAMPLES_PER_TOOTH
+    h = 2 * np.pi / n
+    ts = np.arange(n) * h
+    tight = profile.curvature(ts) < -1.0 / (max_pin_radius_m + K.CONTACT_RANGE_M)
+    if not tight.any():
+        return np.zeros((0, K.N_ZONE))
+    if tight.all():
+        raise ValueError("profile: concave everywhere with a radius below the pin's (not a cycloid disc)")
+    # widen on the circle, then find the runs starting after a non-tight sample
+    idx = np.flatnonzero(tight)
+    wide = np.zeros(n, bool)
+    for k in range(-ZONE_PAD_SAMPLES, ZONE_PAD_SAMPLES + 1):
+        wide[(idx + k) % n] = True
+    start = np.flatnonzero(wide & ~np.roll(wide, 1))
+    rows = []
+    for a in start:
+        b = a
+        while wide[(b + 1) % n]:
+            b += 1
+        ta, tb = a * h, b * h
+        row = np.zeros(K.N_ZONE)
+        row[K.Z_TA], row[K.Z_TB] = ta, tb
+        offsets = _slope_samples(profile, ta, tb, min_pin_radius_m)
+        row[K.Z_NS] = len(offsets)
+        row[K.Z_S0:K.Z_S0 + len(offsets)] = offsets
+        edges = np.linspace(ta, tb, K.ZONE_ARCS + 1)
+        for k, (lo, hi) in enumerate(zip(edges[:-1], edges[1:])):
+            qz, _, _ = profile.evaluate(np.linspace(lo, hi, 64))
+            centre = 0.5 * (complex(qz.real.min(), qz.imag.min()) + complex(qz.real.max(), qz.imag.max()))
+            # chords between the samples sag far less than their length: the circle covers the arc
+            row[K.Z_CX + 3 * k:K.Z_CX + 3 * k + 3] = (centre.real, centre.imag,
+                                                      float(np.abs(qz - centre).max() + np.abs(np.diff(qz)).max()))
+        rows.append(row)
+    return np.array(sorted(rows, key=lambda r: r[K.Z_TA]))
+
+
+def _slope_samples(profile: CycloidProfile, ta: float, tb: float, min_pin_radius_m: float) -> np.ndarray:
+    """Offsets from ``ta`` of the slope samples of the zone [ta, tb] (rad, ascending, 0 and
+    tb − ta included): both ends of every stretch whose radius of curvature is below
+    r_min − CONTACT_RANGE_M (at most one critical point of the distance there, a maximum)
+    and the quarter points of the stretches between them; uniform if that needs more than
+    ZONE_SLOPE_MAX samples."""
+    t = np.linspace(ta, tb, ZONE_FINE_SAMPLES)
+    strict = profile.curvature(t) < -1.0 / (min_pin_radius_m - K.CONTACT_RANGE_M)
+    cuts = [0]
+    for k in range(1, len(t) - 1):
+        if strict[k] and not (strict[k - 1] and strict[k + 1]):  # first or last sample of a strict stretch
+            cuts.append(k)
+    cuts.append(len(t) - 1)
+    out = [t[cuts[0]]]
+    for lo, hi in zip(cuts[:-1], cuts[1:]):
+        if not (strict[lo] and strict[hi] and strict[lo:hi + 1].all()):
+            out += list(np.linspace(t[lo], t[hi], 5)[1:-1])
+        out.append(t[hi])
+    out = np.unique(np.array(out) - ta)
+    if len(out) > K.ZONE_SLOPE_MAX:
+        out = np.linspace(0.0, tb - ta, K.ZONE_SLOPE_MAX)
+    return out
 
 
 def _exu():
@@ -409,6 +530,7 @@ def add_cycloid_pin_contact(mbs, disc_node: int, stage: CycloidStage, law: Conta
         max_penetration_m=max_penetration_m, _law_vec=law.vector(),
         _t_cache=np.full(len(radii), np.nan),
         _work=_Workspace.for_pins(len(radii), rigid_index, len(ref), m),
+        zones=concave_zones(prof, float(radii.max()), float(radii.min())), zone_window_rad=math.pi / stage.disc_teeth,
         modal_node=modal_node, phi=phi, rigid_index=rigid_index)
     _, _, _, out, _ = contact.evaluate(init[list(rigid_index)])
     worst = int(np.argmin(out[:, K.O_GAP]))
