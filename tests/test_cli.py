@@ -51,7 +51,7 @@ def test_unknown_reducer_is_refused_and_nothing_written(tmp_path, capsys):
     code = main(["geometry", "--reducer", "rv41e", "--json", str(tmp_path / "g.json"), "--out", str(tmp_path / "o")])
     assert code == 2
     err = capsys.readouterr().err
-    assert "--reducer = 'rv41e': unknown reducer; built-in: rv40e, rv80e" in err
+    assert "--reducer = 'rv41e': unknown reducer; built-in: rv160n, rv40e, rv80e" in err
     assert list(tmp_path.iterdir()) == []
 
 
