@@ -202,7 +202,7 @@ def test_the_exact_second_disc_matches_the_turned_first_one(setup):
     assert np.max(np.abs(turned - exact)) < 0.6
 
 
-def test_three_cranks_run_with_flexible_discs_and_carrier():
+def test_three_cranks_run_with_flexible_discs_and_carrier(fe_cache):
     """The three-crank user spec (tests/fixtures/drive3_user.toml, z_c 35, no half-turn symmetry):
     flexible discs (disc 1 its own reduction) and the FE carrier build and solve at rated load;
     each adds wind-up to the rigid model's."""

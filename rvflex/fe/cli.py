@@ -1,4 +1,5 @@
-"""The FE commands of ``rvflex`` (``rvflex reduce``)."""
+"""The FE commands of ``rvflex``: ``rvflex reduce``, and ``rvflex units`` (the unit matrix at every
+fidelity, :mod:`rvflex.scenarios.unit_matrix`)."""
 
 from __future__ import annotations
 
@@ -45,6 +46,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--cache-dir", help="cache directory (default $RVFLEX_CACHE_DIR or ~/.cache/rvflex)")
     p.add_argument("--out", help=argparse.SUPPRESS)
     p.set_defaults(func=_cmd_reduce)
+    from rvflex.scenarios import unit_matrix  # every unit at every fidelity (flexible discs and carrier included)
+
+    unit_matrix.register(sub)
 
 
 def _describe(s, part: FEPart) -> str:
