@@ -211,3 +211,28 @@ def test_a_non_converging_run_is_one_message_and_exit_1():
     with pytest.raises(rvflex.RunError) as info:
         rvflex.run(rvflex.LostMotion(spec, errors, steps=40))
     assert str(info.value) == want and isinstance(info.value.__cause__, SolveError)
+
+
+def test_reduce_command_reduces_the_disc_a_three_crank_unit_needs(monkeypatch, capsys):
+    """``rvflex reduce --part disc --disc 1`` on the RV-160N class (three cranks, discs 180° apart):
+    the reduction of disc 1's own geometry — cranks turned by π/39 against the teeth (the build
+    step is stood in for, so nothing is meshed); on the RV-40E disc 1 is disc 0 turned: the same spec."""
+    import math
+
+    from rvflex import catalog
+    from rvflex.fe import reduce
+
+    seen = []
+
+    def stand_in(spec, part, settings, key, progress):
+        seen.append(spec)
+        raise RuntimeError("stood in")
+
+    monkeypatch.setattr(reduce, "_build", stand_in)
+    assert main(["reduce", "--reducer", "rv160n", "--part", "disc", "--disc", "1", "--no-cache"]) == 1
+    a0 = catalog.load("rv160n").cranks.angles_rad
+    assert seen[-1].cranks.angles_rad == pytest.approx([(a + math.pi / 39) % (2 * math.pi) for a in a0], abs=1e-12)
+    assert main(["reduce", "--reducer", "rv40e", "--part", "disc", "--disc", "1", "--no-cache"]) == 1
+    assert seen[-1] == catalog.load("rv40e")
+    assert main(["reduce", "--reducer", "rv40e", "--part", "carrier", "--disc", "1"]) == 2
+    assert "--disc = 1: applies to --part disc, 0 to 1" in capsys.readouterr().err

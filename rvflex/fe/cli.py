@@ -32,6 +32,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                                    f"--attach {DISC_FLANK_BASIS.attach_per_tooth}.")
     p.add_argument("--reducer", required=True, help="catalogue name (rv40e) or spec TOML path")
     p.add_argument("--part", required=True, choices=choices(FEPart))
+    p.add_argument("--disc", type=int, default=0, metavar="D",
+                   help="with --part disc: the disc whose FE body to reduce (default 0); a disc that is not disc 0 "
+                        "turned by a symmetry of the layout (three cranks, discs 180° apart) has its own reduction, "
+                        "which the flexible models compute on first use")
     p.add_argument("--json", help="write the result document here")
     p.add_argument("--maxh", type=float, metavar="M", help=f"largest element size, m (default {disc.maxh_m:g} for the disc, "
                                               f"{carrier.maxh_m:g} for the carrier)")
@@ -83,6 +87,12 @@ def _cmd_reduce(args: argparse.Namespace) -> int:
 
     spec = catalog.resolve(args.reducer)
     settings = reduce_settings(args)
+    if args.disc:
+        from rvflex.parts.cycloid_disc import fe_disc_placements, fe_disc_spec
+
+        if args.part != "disc" or not 0 <= args.disc < spec.cycloid.disc_count:
+            raise SpecError("--disc", args.disc, f"applies to --part disc, 0 to {spec.cycloid.disc_count - 1}")
+        spec = fe_disc_spec(spec, fe_disc_placements(spec)[args.disc].holes_turn_rad)
     t0 = time.perf_counter()
     with tqdm(total=len(STEPS), desc=f"reduce {args.part}", unit="step", file=sys.stderr, mininterval=0.2,
               bar_format="{desc}: {n}/{total} {postfix} [{elapsed}]") as bar:
