@@ -216,12 +216,21 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None,
         if isinstance(reduced_disc, (tuple, list)):  # one given per disc
             reduced_discs = tuple(reduced_disc)
         else:
+            from rvflex.fe.types import FEError
+
             by_turn = {} if reduced_disc is None else {0.0: reduced_disc}
-            for place in cycloid_disc.fe_disc_placements(spec):
-                if place.holes_turn_rad not in by_turn:
-                    by_turn[place.holes_turn_rad] = reduce_part(cycloid_disc.fe_disc_spec(spec, place.holes_turn_rad),
-                                                                "disc", **dataclasses.asdict(options.discs))
-                reduced_discs += (by_turn[place.holes_turn_rad],)
+            for d, place in enumerate(cycloid_disc.fe_disc_placements(spec)):
+                h = place.holes_turn_rad
+                if h not in by_turn:
+                    try:
+                        by_turn[h] = reduce_part(cycloid_disc.fe_disc_spec(spec, h), "disc",
+                                                 **dataclasses.asdict(options.discs))
+                    except FEError as err:
+                        if h == 0.0:
+                            raise
+                        raise FEError(f"disc {d}'s own FE body (cranks and pillars turned by {h:.6f} rad against "
+                                      f"the teeth): {err}") from err
+                reduced_discs += (by_turn[h],)
         reduced_disc = reduced_discs[0]
     discs = cycloid_disc.build(mbs, spec, errors, cranks, law, ecc, axes,
                                fidelity="flexible" if options.flexible_discs_on else "rigid",

@@ -236,3 +236,30 @@ def test_reduce_command_reduces_the_disc_a_three_crank_unit_needs(monkeypatch, c
     assert seen[-1] == catalog.load("rv40e")
     assert main(["reduce", "--reducer", "rv40e", "--part", "carrier", "--disc", "1"]) == 2
     assert "--disc = 1: applies to --part disc, 0 to 1" in capsys.readouterr().err
+
+
+def test_a_failing_build_of_a_discs_own_fe_body_names_that_disc(tmp_path, monkeypatch):
+    """Three cranks: disc 1 has its own FE body; when its meshing fails (disc 0 reduced before
+    netgen breaks), the RunError names disc 1 and its geometry."""
+    import netgen.occ
+
+    import rvflex
+    from rvflex.fe.reduce import reduce_part
+    from rvflex.scenarios.unit_matrix import COARSE_DISC, options_for
+
+    class Broken:
+        def __init__(self, shape):
+            pass
+
+        def GenerateMesh(self, **kw):
+            raise RuntimeError("netgen: surface meshing failed")
+
+    monkeypatch.setenv("RVFLEX_CACHE_DIR", str(tmp_path))
+    spec = rvflex.load_reducer(FIXTURES / "drive3_user.toml")
+    reduce_part(spec, "disc", **COARSE_DISC)  # disc 0 in the cache
+    monkeypatch.setattr(netgen.occ, "OCCGeometry", Broken)
+    with pytest.raises(rvflex.RunError) as info:
+        rvflex.run(rvflex.LoadedTE(spec, positions_per_rev=16, options=options_for("flexible", coarse=True)))
+    assert info.value.failure.startswith("disc 1's own FE body (cranks and pillars turned by 0.089760 rad against "
+                                         "the teeth): meshing/assembly of the disc (maxh 8 mm, order 1, 12 modes) "
+                                         "failed: netgen: surface meshing failed")
