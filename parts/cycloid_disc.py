@@ -15,7 +15,8 @@ from rvflex.fe.geometry import pillar_angles
 from rvflex.parts import bearings
 from rvflex.spec import ErrorSpec, ReducerSpec
 
-__all__ = ["DiscHandles", "build", "bore_positions", "contact_mode_table"]
+__all__ = ["DiscHandles", "FEDiscPlacement", "build", "bore_positions", "contact_mode_table", "fe_disc_placements",
+           "fe_disc_spec"]
 
 
 @dataclass(frozen=True)
@@ -63,11 +64,13 @@ def build(mbs, spec: ReducerSpec, errors: ErrorSpec, cranks, law: ContactLaw, ec
     """Add the discs at their reference poses (output angle 0): disc d's centre is where its
     eccentrics put it, crank axis + eccentric − bore (averaged over the cranks).
 
-    ``fidelity="flexible"`` needs ``reduced``, the Craig–Bampton disc
+    ``fidelity="flexible"`` needs ``reduced``, the Craig–Bampton discs
     (:class:`rvflex.fe.reduce.ReducedPart`: FEMinterface with its modes, the bore
-    interfaces, bore 0 the floating-frame reference, and the flank mode rows) and
-    ``ground_coordinate``, a ground coordinate marker that holds each disc's out-of-plane
-    coordinates (z, ψx, ψy).
+    interfaces, bore 0 the floating-frame reference, and the flank mode rows): one per disc,
+    each the reduction of ``fe_disc_spec(spec, p.holes_turn_rad)`` for that disc's
+    :func:`fe_disc_placements` entry ``p``, or a single one when every placement uses disc 0's
+    geometry; and ``ground_coordinate``, a ground coordinate marker that holds each disc's
+    out-of-plane coordinates (z, ψx, ψy).
     """
     check_choice("fidelity", fidelity, BodyFidelity)
     if fidelity == "flexible":
@@ -119,14 +122,85 @@ def _marker_nodes(positions: np.ndarray, ring: np.ndarray) -> np.ndarray:
     return np.asarray(picks if len(picks) >= 3 else ring, dtype=int)
 
 
-def _half_turn_symmetric(spec: ReducerSpec) -> bool:
-    """z_c odd, and cranks and pillars map onto themselves under a half turn."""
-    def symmetric(angles) -> bool:
-        a = np.mod(np.asarray(angles, float), 2 * math.pi)
-        b = np.mod(a + math.pi, 2 * math.pi)
-        return all(np.min(np.abs(np.angle(np.exp(1j * (a - x))))) < 1e-9 for x in b)
+@dataclass(frozen=True)
+class FEDiscPlacement:
+    """How disc ``d`` of a unit is made from an FE disc (angles in rad).
 
-    return spec.cycloid.disc_teeth % 2 == 1 and symmetric(spec.cranks.angles_rad) and symmetric(pillar_angles(spec))
+    The FE disc is disc 0's geometry of a spec whose cranks (and so pillars) sit turned by
+    ``holes_turn_rad`` against the teeth (:func:`fe_disc_spec`); it enters the model turned by
+    ``beta_rad``. Disc d's profile sits turned by α_d = −φ_d/z_c against its bores: either a
+    rotation β of the hole layout onto itself matches α_d to a whole number of teeth (then
+    ``holes_turn_rad`` = 0, disc 0's reduction serves: the RV-40E's two discs, β = π), or the
+    FE disc is the exact disc d: holes turned by −α (α = α_d wrapped to ±half a tooth) and β = α.
+    """
+
+    beta_rad: float
+    holes_turn_rad: float
+
+
+def fe_disc_placements(spec: ReducerSpec) -> tuple[FEDiscPlacement, ...]:
+    """One :class:`FEDiscPlacement` per disc; the same ``holes_turn_rad`` means the same FE disc
+    (and the same cached reduction)."""
+    cy, cr = spec.cycloid, spec.cranks
+    tooth = 2 * math.pi / cy.disc_teeth
+    out = []
+    for phase in cy.disc_phase_rad:
+        alpha = -phase / cy.disc_teeth
+        place = None
+        for a_k in cr.angles_rad:  # a rotation of the layout onto itself takes crank 0 to some crank k
+            beta = float((a_k - cr.angles_rad[0]) % (2 * math.pi))
+            whole = (alpha - beta) / tooth
+            if (abs(whole - round(whole)) < 1e-6 and _maps_onto(cr.angles_rad, beta, cr.angles_rad)
+                    and _maps_onto(pillar_angles(spec), beta, pillar_angles(spec))):
+                place = FEDiscPlacement(beta, 0.0)
+                break
+        if place is None:
+            a = float(alpha - tooth * round(alpha / tooth))
+            place = FEDiscPlacement(a, -a)
+        out.append(place)
+    return tuple(out)
+
+
+def _turn_onto(spec: ReducerSpec, red, d: int) -> float:
+    """The turn β (rad) that puts the FE disc ``red`` onto disc ``d``: its bores and pillar holes
+    onto the disc's, and its profile onto the disc's to a whole number of teeth.
+
+    Raises
+    ------
+    ValueError
+        ``red`` is the reduction of another disc geometry (no such turn).
+    """
+    cy, cr = spec.cycloid, spec.cranks
+    tooth = 2 * math.pi / cy.disc_teeth
+    c0 = red.interfaces[0].centre_m
+    h = math.atan2(c0[1], c0[0]) - cr.angles_rad[0]  # the FE disc's holes, turned against the teeth
+    alpha = -cy.disc_phase_rad[d] / cy.disc_teeth
+    for a_k in cr.angles_rad:
+        beta = float((a_k - cr.angles_rad[0] - h) % (2 * math.pi))
+        whole = (alpha - beta) / tooth
+        if (abs(whole - round(whole)) < 1e-6 and _maps_onto(np.add(cr.angles_rad, h), beta, cr.angles_rad)
+                and _maps_onto(pillar_angles(spec) + h, beta, pillar_angles(spec))):
+            return beta
+    raise ValueError(f"fidelity = 'flexible': the reduced disc given for disc {d} (phase {cy.disc_phase_rad[d]:.4f} "
+                     f"rad) is another disc geometry (holes turned by {h:.6f} rad against the teeth); reduce "
+                     f"fe_disc_spec(spec, fe_disc_placements(spec)[{d}].holes_turn_rad)")
+
+
+def _maps_onto(angles, beta: float, target) -> bool:
+    """Every angle of ``angles`` turned by ``beta`` is one of ``target`` (to 1e-6 rad)."""
+    t = np.asarray(target, float)
+    return all(np.min(np.abs(np.angle(np.exp(1j * (t - a - beta))))) < 1e-6 for a in np.asarray(angles, float))
+
+
+def fe_disc_spec(spec: ReducerSpec, holes_turn_rad: float) -> ReducerSpec:
+    """The spec whose disc 0 is the FE disc of a placement: cranks turned by ``holes_turn_rad``
+    (the pillars follow them, :func:`rvflex.fe.geometry.pillar_angles`); ``spec`` itself for 0."""
+    if holes_turn_rad == 0.0:
+        return spec
+    import dataclasses
+
+    angles = tuple(float((a + holes_turn_rad) % (2 * math.pi)) for a in spec.cranks.angles_rad)
+    return dataclasses.replace(spec, cranks=dataclasses.replace(spec.cranks, angles_rad=angles))
 
 
 def _build_flexible(mbs, spec, errors, cranks, law, eccentric_offsets, axes, reduced, ground_coordinate) -> DiscHandles:
@@ -140,24 +214,27 @@ def _build_flexible(mbs, spec, errors, cranks, law, eccentric_offsets, axes, red
     if reduced is None or int(ground_coordinate) < 0:
         raise ValueError("fidelity = 'flexible': needs the reduced disc and a ground coordinate marker")
     cy = spec.cycloid
-    positions = reduced.node_positions_m
-    if reduced.flank is None or reduced.flank.rows.shape[0] % cy.disc_teeth:
-        raise ValueError("fidelity = 'flexible': the reduced disc has no flank mode rows on a whole-tooth grid")
-    grid_per_tooth = reduced.flank.rows.shape[0] // cy.disc_teeth
-    ffrf = ffrf_module.ffrf_interface(reduced)  # one interface (cached on disk) serves every disc
+    per_disc = tuple(reduced) if isinstance(reduced, (tuple, list)) else (reduced,) * cy.disc_count
+    if len(per_disc) != cy.disc_count:
+        raise ValueError(f"fidelity = 'flexible': {len(per_disc)} reduced discs for {cy.disc_count} discs")
+    ffrfs = {}  # one interface (cached on disk) per distinct FE disc
     nodes, bodies, contacts, ecc_bearings, modal_nodes = [], [], [], [], []
     for d in range(cy.disc_count):
         if errors.disc_bore_distance_error_m and errors.disc_bore_distance_error_m[d]:
             raise ValueError("fidelity = 'flexible': disc bore-distance errors need their own FE geometry (not yet)")
+        red = per_disc[d]
+        positions = red.node_positions_m
+        if red.flank is None or red.flank.rows.shape[0] % cy.disc_teeth:
+            raise ValueError("fidelity = 'flexible': the reduced disc has no flank mode rows on a whole-tooth grid")
+        grid_per_tooth = red.flank.rows.shape[0] // cy.disc_teeth
+        if id(red) not in ffrfs:
+            ffrfs[id(red)] = ffrf_module.ffrf_interface(red)
+        ffrf = ffrfs[id(red)]
         bores = bore_positions(spec, errors, d)
         centre = np.mean(axes + eccentric_offsets[:, d] - bores, axis=0)
-        # the FE disc is disc 0 (profile frame = body frame); disc d's profile is turned by
-        # −φ_d/z_c against its bores. With z_c odd and a layout symmetric under a half turn
-        # (RV: two cranks and pillars opposite), that disc is the FE disc turned by β = π.
-        beta = 0.0 if cy.disc_phase_rad[d] == 0.0 else math.pi
-        if beta and not _half_turn_symmetric(spec):
-            raise ValueError(f"fidelity = 'flexible': disc {d} (phase {cy.disc_phase_rad[d]:.4f} rad) needs its own "
-                             "FE geometry; only a layout symmetric under a half turn with odd z_c reuses disc 0")
+        # the FE disc's profile frame is its body frame; disc d's profile is turned by −φ_d/z_c
+        # against its bores, so the FE disc enters turned by β (fe_disc_placements)
+        beta = _turn_onto(spec, red, d)
         rot = np.array([[math.cos(beta), -math.sin(beta), 0.0], [math.sin(beta), math.cos(beta), 0.0], [0, 0, 1.0]])
         h = ffrf.AddObjectFFRFreducedOrder(mbs, positionRef=[centre[0], centre[1], 0.0], rotationMatrixRef=rot)
         node, modal, body = int(h["nRigidBody"]), int(h["nGenericODE2"]), int(h["oFFRFreducedOrder"])
@@ -169,9 +246,8 @@ def _build_flexible(mbs, spec, errors, cranks, law, eccentric_offsets, axes, red
             idx = k * cy.disc_count + d
             extra = errors.eccentric_bearing_clearance_m[idx] if errors.eccentric_bearing_clearance_m else 0.0
             # the FE bore that sits at bore k once the FE disc is turned by β
-            fe_bore = int(np.argmin([np.hypot(*(rot[:2, :2] @ itf.centre_m[:2] - bores[k]))
-                                     for itf in reduced.interfaces]))
-            bnodes = _marker_nodes(positions, np.asarray(reduced.interfaces[fe_bore].nodes, dtype=int))
+            fe_bore = int(np.argmin([np.hypot(*(rot[:2, :2] @ itf.centre_m[:2] - bores[k])) for itf in red.interfaces]))
+            bnodes = _marker_nodes(positions, np.asarray(red.interfaces[fe_bore].nodes, dtype=int))
             w = np.full(len(bnodes), 1.0 / len(bnodes))
             ref = w @ positions[bnodes]
             target = rot[:2, :2].T @ bores[k]  # bore centre in the FE frame
@@ -180,9 +256,9 @@ def _build_flexible(mbs, spec, errors, cranks, law, eccentric_offsets, axes, red
                 meshNodeNumbers=bnodes.tolist(), weightingFactors=w.tolist()))
             pairs.append(bearings.build(mbs, cranks.eccentric_markers[k][d], marker, spec.bearings.eccentric,
                                         extra_clearance_m=extra))
-        # profile frame against the FE (node) frame: −φ_d/z_c − β, a whole number of teeth for the half turn
+        # profile frame against the FE (node) frame: −φ_d/z_c − β, a whole number of teeth
         offset = -cy.disc_phase_rad[d] / cy.disc_teeth - beta
-        phi = contact_mode_table(reduced.flank, offset, grid_per_tooth, cy.disc_teeth)
+        phi = contact_mode_table(red.flank, offset, grid_per_tooth, cy.disc_teeth)
         contacts.append(add_cycloid_pin_contact(mbs, node, cy, law, disc=d, errors=errors,
                                                 initial_interference_m=50e-6, modal_node=modal, phi=phi,
                                                 offset_rad=offset))

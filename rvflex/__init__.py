@@ -19,6 +19,7 @@ _LAZY = {
     "load_reducer": "rvflex.api",
     "load_errors": "rvflex.api",
     "run": "rvflex.api",
+    "RunError": "rvflex.api",
     "build_reducer": "rvflex.model",
     "ReducerModel": "rvflex.model",
     "ModelOptions": "rvflex.options",
@@ -34,11 +35,11 @@ _LAZY = {
 }
 
 __all__ = ["ErrorSpec", "FlexibilityEffect", "LoadedTE", "LostMotion", "ModelOptions", "PartSettings", "ReducerModel",
-           "ReducerSpec", "Result", "ReversalBacklash", "SpecError", "__version__", "build_reducer", "load_errors",
-           "load_reducer", "run"]
+           "ReducerSpec", "Result", "ReversalBacklash", "RunError", "SpecError", "__version__", "build_reducer",
+           "load_errors", "load_reducer", "run"]
 
 if TYPE_CHECKING:  # for type checkers and IDEs; at run time the names load lazily
-    from rvflex.api import load_errors, load_reducer, run
+    from rvflex.api import RunError, load_errors, load_reducer, run
     from rvflex.fe.reduce import PartSettings
     from rvflex.model import ReducerModel, build_reducer
     from rvflex.options import ModelOptions

@@ -20,9 +20,64 @@ from rvflex import catalog
 from rvflex.spec import ErrorSpec, ReducerSpec, SpecError, load_spec
 from rvflex.spec import load_errors as load_errors_file
 
-__all__ = ["SCENARIO_TYPES", "load_errors", "load_reducer", "run"]
+__all__ = ["SCENARIO_TYPES", "RunError", "describe_run", "load_errors", "load_reducer", "one_line", "run"]
 
 SCENARIO_TYPES = ("LoadedTE", "LostMotion", "ReversalBacklash", "FlexibilityEffect")
+
+
+class RunError(RuntimeError):
+    """A run that was set up correctly failed: its model could not be built (an FE reduction, the
+    Exudyn assembly) or its solve did not converge.
+
+    ``str(error)`` is one line, ``"<unit>, <run>: <what failed>"``, e.g. ``"rv80e, loaded TE
+    (flexible, 800 N·m, 256 positions/rev): Craig–Bampton reduction of the disc (maxh 6 mm, order 2,
+    12 modes) failed: ..."``; the ``rvflex`` command prints the same line. The original exception
+    is ``error.__cause__`` (its traceback: ``rvflex --debug``).
+
+    Attributes
+    ----------
+    unit : str
+        The reducer's name (``spec.name``).
+    run : str
+        The scenario with its fidelity and main settings.
+    failure : str
+        What failed (the first line of the original message).
+    """
+
+    def __init__(self, unit: str, run: str, failure: str):
+        super().__init__(f"{unit}, {run}: {failure}")
+        self.unit, self.run, self.failure = unit, run, failure
+
+    def __reduce__(self):  # picklable: a failing run in a worker process stays a RunError
+        return (type(self), (self.unit, self.run, self.failure))
+
+
+def one_line(err: BaseException) -> str:
+    """The first line of ``err``'s message, prefixed by its type unless it is one of rvflex's own
+    errors or a plain RuntimeError (whose messages say what failed); '(more with --debug)' when
+    lines were dropped."""
+    lines = [ln.strip() for ln in str(err).splitlines() if ln.strip()]
+    text = lines[0] if lines else "(no message)"
+    if len(lines) > 1:
+        text += " (more with --debug)"
+    if type(err).__module__.startswith("rvflex") or type(err) is RuntimeError:
+        return text
+    return f"{type(err).__name__}: {text}"
+
+
+def describe_run(scenario) -> str:
+    """``"loaded TE (flexible, 800 N·m, 256 positions/rev)"``: the scenario, its fidelity and main
+    settings, as :class:`RunError` names a run."""
+    name = {"LoadedTE": "loaded TE", "LostMotion": "lost motion", "ReversalBacklash": "reversal backlash",
+            "FlexibilityEffect": "flexibility effect"}.get(type(scenario).__name__, type(scenario).__name__)
+    opts = getattr(scenario, "options", None)
+    parts = [opts.fidelity] if opts is not None and hasattr(opts, "fidelity") else []
+    for field, fmt in (("load_Nm", "{:g} N·m"), ("torque_Nm", "±{:g} N·m"), ("positions_per_rev", "{} positions/rev"),
+                       ("steps", "{} steps"), ("positions", "{} positions")):
+        v = getattr(scenario, field, None)
+        if v is not None:
+            parts.append(fmt.format(v))
+    return f"{name} ({', '.join(parts)})" if parts else name
 
 
 def load_reducer(name_or_path: str | os.PathLike, *, field: str = "name_or_path") -> ReducerSpec:
@@ -122,7 +177,12 @@ def run(scenario, *, model=None, progress=None):
     TypeError
         ``scenario`` is not one of the scenario types, or ``model`` not a ReducerModel.
     SpecError
-        ``model`` was built from another spec, errors or options than the scenario's.
+        Bad input: ``model`` was built from another spec, errors or options than the scenario's,
+        or a setting is out of range (the message names the field and the rule).
+    RunError
+        Anything else that failed while building the model or solving (an FE reduction, a step
+        that did not converge): one line naming the unit, the run and what failed, the original
+        exception as ``__cause__``.
     """
     from rvflex.scenarios.flexibility_effect import FlexibilityEffect
     from rvflex.scenarios.loaded_te import LoadedTE
@@ -133,10 +193,17 @@ def run(scenario, *, model=None, progress=None):
     if not isinstance(scenario, types):
         raise TypeError(f"rvflex.run: expected a scenario ({', '.join('rvflex.' + n for n in SCENARIO_TYPES)}), "
                         f"got {type(scenario).__name__}: {scenario!r:.80}")
-    if model is None:
-        return scenario.run(progress=progress)
-    with _preserved(model):
-        return scenario.run(model=model, progress=progress)
+    if model is not None:
+        preserved = _preserved(model)
+    try:
+        if model is None:
+            return scenario.run(progress=progress)
+        with preserved:
+            return scenario.run(model=model, progress=progress)
+    except (SpecError, RunError):
+        raise
+    except Exception as exc:
+        raise RunError(scenario.spec.name, describe_run(scenario), one_line(exc)) from exc
 
 
 class _preserved:

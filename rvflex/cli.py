@@ -10,6 +10,7 @@ import argparse
 import io
 import os
 import sys
+import traceback
 from pathlib import Path
 
 import rvflex.scenarios  # noqa: F401 -- registers the scenarios sweeps run (rvflex.scenarios.sweepable)
@@ -315,6 +316,9 @@ def build_parser() -> argparse.ArgumentParser:
                                 epilog="SI inside; reports TE in arcsec, lost motion and backlash in arcmin, "
                                        "stiffness in N·m/arcmin. Each command's --help states its defaults. "
                                        "FE reductions are cached under $RVFLEX_CACHE_DIR or ~/.cache/rvflex.")
+    p.add_argument("--debug", action="store_true",
+                   help="on a failure, print the Python traceback as well as the one-line message, and let Exudyn "
+                        "write its console messages (may also follow the command)")
     sub = p.add_subparsers(dest="command", required=True)
     g = sub.add_parser("geometry", help="cycloid-stage geometry report and profile plot")
     g.add_argument("--reducer", required=True, help=f"built-in reducer ({', '.join(catalog.names())}) or a spec TOML path")
@@ -397,13 +401,48 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of the ``rvflex`` console script."""
+    """Entry point of the ``rvflex`` console script.
+
+    Exit codes: 0 done; 1 a run or build failed (one line on stderr naming the unit, the run or
+    part and what failed); 2 bad input (one line naming the field, the value and the rule). No
+    traceback unless ``--debug`` is given (anywhere on the command line).
+    """
+    from rvflex.api import RunError, one_line
+
+    argv = list(sys.argv[1:] if argv is None else argv)
+    debug = "--debug" in argv
+    argv = [a for a in argv if a != "--debug"]  # accepted before or after the command
     args = build_parser().parse_args(argv)
+    quiet = not debug  # Exudyn's own console banners ("STATIC SOLVER FAILED", hints) are for --debug
+    if quiet:
+        import exudyn
+
+        was = exudyn.config.printToConsole
+        exudyn.config.printToConsole = False
     try:
         return args.func(args)
     except SpecError as err:
+        if debug:
+            traceback.print_exc()
         print(f"rvflex: error: {_flag_error(err, getattr(args, 'flags', {}))}", file=sys.stderr)
         return 2
+    except Exception as err:  # noqa: BLE001 -- the one place a failure becomes a message
+        if debug:
+            traceback.print_exc()
+        if isinstance(err, RunError):
+            msg = str(err)
+        else:
+            what = " ".join(str(getattr(args, k)) for k in ("command", "bench") if getattr(args, k, None))
+            unit = getattr(args, "reducer", None)
+            msg = f"{unit + ', ' if unit else ''}rvflex {what}: {one_line(err)}"
+        print(f"rvflex: error: {msg}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print("rvflex: interrupted", file=sys.stderr)
+        return 130
+    finally:
+        if quiet:  # as it was, for a caller that goes on in this process (tests)
+            exudyn.config.printToConsole = was
 
 
 if __name__ == "__main__":

@@ -86,8 +86,9 @@ class ReducerModel:
     crank_axes: np.ndarray
     disc_centres: np.ndarray
     input_seat_supports: tuple = ()  # flexible carrier: each crank's second support bearing (input-plate seat)
-    reduced_disc: object = None  # the disc's rvflex.fe.reduce.ReducedPart (FE discs), else None
+    reduced_disc: object = None  # disc 0's rvflex.fe.reduce.ReducedPart (FE discs), else None
     reduced_carrier: object = None  # the carrier's ReducedPart (FE carrier), else None
+    reduced_discs: tuple = ()  # FE discs: every disc's ReducedPart (the same object where discs share one)
 
     @property
     def fidelity(self) -> str:
@@ -204,8 +205,14 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None,
     couplings): each crank then has two support bearings (one per plate seat, half the lumped
     pair each); output angle, load, regulariser and main bearing act on the output face's frame
     (docs/flexible.md). ``reduced_disc`` / ``reduced_carrier`` (:class:`rvflex.fe.reduce.ReducedPart`)
-    inject an existing reduction: that part is then flexible with the reduction's own settings,
+    inject an existing reduction (``reduced_disc``: disc 0's, or a tuple with one per disc): that
+    part is then flexible with the reduction's own settings,
     which the model's ``options`` record. ``law`` overrides ``options.contact_law``.
+
+    Every layout takes FE discs: a disc that is disc 0 turned by a symmetry of the crank and
+    pillar layout (to a whole number of teeth) shares disc 0's reduction; any other disc (three
+    cranks with discs 180° apart, a phase that is not a half turn) gets its own, the exact disc
+    geometry (:func:`rvflex.parts.cycloid_disc.fe_disc_placements`; cached like disc 0's).
 
     Parameters
     ----------
@@ -219,7 +226,7 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None,
     law : ContactLaw, optional
         Overrides ``options.contact_law``.
     reduced_disc, reduced_carrier : ReducedPart, optional
-        An existing reduction of the disc or the carrier to use.
+        An existing reduction of the disc (disc 0's, or a tuple with one per disc) or the carrier to use.
 
     Returns
     -------
@@ -238,7 +245,8 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None,
 
     options = as_options(options, "options")
     if reduced_disc is not None:
-        options = dataclasses.replace(options, discs=reduced_disc.settings)
+        first = reduced_disc[0] if isinstance(reduced_disc, (tuple, list)) else reduced_disc
+        options = dataclasses.replace(options, discs=first.settings)
     if reduced_carrier is not None:
         options = dataclasses.replace(options, carrier=reduced_carrier.settings)
     check_geometry(spec)  # the profile check of every spec entering a model (variants made by replace)
@@ -265,15 +273,35 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None,
                               carrier, sun.node, axes, fidelity="rigid")
     seat_in = carrier_part.add_input_seat_bearings(mbs, spec, errors, carrier, cranks) if flexible_carrier else ()
     ecc = crankshaft.eccentric_offsets(spec, errors)
-    if options.flexible_discs_on and reduced_disc is None:
+    reduced_discs = ()
+    if options.flexible_discs_on:
         from rvflex.fe.reduce import reduce_part
 
-        reduced_disc = reduce_part(spec, "disc", **dataclasses.asdict(options.discs))
+        # a disc that is not disc 0 turned (fe_disc_placements) is reduced as the exact disc it is
+        if isinstance(reduced_disc, (tuple, list)):  # one given per disc
+            reduced_discs = tuple(reduced_disc)
+        else:
+            from rvflex.fe.types import FEError
+
+            by_turn = {} if reduced_disc is None else {0.0: reduced_disc}
+            for d, place in enumerate(cycloid_disc.fe_disc_placements(spec)):
+                h = place.holes_turn_rad
+                if h not in by_turn:
+                    try:
+                        by_turn[h] = reduce_part(cycloid_disc.fe_disc_spec(spec, h), "disc",
+                                                 **dataclasses.asdict(options.discs))
+                    except FEError as err:
+                        if h == 0.0:
+                            raise
+                        raise FEError(f"disc {d}'s own FE body (cranks and pillars turned by {h:.6f} rad against "
+                                      f"the teeth): {err}") from err
+                reduced_discs += (by_turn[h],)
+        reduced_disc = reduced_discs[0]
     discs = cycloid_disc.build(mbs, spec, errors, cranks, law, ecc, axes,
-                               fidelity="flexible" if options.flexible_discs_on else "rigid", reduced=reduced_disc,
-                               ground_coordinate=ground_coord)
+                               fidelity="flexible" if options.flexible_discs_on else "rigid",
+                               reduced=reduced_discs or None, ground_coordinate=ground_coord)
     mbs.Assemble()
     ref = np.asarray(mbs.systemData.GetODE2Coordinates(configuration=exu.ConfigurationType.Reference))
     centres = np.array([np.asarray(mbs.GetNode(n)["referenceCoordinates"])[:2] for n in discs.nodes])
     return ReducerModel(spec, errors, options, sc, mbs, sun, carrier, cranks, discs, pins, ref, axes, centres, seat_in,
-                        reduced_disc, reduced_carrier)
+                        reduced_disc, reduced_carrier, reduced_discs)

@@ -159,3 +159,69 @@ def test_fe_convergence_scenario_runs_its_cases(setup):
     assert rows[0]["mean_windup_arcsec"] == pytest.approx(rigid.mean(), abs=1e-6)
     assert rows[1]["n_modes"] == reduced.n_modes
     assert rows[1]["mean_windup_arcsec"] < rows[0]["mean_windup_arcsec"]
+
+
+# --------------------------------------------------------------------------- every layout
+
+def test_a_disc_that_is_not_disc_0_turned_gets_its_own_fe_geometry():
+    """RV-40E/80E: disc 1 (phase π, z_c odd) is disc 0 turned by a half turn, which maps the two
+    cranks and pillars onto themselves: one reduction serves both. Three cranks 120° apart have
+    no half-turn symmetry: disc 1 gets the exact disc (holes turned by π/z_c against the teeth)."""
+    from pathlib import Path
+
+    from rvflex import catalog
+    from rvflex.parts.cycloid_disc import fe_disc_placements
+
+    for name in ("rv40e", "rv80e"):
+        p = fe_disc_placements(catalog.load(name))
+        assert [(q.beta_rad, q.holes_turn_rad) for q in p] == [(0.0, 0.0), (np.pi, 0.0)]
+    for spec in (catalog.load("rv160n"), catalog.resolve(str(Path(__file__).parent / "fixtures" / "drive3_user.toml"))):
+        p = fe_disc_placements(spec)
+        half_tooth = np.pi / spec.cycloid.disc_teeth
+        assert p[0].holes_turn_rad == 0.0 and abs(abs(p[1].holes_turn_rad) - half_tooth) < 1e-12
+        assert p[1].beta_rad == -p[1].holes_turn_rad
+
+
+def test_the_exact_second_disc_matches_the_turned_first_one(setup):
+    """Measured, not assumed: the RV-40E's disc 1 reduced as its own geometry (holes turned by
+    π/39 against the teeth, a different mesh) gives the TE of disc 0 turned by a half turn to
+    within the coarse mesh's noise (measured 0.26″ largest difference on a 218″ wind-up, 0.03″
+    in the mean), so the exact-disc path is the same physics."""
+    from rvflex.fe.reduce import reduce_part
+    from rvflex.parts.cycloid_disc import fe_disc_spec
+
+    spec, reduced, theta, _ = setup
+    own = reduce_part(fe_disc_spec(spec, np.pi / spec.cycloid.disc_teeth), "disc", **COARSE)
+    assert own.key != reduced.key
+    turned = quasi_static(build_reducer(spec, None, "flexible", reduced_disc=(reduced, reduced)), theta,
+                          spec.rated_torque_Nm).te_rad * ARCSEC_PER_RAD
+    exact = quasi_static(build_reducer(spec, None, "flexible", reduced_disc=(reduced, own)), theta,
+                         spec.rated_torque_Nm).te_rad * ARCSEC_PER_RAD
+    assert abs(turned.mean() - exact.mean()) < 0.2
+    assert np.max(np.abs(turned - exact)) < 0.6
+
+
+def test_three_cranks_run_with_flexible_discs_and_carrier(fe_cache):
+    """The three-crank user spec (tests/fixtures/drive3_user.toml, z_c 35, no half-turn symmetry):
+    flexible discs (disc 1 its own reduction) and the FE carrier build and solve at rated load;
+    each adds wind-up to the rigid model's."""
+    from pathlib import Path
+
+    from rvflex import catalog
+    from rvflex.options import ModelOptions
+
+    spec = catalog.resolve(str(Path(__file__).parent / "fixtures" / "drive3_user.toml"))
+    theta = np.linspace(0.0, 2 * np.pi * spec.nominal_ratio / spec.cycloid.pin_count, 6, endpoint=False)
+    coarse_carrier = {"maxh_m": 8e-3, "n_modes": 6, "mesh_order": 1}
+    means = {}
+    for label, opts in (("rigid", ModelOptions.rigid()),
+                        ("flexible", ModelOptions.flexible_discs().with_fe("discs", **COARSE)),
+                        ("flexible-carrier", ModelOptions.flexible_discs_and_carrier().with_fe("discs", **COARSE)
+                         .with_fe("carrier", **coarse_carrier))):
+        model = build_reducer(spec, None, opts)
+        if label != "rigid":
+            assert len(model.reduced_discs) == 2 and model.reduced_discs[0].key != model.reduced_discs[1].key
+        te = quasi_static(model, theta, spec.rated_torque_Nm).te_rad * ARCSEC_PER_RAD
+        assert np.all(np.isfinite(te))
+        means[label] = te.mean()
+    assert means["flexible-carrier"] < means["flexible"] < means["rigid"] < 0

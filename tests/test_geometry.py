@@ -167,6 +167,24 @@ def test_warm_start_gives_the_same_gap(rv40e):
     assert np.max(np.abs(cold.t - warm.t)) < 1e-10
 
 
+@pytest.mark.parametrize("unit", ["rv40e", "rv80e"])
+@pytest.mark.parametrize("offset_m", [-10 * UM, 0.0, 10 * UM, 3e-3], ids=["inside", "on", "outside", "pin"])
+def test_cold_solve_finds_every_point_near_the_profile(unit, offset_m):
+    """Points Q(t) + d·n(t) at 256 phases per tooth: the cold solve returns gap d and
+    parameter t exactly. Flank points (d ≈ 0) lie a generating radius ≈ 2e inside the
+    pin-centre curve, where inverting |p(t)| = |c| put the start on the tooth root, half a
+    pitch off; on the RV-80E (r = 2e − 22 µm) Newton then did not converge for 39 of these
+    9984 points at d = 0, all near a tooth tip, and for 7 of its FE disc's flank nodes."""
+    c = catalog.load(unit).cycloid
+    prof = build_profile(c)
+    t = np.linspace(0.0, 2 * np.pi, c.disc_teeth * 256, endpoint=False) + 1e-4
+    q, q1, _ = prof.evaluate(t)
+    pts = q - offset_m * 1j * q1 / np.abs(q1)  # outward normal −i·Q'/|Q'|
+    g = prof.gap(np.column_stack([pts.real, pts.imag]), np.zeros(t.size))  # raises if any solve fails
+    assert np.max(np.abs(g.gap_m - offset_m)) < 1e-10
+    assert np.max(np.abs((g.t - t + np.pi) % (2 * np.pi) - np.pi)) < 1e-8
+
+
 @pytest.mark.parametrize("with_errors", [False, True])
 def test_a_lost_warm_start_falls_back_to_a_cold_solve(rv40e, errors40, with_errors):
     """A warm start far from the pin's minimum (a stale parameter cached at a wild Newton

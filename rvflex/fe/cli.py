@@ -1,4 +1,5 @@
-"""The FE commands of ``rvflex`` (``rvflex reduce``)."""
+"""The FE commands of ``rvflex``: ``rvflex reduce``, and ``rvflex units`` (the unit matrix at every
+fidelity, :mod:`rvflex.scenarios.unit_matrix`)."""
 
 from __future__ import annotations
 
@@ -31,6 +32,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                                    f"--attach {DISC_FLANK_BASIS.attach_per_tooth}.")
     p.add_argument("--reducer", required=True, help="catalogue name (rv40e) or spec TOML path")
     p.add_argument("--part", required=True, choices=choices(FEPart))
+    p.add_argument("--disc", type=int, default=0, metavar="D",
+                   help="with --part disc: the disc whose FE body to reduce (default 0); a disc that is not disc 0 "
+                        "turned by a symmetry of the layout (three cranks, discs 180° apart) has its own reduction, "
+                        "which the flexible models compute on first use")
     p.add_argument("--json", help="write the result document here")
     p.add_argument("--maxh", type=float, metavar="M", help=f"largest element size, m (default {disc.maxh_m:g} for the disc, "
                                               f"{carrier.maxh_m:g} for the carrier)")
@@ -45,6 +50,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--cache-dir", help="cache directory (default $RVFLEX_CACHE_DIR or ~/.cache/rvflex)")
     p.add_argument("--out", help=argparse.SUPPRESS)
     p.set_defaults(func=_cmd_reduce)
+    from rvflex.scenarios import unit_matrix  # every unit at every fidelity (flexible discs and carrier included)
+
+    unit_matrix.register(sub)
 
 
 def _describe(s, part: FEPart) -> str:
@@ -79,6 +87,12 @@ def _cmd_reduce(args: argparse.Namespace) -> int:
 
     spec = catalog.resolve(args.reducer)
     settings = reduce_settings(args)
+    if args.disc:
+        from rvflex.parts.cycloid_disc import fe_disc_placements, fe_disc_spec
+
+        if args.part != "disc" or not 0 <= args.disc < spec.cycloid.disc_count:
+            raise SpecError("--disc", args.disc, f"applies to --part disc, 0 to {spec.cycloid.disc_count - 1}")
+        spec = fe_disc_spec(spec, fe_disc_placements(spec)[args.disc].holes_turn_rad)
     t0 = time.perf_counter()
     with tqdm(total=len(STEPS), desc=f"reduce {args.part}", unit="step", file=sys.stderr, mininterval=0.2,
               bar_format="{desc}: {n}/{total} {postfix} [{elapsed}]") as bar:

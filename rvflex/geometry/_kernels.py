@@ -27,6 +27,7 @@ N_PAR = 12
 NEWTON_TOL_T = 1e-11  # rad of t: 7e-13 m of arc on an RV-40E disc; the gap error is second order
 NEWTON_MAXIT = 30
 SCAN_SAMPLES = 256  # per two tooth pitches each side, for the fallback scan
+COLD_SAMPLES_PER_PITCH = 16  # cold-start scan of the pin-centre curve, ±1 pitch about the polar angle
 
 _jit = nb.njit(cache=True, fastmath={"contract", "afn", "arcp", "nsz"}, nogil=True)  # no "nnan": NaN marks a cold start
 
@@ -160,33 +161,41 @@ def _wrap(x):
 
 
 @_jit
-def _polar_guess(c, par):
-    """Parameter t where the pin-centre curve p(t) passes closest to point c, in closed form.
+def _cold_start(c, par):
+    """Start parameter of a cold closest-point solve for a point ``c`` anywhere near the
+    profile: the best of ``2·COLD_SAMPLES_PER_PITCH + 1`` samples of |p(t) − c|² over
+    t ∈ arg c ± one pitch, p the pin-centre curve.
 
-    On the curve, c·e^{−it} = R − e·e^{iτ} with τ = z_c·t, so |c|² fixes cos τ and arg c
-    then fixes t; of the two signs of τ the one with z_c·t ≡ τ is kept. Exact for c on the
-    curve, a few 1e-4 rad off for points microns away (refined by the caller).
+    Why p and not the polar relation |p(t)| = |c|: that inversion is exact only for points
+    on p (pin centres). A flank point lies a generating radius r ≈ 2e inside p, where |c|
+    leaves the range [R − e, R + e] (RV-40E: every tip point) or sits at its edge, and the
+    inversion lands on the tooth root, up to half a pitch from the answer; Newton then
+    wandered off by several teeth for 7 of the RV-80E disc's 2936 flank nodes. The profile
+    is parallel to p (up to µm modifications and errors), so both share the closest
+    parameter, and that parameter lies within asin(e/R) + asin(|c − p|/|c|) of arg c,
+    under one pitch for any point within 10 mm of an RV disc's pin-centre curve. The
+    samples step by complex rotation (no trigonometry inside the loop).
     """
     R = par[P_R]
     e = par[P_E]
-    zc = par[P_ZC]
-    cc = c.real * c.real + c.imag * c.imag
-    ca = (R * R + e * e - cc) / (2.0 * R * e)
-    ca = min(1.0, max(-1.0, ca))
-    tau0 = math.acos(ca)
-    sa = math.sin(tau0)
-    arg_c = math.atan2(c.imag, c.real)
-    best_t = arg_c
-    best_r = 1e300
-    for sgn in (1.0, -1.0):
-        tau = sgn * tau0
-        t = arg_c - math.atan2(-e * sgn * sa, R - e * ca)
-        # t is defined modulo 2π/z_c·k only through τ: pick the branch with z_c·t ≡ τ
-        res = _wrap(zc * t - tau)
-        if abs(res) < best_r:
-            best_r = abs(res)
-            best_t = t - res / zc
-    return best_t
+    zb = par[P_ZB]
+    h = 2.0 * math.pi / (par[P_ZC] * COLD_SAMPLES_PER_PITCH)
+    t0 = math.atan2(c.imag, c.real) - COLD_SAMPLES_PER_PITCH * h
+    ei = complex(math.cos(t0), math.sin(t0))
+    eb = complex(math.cos(zb * t0), math.sin(zb * t0))
+    di = complex(math.cos(h), math.sin(h))
+    db = complex(math.cos(zb * h), math.sin(zb * h))
+    best = 1e300
+    kb = 0
+    for k in range(2 * COLD_SAMPLES_PER_PITCH + 1):
+        w = R * ei - e * eb - c
+        dd = w.real * w.real + w.imag * w.imag
+        if dd < best:
+            best = dd
+            kb = k
+        ei *= di
+        eb *= db
+    return t0 + kb * h, h
 
 
 @_jit
@@ -250,7 +259,8 @@ def closest_point(c, par, herr, hpsi, t0=math.nan):
     """Exact closest point on the profile to point ``c`` (disc frame).
 
     ``t0`` is an optional warm start (e.g. the previous step's parameter); NaN means a
-    cold start from the polar angle of ``c``.
+    cold start from a scan of one pitch either side of the polar angle of ``c``
+    (:func:`_cold_start`).
 
     Returns
     -------
@@ -269,23 +279,27 @@ def closest_point(c, par, herr, hpsi, t0=math.nan):
         Newton converged to a minimum.
     """
     if not math.isnan(t0):
-        res = _closest_from(c, par, herr, hpsi, t0, True)
+        res = _closest_from(c, par, herr, hpsi, t0, 0.25 * math.pi / par[P_ZC], True)
         # a warm start that ends more than a quarter tooth away from where it started (cached at
         # a wild Newton iterate, another tooth's minimum) or does not converge must not decide
         # the answer: the contact force would depend on the solver's history and Newton can cycle
         if res[5] and abs(_wrap(res[0] - t0)) < 0.5 * math.pi / par[P_ZC]:
             return res
-    return _closest_from(c, par, herr, hpsi, _polar_guess(c, par), False)
+    t, h = _cold_start(c, par)
+    return _closest_from(c, par, herr, hpsi, t, h, False)
 
 
 @_jit
-def _closest_from(c, par, herr, hpsi, t, warm):
-    """:func:`closest_point` from the start parameter ``t`` (one tangent projection when warm, two when cold)."""
-    R = par[P_R]
-    e = par[P_E]
-    zb = par[P_ZB]
-    # project c onto the pin-centre curve's tangent: brings t within ~1e-7 of the answer
-    for _ in range(1 if warm else 2):
+def _closest_from(c, par, herr, hpsi, t, max_step, warm):
+    """:func:`closest_point` from the start parameter ``t``, Newton steps at most
+    ``max_step``. A warm start first projects c onto the pin-centre curve's tangent
+    (brings a previous step's t within ~1e-7 of the answer); a cold start from
+    :func:`_cold_start` does not: that projection is an unbounded step, safe only near
+    the answer."""
+    if warm:
+        R = par[P_R]
+        e = par[P_E]
+        zb = par[P_ZB]
         ei = complex(math.cos(t), math.sin(t))
         eb = complex(math.cos(zb * t), math.sin(zb * t))
         v = 1j * (R * ei - zb * e * eb)
@@ -294,13 +308,13 @@ def _closest_from(c, par, herr, hpsi, t, warm):
     pitch = 2.0 * math.pi / par[P_ZC]
     if (par[P_TIP_A] == 0.0 and par[P_ROOT_A] == 0.0 and par[P_COMP] == 0.0
             and herr.shape[0] == 0 and hpsi.shape[0] == 0):
-        res = _closest_on_offset(c, t, par, pitch / 8.0)
+        res = _closest_on_offset(c, t, par, max_step)
         if res[5]:
             return res
-    t, q, q1, q2, ok = _newton(c, t, par, herr, hpsi, pitch / 8.0)
-    if not ok:  # far from the curve (not seen for pins within a tooth height): scan, then polish
+    t_mid = t
+    t, q, q1, q2, ok = _newton(c, t, par, herr, hpsi, max_step)
+    if not ok:  # far from the curve (not seen for points within a tooth height): scan about the start, then polish
         best = 1e300
-        t_mid = t
         for k in range(-SCAN_SAMPLES, SCAN_SAMPLES + 1):
             tk = t_mid + k * (2.0 * pitch / SCAN_SAMPLES)
             qk = profile_point(tk, par, herr, hpsi)[0] - c

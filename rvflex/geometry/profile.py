@@ -112,8 +112,8 @@ class CycloidProfile:
         Raises
         ------
         RuntimeError
-            If the closest-point Newton iteration fails for a pin (never seen for pins
-            within a tooth height of the profile).
+            If the closest-point Newton iteration fails for a point (not seen for points
+            within a tooth height of the profile: tests/test_geometry.py).
         """
         centres = np.ascontiguousarray(centres, dtype=float).reshape(-1, 2)
         radii = np.ascontiguousarray(np.broadcast_to(radii, centres.shape[:1]), dtype=float)

@@ -1,0 +1,212 @@
+"""The unit matrix: every unit at every fidelity (the computation behind ``rvflex units``).
+
+Each cell is one unit × one fidelity: the model is built once (FE reductions from the cache
+or computed, the build time says which) and runs the two catalogue tests on it — loaded TE
+at rated torque over one output revolution, and the lost-motion torque cycle ±rated. The
+table (:func:`markdown`) is docs/units.md; ``rvflex units --markdown docs/units.md``
+regenerates it. ``coarse=True`` swaps the FE reductions for the quick ones the tests use
+(8 mm linear tets), for CI.
+
+Run as a script for the full matrix::
+
+    python -m rvflex.scenarios.unit_matrix docs/units.md
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from rvflex import catalog
+from rvflex.api import RunError, one_line
+from rvflex.choices import Fidelity, check_choice, choices
+from rvflex.model import build_reducer
+from rvflex.options import ModelOptions
+from rvflex.scenarios.loaded_te import LoadedTE
+from rvflex.scenarios.lost_motion import LostMotion
+from rvflex.spec import ReducerSpec
+
+__all__ = ["COARSE_CARRIER", "COARSE_DISC", "FIDELITIES", "Cell", "markdown", "options_for", "run_cell",
+           "run_matrix"]
+
+FIDELITIES: tuple[Fidelity, ...] = choices(Fidelity)
+COARSE_DISC = {"maxh_m": 8e-3, "n_modes": 12, "mesh_order": 1, "attach_per_tooth": 0}
+"""The tests' quick disc reduction (tests/conftest.py COARSE_DISC)."""
+COARSE_CARRIER = {"maxh_m": 8e-3, "n_modes": 6, "mesh_order": 1}
+"""The tests' quick carrier reduction (tests/test_flexible_carrier.py)."""
+
+
+@dataclass(frozen=True)
+class Cell:
+    """One unit at one fidelity (SI inside; the report units are in the names).
+
+    ``error`` is the one-line failure when the cell did not run (then the figures are NaN)."""
+
+    unit: str
+    fidelity: Fidelity
+    ratio: float
+    rated_torque_Nm: float
+    cranks: int
+    te_pp_arcsec: float = float("nan")
+    windup_arcsec: float = float("nan")
+    lost_motion_arcmin: float = float("nan")
+    stiffness_Nm_per_arcmin: float = float("nan")
+    build_s: float = float("nan")
+    te_s: float = float("nan")
+    lost_motion_s: float = float("nan")
+    reductions_cached: bool = True
+    error: str = ""
+
+
+def options_for(fidelity: Fidelity, *, coarse: bool = False) -> ModelOptions:
+    """The ModelOptions preset of ``fidelity``; ``coarse`` with the tests' quick reductions."""
+    check_choice("fidelity", fidelity, Fidelity)
+    if fidelity == "rigid":
+        return ModelOptions.rigid()
+    if fidelity == "flexible":
+        opts = ModelOptions.flexible_discs()
+        return opts.with_fe("discs", **COARSE_DISC) if coarse else opts
+    opts = ModelOptions.flexible_discs_and_carrier()
+    return opts.with_fe("discs", **COARSE_DISC).with_fe("carrier", **COARSE_CARRIER) if coarse else opts
+
+
+def run_cell(spec: ReducerSpec, fidelity: Fidelity, *, positions: int = 2048, steps: int = 200,
+             coarse: bool = False) -> Cell:
+    """Build ``spec`` at ``fidelity`` and run loaded TE (rated torque, one output revolution,
+    ``positions`` positions) and the lost-motion cycle (``steps`` torque steps) on it.
+
+    A failure (a reduction, a step that does not converge) is recorded in ``Cell.error`` as
+    :class:`rvflex.RunError` words it, so one bad cell does not stop the matrix.
+    """
+    import rvflex
+
+    base = Cell(spec.name, fidelity, spec.nominal_ratio, spec.rated_torque_Nm, spec.cranks.count)
+    opts = options_for(fidelity, coarse=coarse)
+    te = LoadedTE(spec, positions_per_rev=positions, options=opts)
+    lm = LostMotion(spec, steps=steps, options=opts)
+    t0 = time.perf_counter()
+    try:
+        model = build_reducer(spec, None, opts)
+    except Exception as exc:  # noqa: BLE001 -- recorded per cell, the matrix goes on
+        return dataclasses.replace(base, error=f"model build: {one_line(exc)}")
+    t1 = time.perf_counter()
+    cached = all(r.meta.get("cached", False) for r in (*model.reduced_discs, model.reduced_carrier) if r is not None)
+    base = dataclasses.replace(base, build_s=t1 - t0, reductions_cached=cached)
+    try:
+        r = rvflex.run(te, model=model)
+        t2 = time.perf_counter()
+        base = dataclasses.replace(base, te_pp_arcsec=r.metrics.te_pp_arcsec, windup_arcsec=r.metrics.mean_windup_arcsec,
+                                   te_s=t2 - t1)
+        h = rvflex.run(lm, model=model)
+        return dataclasses.replace(base, lost_motion_arcmin=h.metrics.lost_motion_arcmin,
+                                   stiffness_Nm_per_arcmin=h.metrics.torsional_stiffness_Nm_per_arcmin,
+                                   lost_motion_s=time.perf_counter() - t2)
+    except RunError as exc:
+        return dataclasses.replace(base, error=exc.failure)
+
+
+def run_matrix(units=None, fidelities=FIDELITIES, *, positions: int = 2048, steps: int = 200, coarse: bool = False,
+               progress=None) -> list[Cell]:
+    """:func:`run_cell` for every unit (catalogue names or spec TOML paths; default every built-in
+    unit) at every fidelity, in order. ``progress(cell)`` is called after each cell."""
+    cells = []
+    for u in units or catalog.names():
+        spec = catalog.resolve(str(u))
+        for f in fidelities:
+            cells.append(run_cell(spec, f, positions=positions, steps=steps, coarse=coarse))
+            if progress is not None:
+                progress(cells[-1])
+    return cells
+
+
+def _f(x: float, fmt: str) -> str:
+    return "—" if x != x else format(x, fmt)
+
+
+def markdown(cells: list[Cell], *, command: str, positions: int, steps: int, coarse: bool) -> str:
+    """The matrix as the table of docs/units.md (with the command that made it)."""
+    lines = [f"| unit | ratio | cranks | fidelity | TE p-p (″) | wind-up (″) | lost motion (′) | stiffness (N·m/′) "
+             f"| build (s) | TE {positions} pos. (s) | lost motion {steps} steps (s) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for c in cells:
+        build = _f(c.build_s, ".1f") + ("" if c.reductions_cached or c.fidelity == "rigid" else " (reduced)")
+        row = (f"| {c.unit} | {c.ratio:g} | {c.cranks} | {c.fidelity} | {_f(c.te_pp_arcsec, '.2f')} | "
+               f"{_f(c.windup_arcsec, '.1f')} | {_f(c.lost_motion_arcmin, '.3f')} | {_f(c.stiffness_Nm_per_arcmin, '.0f')} | "
+               f"{build} | {_f(c.te_s, '.1f')} | {_f(c.lost_motion_s, '.1f')} |")
+        lines.append(row if not c.error else row + f" failed: {c.error}")
+    fe = "the tests' coarse reductions (8 mm linear tets)" if coarse else "the presets' reductions (6 mm quadratic tets)"
+    head = (f"<!-- generated by `{command}`; do not edit the table by hand -->\n\n"
+            f"Loaded TE at rated torque over one output revolution ({positions} positions) and the lost-motion "
+            f"cycle 0 → +T_r → −T_r → 0 ({steps} torque steps) on one model per cell, FE parts from {fe}. "
+            f"Wind-up is the mean TE (negative: the output lags). \"build\" includes the FE reductions; "
+            f"\"(reduced)\" marks a cell that computed them (otherwise they came from the cache).\n\n")
+    return head + "\n".join(lines) + "\n"
+
+
+if __name__ == "__main__":  # python -m rvflex.scenarios.unit_matrix [OUT.md]
+    cells = run_matrix(progress=lambda c: print(c, file=sys.stderr, flush=True))
+    text = markdown(cells, command="python -m rvflex.scenarios.unit_matrix", positions=2048, steps=200, coarse=False)
+    if len(sys.argv) > 1:
+        Path(sys.argv[1]).write_text(text, encoding="utf-8")
+    print(text)
+
+
+def register(sub) -> None:
+    """Add ``rvflex units`` to the ``rvflex`` parser."""
+    p = sub.add_parser("units", help="the unit matrix: every unit at every fidelity (loaded TE, lost motion)",
+                       description="Build each unit at each fidelity once and run loaded TE at rated torque (one "
+                                   "output revolution) and the lost-motion cycle on it; print the table of "
+                                   "docs/units.md (TE peak-to-peak, wind-up, lost motion, stiffness, wall times). "
+                                   "Exit code 1 when a cell failed (its row says what failed).")
+    p.add_argument("--units", nargs="+", metavar="UNIT",
+                   help=f"catalogue names or spec TOML paths (default every built-in unit: {', '.join(catalog.names())})")
+    p.add_argument("--fidelity", nargs="+", choices=FIDELITIES, default=list(FIDELITIES),
+                   help="fidelities (default all three)")
+    p.add_argument("--positions", type=int, default=2048, help="loaded-TE positions per output revolution (default 2048)")
+    p.add_argument("--steps", type=int, default=200, help="lost-motion torque steps (default 200)")
+    p.add_argument("--coarse", action="store_true",
+                   help="the tests' quick FE reductions (8 mm linear tets) instead of the presets' (for CI)")
+    p.add_argument("--markdown", help="write the table (with the command that made it) to this file, e.g. docs/units.md")
+    p.add_argument("--json", help="write the cells as JSON to this path")
+    p.set_defaults(func=_cmd_units)
+
+
+def _cmd_units(args) -> int:
+    from rvflex.io import write_json, write_text
+
+    cells = run_matrix(args.units, tuple(args.fidelity), positions=args.positions, steps=args.steps,
+                       coarse=args.coarse, progress=lambda c: print(f"{c.unit} {c.fidelity}: "
+                                                                    f"{c.error or 'done'}", file=sys.stderr, flush=True))
+    words = ["rvflex units"]
+    if args.units:
+        words.append("--units " + " ".join(args.units))
+    if tuple(args.fidelity) != FIDELITIES:
+        words.append("--fidelity " + " ".join(args.fidelity))
+    words += [f"--positions {args.positions}", f"--steps {args.steps}"] + (["--coarse"] if args.coarse else [])
+    if args.markdown:
+        words.append(f"--markdown {args.markdown}")
+    text = markdown(cells, command=" ".join(words), positions=args.positions, steps=args.steps, coarse=args.coarse)
+    print(text)
+    if args.markdown:
+        write_text(Path(args.markdown), _splice(Path(args.markdown), text))
+    if args.json:
+        write_json(Path(args.json), [dataclasses.asdict(c) for c in cells])
+    return 1 if any(c.error for c in cells) else 0
+
+
+BEGIN, END = "<!-- unit matrix: begin -->", "<!-- unit matrix: end -->"
+
+
+def _splice(path: Path, table: str) -> str:
+    """The file's text with the part between the unit-matrix markers replaced by ``table`` (the
+    whole file when it has no markers), so the prose around the table survives regeneration."""
+    block = f"{BEGIN}\n{table}{END}\n"
+    if not path.is_file():
+        return block
+    old = path.read_text(encoding="utf-8")
+    if BEGIN in old and END in old:
+        return old[:old.index(BEGIN)] + block + old[old.index(END) + len(END) + 1:]
+    return old.rstrip("\n") + "\n\n" + block
