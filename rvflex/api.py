@@ -42,6 +42,11 @@ class RunError(RuntimeError):
         The scenario with its fidelity and main settings.
     failure : str
         What failed (the first line of the original message).
+
+    Parameters
+    ----------
+    unit, run, failure : str
+        As the attributes.
     """
 
     def __init__(self, unit: str, run: str, failure: str):

@@ -70,6 +70,8 @@ class ReducerModel:
         Flexible carrier: each crank's second support bearing (input-plate seat).
     reduced_disc, reduced_carrier : ReducedPart, optional
         The FE reductions of the discs and the carrier (flexible parts), else None.
+    reduced_discs : tuple of ReducedPart
+        FE discs: every disc's reduction (the same object where discs share one); empty when rigid.
     """
 
     spec: ReducerSpec

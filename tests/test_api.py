@@ -219,12 +219,12 @@ def test_unknown_names_get_a_did_you_mean(rv40e, capsys):
     nothing gets no suggestion."""
     from rvflex.cli import main
 
-    with pytest.raises(rvflex.SpecError, match=r"^name_or_path = 'rv40': unknown reducer; built-in: rv40e, rv80e; "
+    with pytest.raises(rvflex.SpecError, match=r"^name_or_path = 'rv40': unknown reducer; built-in: rv160n, rv40e, rv80e; "
                                                r"did you mean 'rv40e'\?$"):
         rvflex.load_reducer("rv40")
     with pytest.raises(rvflex.SpecError, match=r"did you mean 'rv80e'\?$"):
         rvflex.load_reducer("RV80E")
-    with pytest.raises(rvflex.SpecError, match=r"unknown reducer; built-in: rv40e, rv80e$"):
+    with pytest.raises(rvflex.SpecError, match=r"unknown reducer; built-in: rv160n, rv40e, rv80e$"):
         rvflex.load_reducer("harmonic")
     with pytest.raises(rvflex.SpecError, match=r"did you mean 'rv40e_seed001'\?$"):
         rvflex.load_errors("rv40e_seed01", rv40e)
@@ -235,7 +235,7 @@ def test_unknown_names_get_a_did_you_mean(rv40e, capsys):
     with pytest.raises(AttributeError, match=r"no attribute 'LoadTE'; did you mean 'LoadedTE'\?$"):
         rvflex.LoadTE  # noqa: B018 -- the attribute access is the test
     assert main(["te", "--reducer", "rv40"]) == 2
-    assert "--reducer = 'rv40': unknown reducer; built-in: rv40e, rv80e; did you mean 'rv40e'?" in \
+    assert "--reducer = 'rv40': unknown reducer; built-in: rv160n, rv40e, rv80e; did you mean 'rv40e'?" in \
         capsys.readouterr().err
 
 
