@@ -152,7 +152,7 @@ class DiagnosisSettings:
 
 
 DEFAULT_MAX_ORDER = 127  # analysed orders where no bench data set the sampling
-MAX_ORDER_CAP = 255  # orders beyond carry < 0.03″ of any effect (8·z_b of the RV-40E is 320) but cost model positions
+MAX_ORDER_CAP = 255  # the model grid grows with the orders (576 positions for the RV-40E at 255): capped for cost
 
 
 def orders_resolved(dataset) -> int:

@@ -171,7 +171,7 @@ def verdict(cands, chosen, none, has_folds, settings, unavailable, failed, tied=
         if undetermined_effect(best):
             why.append(undetermined_effect(best))
         wh = best.withheld.get("improvement_pct")
-        if best.refined and not undetermined_effect(best) and (wh is None or wh < settings.min_withheld_pct):
+        if wh is None or wh < settings.min_withheld_pct:
             why.append(f"refitted without them it predicts the withheld runs only {fmt_pct(wh)} better "
                        f"(≥ {settings.min_withheld_pct:g} % needed)")
         return (f"No effect is confirmed: the best candidate, {best.name}, removes {best.gap_shrink_pct:.0f} % "
