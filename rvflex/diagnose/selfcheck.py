@@ -106,8 +106,7 @@ class RealisticMismatch:
     stiffness scale g drawn log-uniformly in it multiplies the three drawn stiffnesses (``--mismatch far``:
     ×0.5 … ×2, a unit as far from its catalogue model as real ones are; the crank-support and main bearings
     are scaled by g too, so the rigid unit is g times stiffer at the drawn components' means; the FE discs keep
-    their modulus,
-    since an FE reduction per case would dominate the self-check's time)."""
+    their modulus, since an FE reduction per case would dominate the self-check's time)."""
 
     stiffness_spread: float = 0.4
     clearance_max_m: float = 5e-6
