@@ -32,8 +32,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rvflex.diagnose.replay import HYST_FRACTIONS, Layout, PlanRun
+from rvflex.diagnose.replay import BRANCH_FRACTIONS, Layout, PlanRun
 from rvflex.spec import ReducerSpec
+from rvflex.units import ARCMIN, ARCSEC
 
 __all__ = ["ANCHOR_MIN_RATIO", "GLOBAL_SCALE_HIGH", "GLOBAL_SCALE_LOW", "Anchor", "anchor", "compliance",
            "scale_stiffness"]
@@ -108,7 +109,7 @@ def compliance(f: np.ndarray, lay: Layout, plan: tuple[PlanRun, ...]) -> tuple[f
     else the mean wind-up change between TE runs at different loads in one direction; (NaN, "") when
     neither exists."""
     slopes = []
-    frac = np.concatenate([-HYST_FRACTIONS[::-1], HYST_FRACTIONS])
+    frac = BRANCH_FRACTIONS
     for r, sl in lay.hyst.items():
         a = f[sl].reshape(2, -1)  # descending, ascending branch at the torques frac·T_max
         t = frac * plan[r].torque_max_Nm
@@ -135,7 +136,7 @@ def anchor(measured: np.ndarray, model: np.ndarray, lay: Layout, plan: tuple[Pla
     if not src:
         return Anchor(note="no torque cycle and no TE runs at two loads in one direction; the calibration "
                            "starts from the nominal stiffnesses")
-    to_arcmin = 60.0  # N·m/arcsec → N·m/arcmin
+    to_arcmin = ARCMIN / ARCSEC  # N·m/arcsec → N·m/arcmin
     kb, km = to_arcmin / abs(cb) if cb else math.nan, to_arcmin / abs(cm) if cm else math.nan
     if cb == 0 or not cm / cb > 0:  # NaN fails too
         return Anchor(src, kb, km, note=f"the {src} gives a compliance of {cb:.3g} ″/N·m on the bench and {cm:.3g} on "

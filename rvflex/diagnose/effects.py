@@ -284,22 +284,16 @@ def _friction_conditions(run, x, spec):
     motion: a TE run (sliding all the time) sees its load grow by T_f; in a torque cycle the
     mesh sees the applied torque T through a Coulomb play of ±T_f — T − T_f·sgn(dT/dt) while
     it slides, held (stuck) while T changes by less than 2·T_f after a reversal and, from the
-    unloaded start, until T first exceeds T_f."""
-    tf = float(x[0]) * spec.rated_torque_Nm
-    if run.kind == "te":
-        return dc.replace(run, load_Nm=run.load_Nm + tf)
-    eff, held = [], 0.0
-    for t in run.torque_path_Nm:
-        held = min(max(held, t - tf), t + tf)
-        eff.append(float(held))
-    return dc.replace(run, torque_eff_Nm=tuple(eff))
+    unloaded start, until T first exceeds T_f. (The output friction's Coulomb part alone.)"""
+    return _output_friction_conditions(run, (x[0], 0.0), spec)
 
 
 def _output_friction_conditions(run, x, spec):
     """Friction torque referred to the output, T_f = x[0]·T_rated + x[1]·|T| (a Coulomb part from seals
     and bearing preload, and a part proportional to the transmitted torque), opposing the motion: a TE
     run (sliding all the time) sees its load grow by T_f; in a torque cycle the mesh sees the applied
-    torque T through the play ±T_f(T), as in :func:`_friction_conditions`."""
+    torque T through the play ±T_f(T): T − T_f·sgn(dT/dt) while it slides, held while T changes by less
+    than 2·T_f after a reversal and, from the unloaded start, until T first exceeds T_f."""
     tc, mu = float(x[0]) * spec.rated_torque_Nm, float(x[1])
     if run.kind == "te":
         return dc.replace(run, load_Nm=run.load_Nm + tc + mu * run.load_Nm)

@@ -97,14 +97,18 @@ def refine(cands: list[Candidate], prob: Problem, runner, sens: Sensitivities, f
                              f0 if c.base_features is None else c.base_features, c.x.copy()) for c in cands}
     known_failed = set(failed)  # effects whose sensitivities failed: not refined
     lost = {}  # candidates whose first evaluation failed: the message
+
+    def run_at(keys, points):  # model evaluations of candidates ``keys`` at ``points`` (key → x)
+        return dict(zip(keys, evaluate_sets(runner, sens, resp0,
+                                            [tuple(split_params(st[k].cand.effects, points[k])) for k in keys],
+                                            f0, prob.lay)))
+
     for it in range(settings.refine_iterations):
         live = [k for k, s in st.items() if s.cand.name not in known_failed and k not in lost and s.x_next is not None]
         if not live:
             break
         xs = {k: st[k].x_next for k in live}
-        outs = dict(zip(live, evaluate_sets(runner, sens, resp0,
-                                            [tuple(split_params(st[k].cand.effects, xs[k])) for k in live],
-                                            f0, prob.lay)))
+        outs = run_at(live, xs)
         # the solver fails at isolated parameter values (measured: a crank-bearing clearance of 7.0 µm
         # failed where 6.2 and 8.0 µm converged; a 3 µm pin-ring runout with 4.4 µm crank-bearing clearance
         # failed in the free play of the torque cycle at the fitted point and 90 % of the way to it): a
@@ -114,12 +118,9 @@ def refine(cands: list[Candidate], prob: Problem, runner, sens: Sensitivities, f
             retry = [k for k in live if outs[k][0] is None]
             if not retry:
                 break
-            for k in retry:
-                xs[k] = st[k].x_prev + step * (target[k] - st[k].x_prev)
-            for k, o in zip(retry, evaluate_sets(runner, sens, resp0,
-                                                 [tuple(split_params(st[k].cand.effects, xs[k])) for k in retry],
-                                                 f0, prob.lay)):
-                outs[k] = o
+            xs.update({k: st[k].x_prev + step * (target[k] - st[k].x_prev) for k in retry})
+            outs.update(run_at(retry, xs))
+        real = {k: _real_rss(prob, outs[k][0], st[k].cand, xs[k]) for k in live if outs[k][0] is not None}
         # a first step that overshoots: the linearised fit extrapolates a secant taken at the typical step, and a
         # response that grows faster than linearly (measured: a pin-ring runout's order-2·z_c TE grows as r^2.1,
         # 0.23″ at 5 µm and 0.61″ at 8 µm) is fitted far beyond its size, where the real model is worse than the
@@ -129,16 +130,14 @@ def refine(cands: list[Candidate], prob: Problem, runner, sens: Sensitivities, f
             start = {k: _real_rss(prob, st[k].f_prev, st[k].cand, st[k].x_prev) for k in live}
             target = dict(xs)
             for step in REFINE_BACKTRACK_STEPS:
-                back = [k for k in live if outs[k][0] is not None
-                        and _real_rss(prob, outs[k][0], st[k].cand, xs[k]) > start[k]]
+                back = [k for k in real if real[k] > start[k]]
                 if not back:
                     break
                 trial = {k: st[k].x_prev + step * (target[k] - st[k].x_prev) for k in back}
-                for k, o in zip(back, evaluate_sets(runner, sens, resp0,
-                                                    [tuple(split_params(st[k].cand.effects, trial[k])) for k in back],
-                                                    f0, prob.lay)):
+                for k, o in run_at(back, trial).items():
                     if o[0] is not None:  # a failed trial keeps the last evaluation (the next step is shorter)
                         outs[k], xs[k] = o, trial[k]
+                        real[k] = _real_rss(prob, o[0], st[k].cand, trial[k])
         for k in live:
             fx, rx, msg = outs[k]
             s = st[k]
@@ -151,7 +150,7 @@ def refine(cands: list[Candidate], prob: Problem, runner, sens: Sensitivities, f
             dx = x_eval - s.x_prev
             if dx @ dx > 0:
                 s.J = s.J + np.outer((fx - s.f_prev) - s.J @ dx, dx) / (dx @ dx)
-            rss_real = _real_rss(prob, fx, s.cand, x_eval)
+            rss_real = real[k]
             prev_best = s.best[0] if s.best is not None else math.inf
             if rss_real < prev_best:
                 s.best = (rss_real, x_eval.copy(), fx, rx, s.J.copy())

@@ -32,6 +32,7 @@ from rvflex.options import ModelOptions
 from rvflex.spec import ErrorSpec, ReducerSpec
 
 __all__ = [
+    "BRANCH_FRACTIONS",
     "HYST_FRACTIONS",
     "DiagnosisSettings",
     "EvaluationFailed",
@@ -52,6 +53,8 @@ __all__ = [
 ]
 
 HYST_FRACTIONS = np.array([0.02, 0.05, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.97])
+BRANCH_FRACTIONS = np.concatenate([-HYST_FRACTIONS[::-1], HYST_FRACTIONS])
+"""The torques (shares of the amplitude, increasing) at which each torque-cycle branch is read."""
 
 
 @dataclass(frozen=True)
@@ -459,7 +462,7 @@ def branch_angles(torque: np.ndarray, theta: np.ndarray, torque_max: float) -> n
         flip = 1.0
     desc = (t[k_max:k_min + 1], a[k_max:k_min + 1])
     asc = (np.concatenate([t[k_min:], t[:k_max + 1]]), np.concatenate([a[k_min:], a[:k_max + 1]]))
-    at = np.concatenate([-HYST_FRACTIONS[::-1], HYST_FRACTIONS]) * torque_max
+    at = BRANCH_FRACTIONS * torque_max
     out = []
     for bt, ba in (desc, asc):
         o = np.argsort(bt, kind="stable")

@@ -10,7 +10,7 @@ import numpy as np
 
 from rvflex.diagnose.linear import Candidate, nuisance_columns
 from rvflex.diagnose.nominal import describe_calibration
-from rvflex.diagnose.replay import HYST_FRACTIONS, shift_measured
+from rvflex.diagnose.replay import BRANCH_FRACTIONS, shift_measured
 from rvflex.geometry.formulas import ARCSEC_PER_RAD
 
 __all__ = ["gap_table", "json_document", "where_list", "write_report"]
@@ -69,7 +69,7 @@ def where_list(diag, min_share: float = 0.01) -> list[dict]:
             out.append({"metric": "other orders", **keys, "share": float(rest / total)})
         else:
             sl = r[lay.hyst[run]]
-            frac = np.abs(np.tile(np.concatenate([-HYST_FRACTIONS[::-1], HYST_FRACTIONS]), 2))
+            frac = np.abs(np.tile(BRANCH_FRACTIONS, 2))
             low = frac <= 0.05
             out.append({"metric": "lost motion (hysteresis loop, torque within ±5 %)", **keys,
                         "share": float(np.sum(sl[low] ** 2) / total)})
