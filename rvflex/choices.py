@@ -7,7 +7,7 @@ any other value with a :class:`~rvflex.spec_types.SpecError` naming the field an
 allowed values. ``typing.get_args(T)`` gives the allowed values of a type ``T``.
 
 Names that are an open set, not a choice, stay ``str``: a sweep's scenario is any name
-registered with :mod:`rvflex.sweep.registry`, checked there.
+registered with :mod:`rvflex.sweeps.registry`, checked there.
 """
 
 from __future__ import annotations
@@ -53,17 +53,17 @@ Executor = Literal["serial", "process", "dask"]
 """Where a sweep evaluates its points: this process, a local process pool, a Dask cluster."""
 
 DesignKind = Literal["single-factor", "L9", "L16", "L27", "lhs", "sobol", "monte-carlo", "morris", "sobol-indices"]
-"""Kinds of sweep design (:mod:`rvflex.sweep.designs`)."""
+"""Kinds of sweep design (:mod:`rvflex.sweeps.designs`)."""
 
 Distribution = Literal["uniform", "normal"]
 """Monte Carlo sampling of a tolerance: uniform in [low, high] or normal with ``sigma``."""
 
 EffectKind = Literal["model", "conditions", "measurement", "fidelity"]
-"""How a diagnosis effect acts (:class:`rvflex.diagnose.effects.Effect`): on the spec and errors the
+"""How a diagnosis effect acts (:class:`rvflex.diagnosis.effects.Effect`): on the spec and errors the
 model is built with, on the run conditions, on the recorded TE, or as another model blended in."""
 
 RunKind = Literal["te", "hysteresis"]
-"""Kinds of bench run (:mod:`rvflex.diagnose.bench`): a loaded-TE run or a torque cycle."""
+"""Kinds of bench run (:mod:`rvflex.diagnosis.bench`): a loaded-TE run or a torque cycle."""
 
 Mismatch = Literal["none", "realistic", "far"]
 """Self-check generators: the diagnosing model's family, another one per case, or another one whose

@@ -145,7 +145,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
 
     from tqdm import tqdm
 
-    from rvflex.sweep import (
+    from rvflex.sweeps import (
         SALIB_KINDS,
         classify,
         design_points,
@@ -220,7 +220,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
 def _cmd_bench_sweep(args: argparse.Namespace) -> int:
     import tempfile as tf
 
-    from rvflex.sweep import bench_sweep
+    from rvflex.sweeps import bench_sweep
 
     with tf.TemporaryDirectory() as tmp:
         res = bench_sweep(Path(tmp) / "stores", args.points, args.speedup_points,
@@ -382,14 +382,14 @@ def build_parser() -> argparse.ArgumentParser:
     bs = bsub.add_parser("sweep", help="Monte Carlo sweep time and the 1→2 worker speed-up",
                          description="Rigid RV-40E, quasi-static loaded TE at 412 N·m over one output revolution "
                                      "(2048 positions), five tolerances uniform in their bands "
-                                     "(rvflex.sweep.monte_carlo_design); process executor with 2 workers for the "
+                                     "(rvflex.sweeps.monte_carlo_design); process executor with 2 workers for the "
                                      "Monte Carlo (seed 1), 1 and 2 workers on the same speed-up points (seed 2).")
     bs.add_argument("--points", type=int, default=100, help="Monte Carlo points (default 100)")
     bs.add_argument("--speedup-points", type=int, default=32,
                     help="points for the speed-up measurement (default 32: 16 per worker keeps the idle tail small)")
     bs.add_argument("--json", help="write the results as JSON to this path")
     bs.set_defaults(func=_cmd_bench_sweep)
-    from rvflex.diagnose import cli as diagnose_cli
+    from rvflex.diagnosis import cli as diagnose_cli
     from rvflex.fe import cli as fe_cli
 
     fe_cli.register(sub)

@@ -281,7 +281,7 @@ S004_CMD = "python -m rvflex.scenarios.tolerance_doe"
 
 def _seed004(quick: bool, out: Path | None) -> dict:
     from rvflex.scenarios.tolerance_doe import DESIGNS, PAPER_CLASS
-    from rvflex.sweep import classify, load_design, plot_main_effects, range_table, sweep
+    from rvflex.sweeps import classify, load_design, plot_main_effects, range_table, sweep
 
     design = load_design(DESIGNS / "tolerance_single.toml")
     if quick:

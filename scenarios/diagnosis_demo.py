@@ -5,7 +5,7 @@
    four runs of an RV-40E whose eccentric bearings have a radial clearance the model does not
    know about: TE forward and reverse at rated load, TE forward at a quarter load, and a
    torsional hysteresis cycle.
-2. :func:`rvflex.diagnose.fit.diagnose` locates the gap, fits every candidate effect with the
+2. :func:`rvflex.diagnosis.fit.diagnose` locates the gap, fits every candidate effect with the
    model in the loop, ranks them, checks the best on withheld runs and re-runs the model with it.
 3. The report says where the gap was, which effect explains it, how large it is, and how much
    of the gap is left.
@@ -23,12 +23,12 @@ from pathlib import Path
 import numpy as np
 
 from rvflex import catalog
-from rvflex.diagnose.bench import read_bench
-from rvflex.diagnose.effects import EFFECTS
-from rvflex.diagnose.fit import diagnose
-from rvflex.diagnose.replay import DiagnosisSettings
-from rvflex.diagnose.report import json_document
-from rvflex.diagnose.selfcheck import generate_case
+from rvflex.diagnosis.bench import read_bench
+from rvflex.diagnosis.effects import EFFECTS
+from rvflex.diagnosis.fit import diagnose
+from rvflex.diagnosis.replay import DiagnosisSettings
+from rvflex.diagnosis.report import json_document
+from rvflex.diagnosis.selfcheck import generate_case
 
 __all__ = ["DiagnosisDemo", "run_diagnosis_demo"]
 
@@ -58,7 +58,7 @@ def run_diagnosis_demo(scenario: DiagnosisDemo):
 if __name__ == "__main__":
     import sys
 
-    from rvflex.diagnose.report import write_report
+    from rvflex.diagnosis.report import write_report
 
     sc = DiagnosisDemo(Path(sys.argv[1] if len(sys.argv) > 1 else "out/diagnosis_demo"))
     truth, diag, doc = run_diagnosis_demo(sc)

@@ -1,4 +1,4 @@
-"""The scenarios a sweep point can run, registered with the sweep engine (:mod:`rvflex.sweep.registry`).
+"""The scenarios a sweep point can run, registered with the sweep engine (:mod:`rvflex.sweeps.registry`).
 
 ``te``: quasi-static loaded TE (:mod:`rvflex.scenarios.loaded_te`), metric ``te_pp_arcsec``;
 ``lost-motion``: the torsional hysteresis cycle (:mod:`rvflex.scenarios.lost_motion`, at
@@ -14,7 +14,7 @@ import dataclasses as dc
 
 from rvflex.options import ModelOptions
 from rvflex.spec import ErrorSpec, ReducerSpec
-from rvflex.sweep.registry import SweepScenario, register
+from rvflex.sweeps.registry import SweepScenario, register
 
 __all__ = ["LOST_MOTION", "TE", "evaluate_lost_motion", "evaluate_te"]
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from rvflex.choices import Executor
-from rvflex.sweep import classify, load_design, plot_main_effects, range_table, sweep
+from rvflex.sweeps import classify, load_design, plot_main_effects, range_table, sweep
 
 __all__ = ["PAPER_CLASS", "run_tolerance_doe"]
 

@@ -175,7 +175,7 @@ def test_readme_python_example_runs(fe_cache, tmp_path, monkeypatch, capsys):
 def test_sweep_table_as_dataframe_and_dataset(tmp_path):
     """A sweep's table comes back as a DataFrame (one row per point) and a Dataset over
     ``point`` with units: the factor deviations in m, TE in arcsec, the same numbers as the rows."""
-    from rvflex.sweep import load_design, sweep
+    from rvflex.sweeps import load_design, sweep
 
     design = load_design(Path(__file__).resolve().parents[1] / "scenarios" / "designs" / "smoke.toml")
     res = sweep(design, tmp_path / "s.sqlite", executor="serial")

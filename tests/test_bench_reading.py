@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 from rvflex import catalog
-from rvflex.diagnose.bench import BenchError, read_bench
-from rvflex.diagnose.replay import DiagnosisSettings, measured_runs, plan_from_dataset
+from rvflex.diagnosis.bench import BenchError, read_bench
+from rvflex.diagnosis.replay import DiagnosisSettings, measured_runs, plan_from_dataset
 
 SPEC = catalog.load("rv40e")
 RATIO = SPEC.nominal_ratio
@@ -224,7 +224,7 @@ def test_the_issue_case_one_revolution_at_n_samples_is_not_misread(tmp_path):
 def test_writer_round_trips_the_angle_form_with_both_directions(tmp_path):
     """write_bench writes a forward and a reverse angle-form run on the same angles into one file
     (``direction = "both"``) and read_bench gives them back."""
-    from rvflex.diagnose.bench import BenchDataset, BenchRun, write_bench
+    from rvflex.diagnosis.bench import BenchDataset, BenchRun, write_bench
 
     p = 2 * np.pi * np.arange(720) / 720
     runs = tuple(BenchRun("te.csv", "te", np.empty(0), np.empty(0), np.empty(0), np.empty(0), direction=d,

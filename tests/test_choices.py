@@ -42,7 +42,7 @@ def test_each_option_is_checked_where_it_enters():
 
 def test_scenario_and_sweep_options_are_checked():
     import rvflex
-    from rvflex.sweep import Design, Factor, sweep
+    from rvflex.sweeps import Design, Factor, sweep
 
     spec = rvflex.load_reducer("rv40e")
     with pytest.raises(SpecError, match=r"^mode = 'static': must be one of 'quasi-static', 'dynamic'"):

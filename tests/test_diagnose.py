@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from rvflex import catalog
-from rvflex.diagnose.bench import (
+from rvflex.diagnosis.bench import (
     MIN_SAMPLES_PER_REV,
     BenchDataset,
     BenchError,
@@ -20,9 +20,9 @@ from rvflex.diagnose.bench import (
     read_bench,
     write_bench,
 )
-from rvflex.diagnose.effects import EFFECTS, Effect, Param, available_effects
-from rvflex.diagnose.fit import withheld_folds, withheld_split
-from rvflex.diagnose.replay import (
+from rvflex.diagnosis.effects import EFFECTS, Effect, Param, available_effects
+from rvflex.diagnosis.fit import withheld_folds, withheld_split
+from rvflex.diagnosis.replay import (
     DiagnosisSettings,
     PlanRun,
     branch_angles,
@@ -185,7 +185,7 @@ def test_friction_acts_on_the_torque_cycle_through_a_coulomb_play():
 
 def test_origin_shift_is_exact_for_a_pure_harmonic():
     """Shifting the measured features by δ must equal sampling the pattern at p + δ."""
-    from rvflex.diagnose.replay import _layout
+    from rvflex.diagnosis.replay import _layout
 
     plan = (PlanRun("te", "a", 1, 412.0),)
     lay = _layout(plan, 10)
@@ -224,7 +224,7 @@ def test_effect_library_covers_the_issue_and_registers_new_effects():
     assert flex.available()[0] == ("flexible" in FIDELITIES)
     extra = Effect("test_only", "a registered test effect", (Param("x_m", "m", -1e-6, 1e-6, 5e-7),),
                    apply=lambda s, e, x: (s, e))
-    from rvflex.diagnose.effects import register
+    from rvflex.diagnosis.effects import register
 
     register(extra)
     try:
@@ -240,7 +240,7 @@ def test_a_pin_radius_error_is_the_equidistant_deviation_reversed():
     error and a −4 µm equidistant deviation give the same TE at two loads and the same torque
     cycle (to 1e-3″, the solver's settling) while each moves them by ~18″ — so the library has one
     effect for both, and the deviation's description says so."""
-    from rvflex.diagnose.replay import evaluate
+    from rvflex.diagnosis.replay import evaluate
     from rvflex.units import ARCSEC_PER_RAD as arcsec
 
     path = tuple(412.0 * np.interp(np.linspace(0, 1, 25), [0, 0.25, 0.75, 1], [0, 1, -1, 0]))
@@ -269,7 +269,7 @@ def test_temperature_round_trip_and_run_labels(tmp_path):
 def test_thermal_expansion_follows_each_runs_temperature():
     """Δα·r_b·(T − 20 °C) per run: zero at the reference temperature, 15.18 µm for an aluminium
     housing (11.5e-6/K) at 40 °C on the 66 mm pin circle, shrinking below 20 °C."""
-    from rvflex.diagnose.effects import REFERENCE_TEMPERATURE_C
+    from rvflex.diagnosis.effects import REFERENCE_TEMPERATURE_C
     from rvflex.spec import ErrorSpec
 
     th = EFFECTS["thermal_expansion"]
@@ -284,8 +284,8 @@ def test_thermal_expansion_follows_each_runs_temperature():
 def test_thermal_expansion_needs_every_runs_temperature():
     """Without a recorded temperature the thermal effect cannot act: it is listed as unavailable
     (naming the key and the run), and a model evaluation with it is refused before any run."""
-    from rvflex.diagnose.fit import available_candidates
-    from rvflex.diagnose.replay import EvaluationFailed, evaluate
+    from rvflex.diagnosis.fit import available_candidates
+    from rvflex.diagnosis.replay import EvaluationFailed, evaluate
     from rvflex.spec import ErrorSpec
 
     plan = (PlanRun("te", "te forward 412 N·m at 40 °C", 1, 412.0, temperature_C=40.0),
@@ -300,7 +300,7 @@ def test_thermal_expansion_needs_every_runs_temperature():
 
 
 def test_two_sided_sensitivities_fit_each_sign_with_its_own_secant():
-    from rvflex.diagnose.linear import Sensitivities
+    from rvflex.diagnosis.linear import Sensitivities
 
     th, pr = EFFECTS["thermal_expansion"], EFFECTS["carrier_hole_position"]
     plus, minus = np.array([[1.0], [2.0]]), np.array([[3.0], [4.0]])
@@ -320,8 +320,8 @@ def test_a_pair_needs_its_second_effect_to_remove_a_quarter_of_the_rest():
     ≥ 25 % of the weighted gap the better single leaves, and ≥ 10 in BIC."""
     from types import SimpleNamespace
 
-    from rvflex.diagnose.fit import second_effect_adds
-    from rvflex.diagnose.linear import bic
+    from rvflex.diagnosis.fit import second_effect_adds
+    from rvflex.diagnosis.linear import bic
 
     n = 800
     a, b = EFFECTS["carrier_hole_position"], EFFECTS["thermal_expansion"]
@@ -347,7 +347,7 @@ def test_the_model_grid_folds_no_pin_mesh_harmonic_into_the_analysed_orders():
     model's orders 1…127 as a 1024-position run gives them (the mesh orders to 0.02″). At 256
     positions the flexible discs' 4·z_b (0.93″ at 412 N·m) folds to order 96, at 320 their 6·z_b
     (0.22″) onto 2·z_b: model-only signatures no bench shows."""
-    from rvflex.diagnose.replay import evaluate
+    from rvflex.diagnosis.replay import evaluate
     from rvflex.units import ARCSEC_PER_RAD
 
     s = DiagnosisSettings().for_spec(SPEC)
@@ -381,7 +381,7 @@ def test_selfcheck_two_cases(tmp_path):
     it within CI time. Expectations: the JSON has the issue's keys; the hidden effect is
     among the two best-ranked candidates (it is drawn at 0.6–1.4× its typical size, tens of
     times above the noise floor); the control is reported as no significant effect."""
-    from rvflex.diagnose.selfcheck import GeneratorModel, SelfCheckSettings, selfcheck
+    from rvflex.diagnosis.selfcheck import GeneratorModel, SelfCheckSettings, selfcheck
 
     effects = ("pin_ring_runout", "output_encoder_eccentricity", "eccentric_bearing_clearance",
                "pin_contact_friction")
@@ -408,8 +408,8 @@ def test_thermal_expansion_is_told_from_a_modification_deviation(tmp_path):
     rated-load TE runs): the thermal effect then scales from run to run and the modification
     deviation does not. A hidden 10 ppm/K mismatch must be found blind, within ±25 %, and not be
     reported as tied with the deviation."""
-    from rvflex.diagnose.fit import diagnose
-    from rvflex.diagnose.selfcheck import BENCH_TEMPERATURES_C, GeneratorModel, generate_case
+    from rvflex.diagnosis.fit import diagnose
+    from rvflex.diagnosis.selfcheck import BENCH_TEMPERATURES_C, GeneratorModel, generate_case
 
     hidden = [(EFFECTS["thermal_expansion"], np.array([10e-6]))]
     generate_case(tmp_path / "bench", tmp_path / "truth.json", SPEC, hidden, np.random.default_rng(5),
@@ -441,7 +441,7 @@ def test_demo_scenario_is_importable_without_running(tmp_path):
 def test_replay_and_lost_motion_share_one_torque_stepping_engine():
     """The diagnosis replays a torque cycle with rvflex.solve.torque_stepping itself: the same
     equilibria as the lost-motion test (bit for bit on the same path and model)."""
-    from rvflex.diagnose.replay import evaluate
+    from rvflex.diagnosis.replay import evaluate
     from rvflex.model import build_reducer
     from rvflex.solve import hysteresis_cycle, torque_stepping
     from rvflex.spec import ErrorSpec
@@ -459,7 +459,7 @@ def test_replay_and_lost_motion_share_one_torque_stepping_engine():
 
 def _variant(case, run):
     """(spec, errors) of a measured failing case: (nominal parameters and effects by name, base errors)."""
-    from rvflex.diagnose.nominal import NOMINAL
+    from rvflex.diagnosis.nominal import NOMINAL
 
     active, err = case
     spec = SPEC
@@ -505,7 +505,7 @@ def test_a_cycle_step_on_a_contact_onset_is_left_out_and_interpolated():
     (seed 3, case 16: 12.4 N·m). The engine leaves such a step out (NaN) when the next one converges;
     the replay interpolates over it in torque. Up to the first such step the strict engine gives the same
     angles."""
-    from rvflex.diagnose.replay import evaluate
+    from rvflex.diagnosis.replay import evaluate
     from rvflex.model import build_reducer
     from rvflex.solve import SolveError, hysteresis_cycle, torque_stepping
 
@@ -538,7 +538,7 @@ CI_SETTINGS = DiagnosisSettings(max_order=95, hysteresis_steps=24, refine_top=3,
 def _mismatched_bench(tmp_path, hidden, samples_per_rev=512, **drawn):
     """A bench from another model family (power-law contact, scaled needle-bearing and mesh
     stiffness, a nominal crank-bearing clearance; TE sampled over [0, 2π)), rigid for CI time."""
-    from rvflex.diagnose.selfcheck import GeneratorModel, RealisticMismatch, generate_case
+    from rvflex.diagnosis.selfcheck import GeneratorModel, RealisticMismatch, generate_case
 
     gen = RealisticMismatch(options=ModelOptions.rigid(), samples_per_rev=samples_per_rev, fixed=tuple(drawn.items()))
     truth = generate_case(tmp_path / "bench", tmp_path / "truth.json", SPEC, hidden, np.random.default_rng(7),
@@ -552,7 +552,7 @@ def test_a_control_with_30pct_stiffness_mismatch_is_nominal_parameters_off(tmp_p
     """No hidden effect; the generator's contact law is a power law 30 % stiffer than the line
     contact's equivalent, its needle bearings 30 % softer, its mesh 30 % stiffer, with a 2 µm nominal
     clearance. Calibration must take that and no effect be accepted."""
-    from rvflex.diagnose.fit import diagnose
+    from rvflex.diagnosis.fit import diagnose
 
     ds = _mismatched_bench(tmp_path, [], contact_scale=1.3, needle_bearing_scale=0.7, mesh_scale=1.3,
                            clearance_m=2e-6)
@@ -581,7 +581,7 @@ def test_a_hidden_clearance_is_found_through_a_30pct_contact_stiffness_mismatch(
     24-step torque cycle a −10 µm pin-radius error (its torque-cycle signature is the clearance's)
     won instead, tied with the clearance — measured; the equidistant deviation now stands for the
     pin radius error in the candidate list."""
-    from rvflex.diagnose.fit import diagnose
+    from rvflex.diagnosis.fit import diagnose
 
     hidden = [(EFFECTS["eccentric_bearing_clearance"], np.array([10e-6]))]
     ds = _mismatched_bench(tmp_path, hidden, samples_per_rev=1024, contact_scale=0.7, needle_bearing_scale=1.0,
@@ -599,9 +599,9 @@ def test_the_verdict_says_no_unmodelled_effect_only_when_none_is_left_open():
     (or whose model evaluation failed) leaves its part of the gap unexplained, and the verdict must
     not also say there is no effect (seen on the realistic self-check: a pin-ring runout removing
     71 % of what calibration left, not confirmed, under a first sentence saying no effect)."""
-    from rvflex.diagnose.calibration import calibration_sentence
-    from rvflex.diagnose.linear import make_candidate
-    from rvflex.diagnose.nominal import NOMINAL
+    from rvflex.diagnosis.calibration import calibration_sentence
+    from rvflex.diagnosis.linear import make_candidate
+    from rvflex.diagnosis.nominal import NOMINAL
 
     n = 40
     needle = NOMINAL["needle_bearing_stiffness"]
@@ -621,7 +621,7 @@ def test_the_pin_ring_runout_is_parameterised_by_the_doubled_angle():
     of φ moves the order-2·z_c TE by about 1.6″ (measured: ±0.79″ at 5 µm). So the effect's
     parameters are (r cos 2φ, r sin 2φ): the effect maps them to φ = atan2/2, and a linear fit in
     them can turn the runout (in x/y components the two secants were antiparallel on the TE)."""
-    from rvflex.diagnose.replay import PlanRun, evaluate
+    from rvflex.diagnosis.replay import PlanRun, evaluate
     from rvflex.solve import hysteresis_cycle
     from rvflex.units import ARCSEC
 

@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 
 from rvflex import catalog
-from rvflex.diagnose.anchor import ANCHOR_MIN_RATIO, anchor, compliance, scale_stiffness
-from rvflex.diagnose.bench import read_bench
-from rvflex.diagnose.effects import EFFECTS
-from rvflex.diagnose.linear import make_candidate
-from rvflex.diagnose.replay import HYST_FRACTIONS, DiagnosisSettings, PlanRun, _layout, evaluate, features
-from rvflex.diagnose.verdict import undetermined_effect
+from rvflex.diagnosis.anchor import ANCHOR_MIN_RATIO, anchor, compliance, scale_stiffness
+from rvflex.diagnosis.bench import read_bench
+from rvflex.diagnosis.effects import EFFECTS
+from rvflex.diagnosis.linear import make_candidate
+from rvflex.diagnosis.replay import HYST_FRACTIONS, DiagnosisSettings, PlanRun, _layout, evaluate, features
+from rvflex.diagnosis.verdict import undetermined_effect
 from rvflex.options import ModelOptions
 from rvflex.solve import hysteresis_cycle
 from rvflex.spec import ErrorSpec
@@ -138,7 +138,7 @@ def test_an_effect_whose_interval_includes_zero_is_not_a_finding():
 def test_the_analysed_orders_follow_the_bench_sampling(tmp_path):
     """1024 samples per revolution resolve orders up to 255 (MAX_ORDER_CAP; a 3rd-harmonic pin pattern's
     TE sits at order 6·z_c = 234), 512 up to 128; the model grid follows, alias-free."""
-    from rvflex.diagnose.bench import BenchDataset, BenchRun, write_bench
+    from rvflex.diagnosis.bench import BenchDataset, BenchRun, write_bench
 
     ratio = SPEC.nominal_ratio
     for n, k in ((1024, 255), (512, 128)):
@@ -161,7 +161,7 @@ def _far_bench(tmp_path, hidden, scale, samples_per_rev=512, positions=640, clea
     for CI time. The generator's grid (640 positions) resolves the pin-mesh harmonics up to 7·z_b and
     folds none into the analysed orders (at 256, 4·z_b fell on order 96 and 5·z_b on 56: TE no model
     of the unit has)."""
-    from rvflex.diagnose.selfcheck import GeneratorModel, RealisticMismatch, generate_case
+    from rvflex.diagnosis.selfcheck import GeneratorModel, RealisticMismatch, generate_case
 
     drawn = {"contact_scale": scale, "needle_bearing_scale": scale, "mesh_scale": scale, "clearance_m": clearance_m,
              "global_scale": scale}
@@ -176,7 +176,7 @@ def test_a_far_mismatch_control_is_nominal_parameters_off(tmp_path):
     """No hidden effect; every stiffness of the unit 1.8× the model's (the foreign bench's RV-40E
     measures 275–290 N·m/arcmin against the catalogue model's 159): the anchor reads it from the torque
     cycle, calibration takes the rest, and no effect is accepted."""
-    from rvflex.diagnose.fit import diagnose
+    from rvflex.diagnosis.fit import diagnose
 
     ds = _far_bench(tmp_path, [], 1.8)
     diag = diagnose(ds, settings=CI, nominal=CAL, cache_dir=tmp_path / "cache",
@@ -194,7 +194,7 @@ def test_a_clearance_is_found_through_a_1_8_stiffness_mismatch(tmp_path):
     data determine) within ±25 % of 13 µm. (The same test with an 8 µm pin-ring runout instead fails on
     this rigid power-law generator: the runout removes 11 % of what calibration leaves and predicts the
     withheld runs worse; the foreign bench's 8 µm ring offset is found. Stated in docs/diagnosis.md.)"""
-    from rvflex.diagnose.fit import diagnose
+    from rvflex.diagnosis.fit import diagnose
 
     hidden = [(EFFECTS["eccentric_bearing_clearance"], np.array([10e-6]))]
     ds = _far_bench(tmp_path, hidden, 1.8)
@@ -210,7 +210,7 @@ def test_a_clearance_is_found_through_a_1_8_stiffness_mismatch(tmp_path):
 def test_an_order_234_signature_is_found_from_1024_sample_runs(tmp_path):
     """A 4 µm 3rd-harmonic pin pattern puts its TE at order 6·z_c = 234, beyond the former 127 analysed
     orders: from 1024-sample runs the diagnosis analyses orders up to 255 and finds it."""
-    from rvflex.diagnose.fit import diagnose
+    from rvflex.diagnosis.fit import diagnose
 
     e = EFFECTS["pin_position_h3"]
     hidden = [(e, np.array([4e-6 * math.cos(0.8), 4e-6 * math.sin(0.8)]))]

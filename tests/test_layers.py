@@ -139,11 +139,11 @@ def test_no_private_imports_across_modules():
 PLUMBING = ("rvflex.units", "rvflex.io", "rvflex.numerics", "rvflex.parallel")
 LOW = ("rvflex.spec_types", "rvflex.geometry", "rvflex.contact", "rvflex.fe", "rvflex.parts", "rvflex.catalog")
 FORBIDDEN = [
-    (("rvflex.sweep",), ("rvflex.scenarios",), (), ()),  # scenarios register with the sweep engine
+    (("rvflex.sweeps",), ("rvflex.scenarios",), (), ()),  # scenarios register with the sweep engine
     (("rvflex",), ("rvflex.cli",), ("rvflex.cli",), ()),  # nothing imports the command
-    (LOW, ("rvflex.model", "rvflex.solve", "rvflex.scenarios", "rvflex.sweep", "rvflex.diagnose"), ("rvflex.fe.cli",), ()),
+    (LOW, ("rvflex.model", "rvflex.solve", "rvflex.scenarios", "rvflex.sweeps", "rvflex.diagnosis"), ("rvflex.fe.cli",), ()),
     (("rvflex.spec_types", "rvflex.geometry"), ("rvflex.spec", "rvflex.catalog"), (), ()),  # the loader sits above
-    (("rvflex.model", "rvflex.solve"), ("rvflex.scenarios", "rvflex.sweep", "rvflex.diagnose"), (), ()),
+    (("rvflex.model", "rvflex.solve"), ("rvflex.scenarios", "rvflex.sweeps", "rvflex.diagnosis"), (), ()),
     (("rvflex.solve",), ("rvflex.parts",), (), ()),  # solvers talk to the model; shared numbers: rvflex.numerics
     (PLUMBING + ("rvflex.spec_types",), ("rvflex",), (), PLUMBING),  # plumbing and the spec types at the bottom
     (("rvflex.choices",), ("rvflex",), (), PLUMBING + ("rvflex.spec_types",)),  # the option types, just above them
@@ -165,7 +165,7 @@ def test_no_upward_imports():
 def test_walker_sees_the_whole_package():
     mods = modules()
     assert {"rvflex.cli", "rvflex.parts.carrier", "rvflex.scenarios.loaded_te", "rvflex.fe.reduce",
-            "rvflex.sweep.executors"} <= set(mods)
+            "rvflex.sweeps.executors"} <= set(mods)
     edges, _ = graph()
     assert "rvflex.fe.reduce" in edges["rvflex.model"]  # a function-local import is an edge
 

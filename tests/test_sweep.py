@@ -11,7 +11,7 @@ import pytest
 
 from rvflex.cli import main
 from rvflex.spec import SpecError
-from rvflex.sweep import design_points, load_design, orthogonal_array, sweep
+from rvflex.sweeps import design_points, load_design, orthogonal_array, sweep
 
 SMOKE = Path(__file__).resolve().parents[1] / "scenarios" / "designs" / "smoke.toml"
 
@@ -103,7 +103,7 @@ def test_dead_scheduler_is_refused_quickly_and_leaves_no_store(tmp_path):
 
 
 def test_classification_splits_at_the_largest_ratio():
-    from rvflex.sweep import classify
+    from rvflex.sweeps import classify
 
     ranking = [{"factor": f, "range": r} for f, r in
                [("a", 0.38), ("b", 0.30), ("c", 0.21), ("d", 0.19), ("e", 0.063), ("f", 0.037), ("g", 0.013)]]
@@ -117,7 +117,7 @@ MORRIS = SMOKE.parent / "smoke_morris.toml"
 
 
 def _analytic_design(kind: str, samples: int):
-    from rvflex.sweep import Design, Factor
+    from rvflex.sweeps import Design, Factor
 
     um = 1e-6
     return Design(name="analytic", reducer="rv40e", scenario="te", kind=kind, load_Nm=412.0, samples=samples, seed=3,
@@ -135,7 +135,7 @@ def _analytic_rows(design):
 
 def test_morris_of_a_linear_response_recovers_its_effects():
     """Every elementary effect of a linear response is b_i·(high − low): μ* equals it, σ is 0."""
-    from rvflex.sweep import sensitivity_indices
+    from rvflex.sweeps import sensitivity_indices
 
     design = _analytic_design("morris", 10)
     assert len(design_points(design)) == 10 * 4  # trajectories × (D + 1)
@@ -152,7 +152,7 @@ def test_sobol_indices_of_a_linear_response_match_the_variance_shares():
     """Uniform independent inputs: S1_i = ST_i = b_i²·w_i²/Σ b_j²·w_j² (w the range); the
     estimate must fall within its own bootstrap interval of the exact share (plus 0.05 for the
     estimator's bias at 64 base samples)."""
-    from rvflex.sweep import sensitivity_indices
+    from rvflex.sweeps import sensitivity_indices
 
     design = _analytic_design("sobol-indices", 64)
     assert len(design_points(design)) == 64 * 5  # base samples × (D + 2)
@@ -167,7 +167,7 @@ def test_sobol_indices_of_a_linear_response_match_the_variance_shares():
 
 
 def test_a_failed_point_drops_its_whole_trajectory():
-    from rvflex.sweep import sensitivity_indices
+    from rvflex.sweeps import sensitivity_indices
 
     design = _analytic_design("morris", 6)
     rows = _analytic_rows(design)
@@ -201,7 +201,7 @@ def test_morris_on_the_model_agrees_with_single_factor_ranges_under_both_executo
     same end-to-end change) within 5 %."""
     import json
 
-    from rvflex.sweep import range_table, sensitivity_indices
+    from rvflex.sweeps import range_table, sensitivity_indices
 
     single_design = load_design(SMOKE)
     single = sweep(single_design, tmp_path / "s.sqlite", executor="serial")
@@ -233,7 +233,7 @@ def test_only_the_point_that_kills_its_worker_is_recorded_as_dead(tmp_path, monk
     per pool, so the others finish and only the culprit is recorded as 'worker died'."""
     import os
 
-    import rvflex.sweep.executors as sw  # where the sweep looks both up
+    import rvflex.sweeps.executors as sw  # where the sweep looks both up
 
     def stand_in(args):  # a cheap evaluation; the +2 µm eccentricity point kills its process
         point = args[5]
@@ -313,7 +313,7 @@ def test_design_sweep_table_choices_are_checked(tmp_path, old, new, message):
 def test_every_point_runs_with_the_design_options(tmp_path, monkeypatch):
     """The design's ModelOptions reach the scenario of every point, under either executor
     (a stand-in scenario records what it gets)."""
-    from rvflex.sweep import SweepScenario, registry
+    from rvflex.sweeps import SweepScenario, registry
 
     p = tmp_path / "d.toml"
     p.write_text(SMOKE.read_text().replace('scenario = "te"', 'scenario = "record-options"')
@@ -342,7 +342,7 @@ def test_flexible_design_point_equals_the_flexible_scenario_run(tmp_path, coarse
     of the same LoadedTE run directly with the same options, and not the rigid model's."""
     import rvflex
     from rvflex.options import ModelOptions
-    from rvflex.sweep import FACTORS
+    from rvflex.sweeps import FACTORS
 
     spec, _ = coarse_disc  # the coarse disc is in the session's FE cache
     p = tmp_path / "d.toml"

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import matplotlib.pyplot as plt
 
-from rvflex.sweep import classify, load_design, range_table, sweep
+from rvflex.sweeps import classify, load_design, range_table, sweep
 
 design = load_design(resources.files("rvflex.scenarios") / "designs" / "smoke.toml")
 with tempfile.TemporaryDirectory() as tmp:

@@ -163,7 +163,7 @@ def orders_resolved(dataset) -> int:
     by MIN_SAMPLES_PER_ORDER (two coefficients per order, twice Nyquist), at most MAX_ORDER_CAP;
     DEFAULT_MAX_ORDER when the dataset has no TE run. 1024 samples per revolution resolve 255 orders
     (a 3rd-harmonic pin pattern's TE sits at order 6·z_c = 234 on the RV-40E)."""
-    from rvflex.diagnose.measured import MIN_SAMPLES_PER_ORDER
+    from rvflex.diagnosis.measured import MIN_SAMPLES_PER_ORDER
 
     per_rev = [r.window.samples // r.window.revolutions for r in dataset.runs
                if r.kind == "te" and r.window is not None]
@@ -501,9 +501,9 @@ def measured_runs(dataset, plan: tuple[PlanRun, ...], settings: DiagnosisSetting
     """Feature vector (arcsec) of the bench runs, before the origin shift, its layout, and per TE
     run what was analysed (``{run: {window and fit figures}}``).
 
-    TE runs: a checked least-squares Fourier fit (orders 0 … K, :func:`rvflex.diagnose.measured.fit_te`)
+    TE runs: a checked least-squares Fourier fit (orders 0 … K, :func:`rvflex.diagnosis.measured.fit_te`)
     of TE = θ_out − θ_in/i (or the TE column) against the position p over the run's analysed
-    whole revolutions (:func:`rvflex.diagnose.measured.te_window`).
+    whole revolutions (:func:`rvflex.diagnosis.measured.te_window`).
 
     Raises
     ------
@@ -511,7 +511,7 @@ def measured_runs(dataset, plan: tuple[PlanRun, ...], settings: DiagnosisSetting
         A run whose samples cannot determine the orders (coverage, samples per order, conditioning,
         a reconstruction that disagrees with the measured peak-to-peak).
     """
-    from rvflex.diagnose.measured import fit_te, te_window
+    from rvflex.diagnosis.measured import fit_te, te_window
 
     lay = _layout(plan, settings.max_order)
     f = np.empty(lay.n)

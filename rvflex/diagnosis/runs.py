@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rvflex.diagnose.replay import EvaluationFailed, evaluate, features
+from rvflex.diagnosis.replay import EvaluationFailed, evaluate, features
 from rvflex.parallel import Outcome, map_warm
 
 __all__ = ["CACHE_VERSION", "ModelRunner"]

@@ -1,13 +1,13 @@
 """Which effect: calibrate the uncertain nominal parameters, then attribute what is left.
 
-1. The bench runs' features are read and checked (:func:`~rvflex.diagnose.replay.measured_runs`:
+1. The bench runs' features are read and checked (:func:`~rvflex.diagnosis.replay.measured_runs`:
    bad or undetermined data are refused before any model run). The nominal model (the reducer as
    specified, no errors) is run under every bench run's conditions; the measured and model
    features are weighted by their noise/model-form floors.
 2. Sensitivities: one model run per parameter of every candidate effect and every nominal
-   parameter (:mod:`rvflex.diagnose.nominal`) at its typical step (a secant, so clearances and
+   parameter (:mod:`rvflex.diagnosis.nominal`) at its typical step (a secant, so clearances and
    other one-sided effects are linearised where they act; two-sided effects get a secant on each
-   side of zero); cached on disk by content (:mod:`rvflex.diagnose.runs`), evaluated in a process
+   side of zero); cached on disk by content (:mod:`rvflex.diagnosis.runs`), evaluated in a process
    pool, computed once and used by both stages.
 3. Calibration: the nominal parameters alone are fitted (bounded linear least squares with the
    nuisances — common TE offset, hysteresis offsets — the unknown encoder origin δ and each
@@ -18,12 +18,12 @@
    is kept only when its second effect removes at least ``min_shrink_pct`` of the weighted gap the
    better single leaves (and improves the BIC by ``bic_threshold``).
 5. The best ``refine_top`` candidates are refined with the model in the loop
-   (:mod:`rvflex.diagnose.refine`); their score uses the real model's residual.
+   (:mod:`rvflex.diagnosis.refine`); their score uses the real model's residual.
 6. Model selection by BIC against the calibrated model; intervals from the linearised
    covariance (95 %), regulariser included. An effect is accepted only when it improves the BIC by
    ``bic_threshold``, removes ``min_shrink_pct`` of what calibration left, and predicts withheld
    runs ``min_withheld_pct`` better than the calibrated model refitted on the same runs
-   (:mod:`rvflex.diagnose.verdict`).
+   (:mod:`rvflex.diagnosis.verdict`).
 """
 
 from __future__ import annotations
@@ -37,9 +37,9 @@ from pathlib import Path
 
 import numpy as np
 
-from rvflex.diagnose.anchor import Anchor, anchor, scale_stiffness
-from rvflex.diagnose.calibration import CALIBRATION_PREFERRED, calibration_sentence, calibration_ties, undetermined
-from rvflex.diagnose.linear import (
+from rvflex.diagnosis.anchor import Anchor, anchor, scale_stiffness
+from rvflex.diagnosis.calibration import CALIBRATION_PREFERRED, calibration_sentence, calibration_ties, undetermined
+from rvflex.diagnosis.linear import (
     Candidate,
     Problem,
     bounds,
@@ -50,9 +50,9 @@ from rvflex.diagnose.linear import (
     prior_penalty,
     weights,
 )
-from rvflex.diagnose.nominal import NOMINAL, REPLACES, nominal_parameters
-from rvflex.diagnose.refine import refine
-from rvflex.diagnose.replay import (
+from rvflex.diagnosis.nominal import NOMINAL, REPLACES, nominal_parameters
+from rvflex.diagnosis.refine import refine
+from rvflex.diagnosis.replay import (
     DiagnosisSettings,
     EvaluationFailed,
     Layout,
@@ -61,15 +61,15 @@ from rvflex.diagnose.replay import (
     measured_runs,
     plan_from_dataset,
 )
-from rvflex.diagnose.runs import ModelRunner
-from rvflex.diagnose.sensitivity import (
+from rvflex.diagnosis.runs import ModelRunner
+from rvflex.diagnosis.sensitivity import (
     available_candidates,
     second_effect_adds,
     sensitivities,
     signature_size,
     signature_sizes,
 )
-from rvflex.diagnose.verdict import equivalent, is_significant, undetermined_effect, verdict, withheld_check
+from rvflex.diagnosis.verdict import equivalent, is_significant, undetermined_effect, verdict, withheld_check
 from rvflex.spec import ErrorSpec, ReducerSpec
 
 __all__ = ["Candidate", "Diagnosis", "available_candidates", "diagnose", "second_effect_adds",
@@ -78,7 +78,7 @@ __all__ = ["Candidate", "Diagnosis", "available_candidates", "diagnose", "second
 
 @dataclass(frozen=True, eq=False)
 class Diagnosis:
-    """Everything a diagnosis found (see :func:`diagnose`); :mod:`rvflex.diagnose.report` turns it
+    """Everything a diagnosis found (see :func:`diagnose`); :mod:`rvflex.diagnosis.report` turns it
     into the report and the JSON document. ``baseline`` is the *calibrated* nominal model (its
     ``calibrated`` parameters), the reference of every candidate's score; ``nominal_model`` the
     model as specified."""
@@ -115,7 +115,7 @@ class Diagnosis:
         calibrated nominal parameters)."""
         import pandas as pd
 
-        from rvflex.diagnose.report import json_document
+        from rvflex.diagnosis.report import json_document
 
         if table == "ranking":
             rows = []
@@ -181,12 +181,12 @@ def diagnose(dataset, *, settings: DiagnosisSettings | None = None, effects: tup
     Parameters
     ----------
     dataset : BenchDataset
-        From :func:`rvflex.diagnose.bench.read_bench`.
+        From :func:`rvflex.diagnosis.bench.read_bench`.
     settings : DiagnosisSettings
     effects : tuple of str, optional
         Names of the candidate effects (default: every registered, available effect).
     nominal : tuple of str, optional
-        Nominal parameters to calibrate first (default: all of :data:`rvflex.diagnose.nominal.NOMINAL`;
+        Nominal parameters to calibrate first (default: all of :data:`rvflex.diagnosis.nominal.NOMINAL`;
         ``()``: none, the nominal model is taken as exact).
     law : ContactLaw, optional
         Contact law of the model (default: the model's line contact).

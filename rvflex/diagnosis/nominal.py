@@ -7,7 +7,7 @@ class). Left alone, these differences dominate the gap and every candidate effec
 absorb them. Each is calibrated from the same bench runs, within a stated prior, with a regulariser
 toward its nominal value, and only what calibration leaves is attributed to unmodelled effects.
 
-Each nominal parameter is an :class:`~rvflex.diagnose.effects.Effect` with ``prior_sigma``; the
+Each nominal parameter is an :class:`~rvflex.diagnosis.effects.Effect` with ``prior_sigma``; the
 stiffnesses are parameterised by their *compliance change* u = 1/s − 1 (s the stiffness scale): a
 series compliance enters the wind-up linearly, so the linearised fit is close to the model over
 the whole prior range.
@@ -18,7 +18,7 @@ contact stiffness shapes the pin-mesh orders, the bearing stiffness the crank or
 free-play region of the torque cycle (the clearance). The first-stage mesh stiffness is not
 determined by output-side runs (reflected through the first-stage ratio its compliance moves the
 output by ~0.05″ on the RV-40E; its sun-mesh orders lie near order 1400): the diagnosis finds that
-from the sensitivities and holds it at nominal (:func:`rvflex.diagnose.calibration.undetermined`).
+from the sensitivities and holds it at nominal (:func:`rvflex.diagnosis.calibration.undetermined`).
 """
 
 from __future__ import annotations
@@ -27,8 +27,8 @@ import dataclasses as dc
 
 import numpy as np
 
-from rvflex.diagnose.effects import Effect, Param
-from rvflex.diagnose.linear import Z95
+from rvflex.diagnosis.effects import Effect, Param
+from rvflex.diagnosis.linear import Z95
 from rvflex.options import ModelOptions
 from rvflex.spec import ErrorSpec, ReducerSpec
 from rvflex.units import UM
@@ -173,7 +173,7 @@ REPLACES = {"disc_flexibility": "disc_carrier_flexibility"}
 def describe_calibration(c, held: dict | None = None, anchor_scale: float = 1.0) -> list[dict]:
     """The calibrated nominal parameters of ``c``: value, 95 % interval, nominal value, shift, and
     for stiffnesses the stiffness scale against the spec, ``anchor_scale``·s with s = 1/(1 + u) the
-    component scale around the data anchor (:mod:`rvflex.diagnose.anchor`), with its interval
+    component scale around the data anchor (:mod:`rvflex.diagnosis.anchor`), with its interval
     (``determined``: True). The
     parameters in ``held`` (name → why; the runs do not determine them) follow at their nominal
     value with the prior's 95 % interval (``determined``: False, ``why``)."""

@@ -27,8 +27,8 @@ import numpy as np
 from rvflex.choices import DesignKind, Distribution, check_choice, choices, did_you_mean
 from rvflex.options import ModelOptions
 from rvflex.spec import SpecError
-from rvflex.sweep import registry
-from rvflex.sweep.factors import FACTORS
+from rvflex.sweeps import registry
+from rvflex.sweeps.factors import FACTORS
 from rvflex.units import UM
 
 __all__ = ["DESIGN_KINDS", "SALIB_KINDS", "Design", "Factor", "design_points", "load_design", "monte_carlo_design",
@@ -82,7 +82,7 @@ class Design:
     name, reducer : str
         Sweep name; built-in reducer name or spec TOML path (:func:`rvflex.catalog.resolve`).
     scenario : str
-        A registered sweep scenario (:mod:`rvflex.sweep.registry`: ``te``, ``lost-motion``).
+        A registered sweep scenario (:mod:`rvflex.sweeps.registry`: ``te``, ``lost-motion``).
     kind : DesignKind
         How the points are chosen (:data:`DESIGN_KINDS`).
     factors : tuple of Factor

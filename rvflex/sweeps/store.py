@@ -11,7 +11,7 @@ import sqlite3
 from pathlib import Path
 
 from rvflex.spec import SpecError
-from rvflex.sweep.designs import Design
+from rvflex.sweeps.designs import Design
 
 __all__ = ["Store"]
 

@@ -16,7 +16,7 @@ chosen from the samples' own spacing, never from the nominal span:
   refused.
 
 The Fourier fit TE(p) = a₀ + Σ a_k cos kp + b_k sin kp (k = 1 … K) is refused, with a
-:class:`~rvflex.diagnose.errors.BenchError` naming the file and the reason, when it is not
+:class:`~rvflex.diagnosis.errors.BenchError` naming the file and the reason, when it is not
 overdetermined by :data:`MIN_SAMPLES_PER_ORDER` samples per fitted order, when its design is ill
 conditioned (gaps that leave high orders undetermined), or when its reconstruction between the
 samples does not reproduce the measured peak-to-peak (a fit that oscillates between the samples).
@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rvflex.diagnose.errors import BenchError
+from rvflex.diagnosis.errors import BenchError
 
 __all__ = ["MAX_CONDITION", "MIN_COVERAGE", "MIN_SAMPLES_PER_ORDER", "TEFit", "TEWindow", "fit_te", "te_window"]
 

@@ -9,10 +9,10 @@ from pathlib import Path
 
 import numpy as np
 
-from rvflex.diagnose.effects import Effect, available_effects
-from rvflex.diagnose.linear import Candidate, Sensitivities, denoise_orders, weights
-from rvflex.diagnose.replay import DiagnosisSettings, EvaluationFailed, features, recorded
-from rvflex.diagnose.runs import ModelRunner
+from rvflex.diagnosis.effects import Effect, available_effects
+from rvflex.diagnosis.linear import Candidate, Sensitivities, denoise_orders, weights
+from rvflex.diagnosis.replay import DiagnosisSettings, EvaluationFailed, features, recorded
+from rvflex.diagnosis.runs import ModelRunner
 from rvflex.spec import ErrorSpec, ReducerSpec
 
 __all__ = ["available_candidates", "second_effect_adds", "sensitivities", "signature_size", "signature_sizes"]

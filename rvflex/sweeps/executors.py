@@ -2,7 +2,7 @@
 
 ``sweep(design, executor=...)`` evaluates every design point — a full spec/errors variant
 made with :func:`dataclasses.replace` — by building its own model in its worker, and writes
-each finished point at once to the sweep's SQLite store (:class:`~rvflex.sweep.store.Store`).
+each finished point at once to the sweep's SQLite store (:class:`~rvflex.sweeps.store.Store`).
 Rerunning the same design resumes: finished points are skipped; a failed point records its
 error and the sweep goes on; the points left when a worker dies get a fresh pool once, and if
 a second pool dies too each of them runs alone in its own pool, so only the point that kills
@@ -15,7 +15,7 @@ pool forks its workers, so workers start warm; that start-up is reported apart f
 evaluation wall time (``SweepResult.startup_s`` and ``wall_s``). Every point builds its model
 with the design's :class:`~rvflex.options.ModelOptions` (``Design.options``); with FE parts the
 warm-up reduces them once (disk cache) before the workers start. What a point runs comes from
-the scenario registry (:mod:`rvflex.sweep.registry`), never from a scenario import here.
+the scenario registry (:mod:`rvflex.sweeps.registry`), never from a scenario import here.
 """
 
 from __future__ import annotations
@@ -32,11 +32,11 @@ from rvflex.choices import Executor, check_choice, choices
 from rvflex.options import ModelOptions
 from rvflex.parallel import map_warm
 from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
-from rvflex.sweep import registry
-from rvflex.sweep.designs import Design, design_points
-from rvflex.sweep.factors import FACTORS
-from rvflex.sweep.registry import SweepScenario
-from rvflex.sweep.store import Store
+from rvflex.sweeps import registry
+from rvflex.sweeps.designs import Design, design_points
+from rvflex.sweeps.factors import FACTORS
+from rvflex.sweeps.registry import SweepScenario
+from rvflex.sweeps.store import Store
 
 __all__ = ["DASK_CONNECT_TIMEOUT_S", "EXECUTORS", "SweepResult", "evaluate_point", "evaluate_timed", "sweep",
            "warm_process"]
@@ -51,7 +51,7 @@ def evaluate_point(args: tuple[str | ReducerSpec, str | SweepScenario, float, in
     ``args`` = (nominal reducer, scenario, load N·m, positions per revolution, revolutions,
     point, model options). The nominal reducer is a :class:`ReducerSpec` (the sweep resolves it
     once and ships it; it is immutable) or a name/path for :func:`rvflex.catalog.resolve`; the
-    scenario a registered :class:`~rvflex.sweep.registry.SweepScenario` or its name; the options
+    scenario a registered :class:`~rvflex.sweeps.registry.SweepScenario` or its name; the options
     a :class:`~rvflex.options.ModelOptions` (``Design.options``)."""
     reducer, scenario, load, positions, revs, point, options = args
     spec = reducer if isinstance(reducer, ReducerSpec) else resolve(reducer)
@@ -93,10 +93,10 @@ class SweepResult:
 
     def to_xarray(self):
         """The table as an xarray Dataset over ``point``, each variable with ``units`` and
-        ``long_name`` (factor deviations from :data:`~rvflex.sweep.factors.FACTORS`, metrics from their names)."""
+        ``long_name`` (factor deviations from :data:`~rvflex.sweeps.factors.FACTORS`, metrics from their names)."""
         import xarray as xr
 
-        from rvflex.sweep.factors import FACTORS
+        from rvflex.sweeps.factors import FACTORS
 
         ds = xr.Dataset.from_dataframe(self.to_dataframe())
         metric_units = (("_Nm_per_arcmin", "N m/arcmin"), ("_arcsec", "arcsec"), ("_arcmin", "arcmin"))

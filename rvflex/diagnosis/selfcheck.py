@@ -33,9 +33,9 @@ from pathlib import Path
 import numpy as np
 
 from rvflex.choices import Mismatch, check_choice
-from rvflex.diagnose.bench import BenchDataset, BenchRun, read_bench, write_bench
-from rvflex.diagnose.effects import Effect, available_effects
-from rvflex.diagnose.replay import DiagnosisSettings, PlanRun, evaluate
+from rvflex.diagnosis.bench import BenchDataset, BenchRun, read_bench, write_bench
+from rvflex.diagnosis.effects import Effect, available_effects
+from rvflex.diagnosis.replay import DiagnosisSettings, PlanRun, evaluate
 from rvflex.options import ModelOptions
 from rvflex.parallel import map_warm
 from rvflex.spec import ErrorSpec, ReducerSpec, load_spec
@@ -130,7 +130,7 @@ class RealisticMismatch:
     def model(self, spec: ReducerSpec, drawn: dict):
         """(spec, errors, law) of the generator for the drawn parameters."""
         from rvflex.contact.cycloid_pin import ContactLaw
-        from rvflex.diagnose.nominal import power_law_equivalent
+        from rvflex.diagnosis.nominal import power_law_equivalent
 
         b, st = spec.bearings, spec.input_stage
         g = drawn.get("global_scale", 1.0)  # the other bearings follow the overall scale (far mismatch)
@@ -183,7 +183,7 @@ def draw_truth(rng: np.random.Generator, effects: tuple[Effect, ...], n_effects:
     typical size with a random sign (polar effects: a random phase), clipped to the bounds.
     The first effect is the dominant one: the others are drawn at 0.6× — 0.6× of the typical size,
     and smaller still where their model signature at typical size (``sizes``, floor units, see
-    :func:`~rvflex.diagnose.fit.signature_sizes`) exceeds the first one's, so that they stay
+    :func:`~rvflex.diagnosis.fit.signature_sizes`) exceeds the first one's, so that they stay
     secondary in the data. ``first``: the dominant effect, when it is given rather than drawn."""
     if first is None:
         chosen = [effects[int(i)] for i in rng.choice(len(effects), size=n_effects, replace=False)]
@@ -264,7 +264,7 @@ def generate_case(folder: str | Path, truth_path: str | Path, spec: ReducerSpec,
     With ``realistic`` the generator is of another model family (see :class:`RealisticMismatch`;
     its drawn parameters go into the truth under ``nominal``) and the TE runs are sampled N points
     per revolution over [0, 2π). Returns the truth document. Raises
-    :class:`~rvflex.diagnose.replay.EvaluationFailed` when the generator model does not converge
+    :class:`~rvflex.diagnosis.replay.EvaluationFailed` when the generator model does not converge
     for the drawn effects.
     """
     import exudyn as exu
@@ -385,7 +385,7 @@ def _score_calibration(truth: dict, cand, held: dict | None = None, anchor_scale
     ``calibration_ok``: every scale the diagnosis determined is within tolerance. A scale the runs
     do not determine (``held``: kept at its nominal value, reported as not determined) is not a
     calibrated one; ``calibration_ok_all`` also counts it, at its nominal value (the strict reading)."""
-    from rvflex.diagnose.nominal import describe_calibration
+    from rvflex.diagnosis.nominal import describe_calibration
 
     drawn = truth.get("nominal")
     if not drawn:
@@ -410,8 +410,8 @@ def _case_job(args):
     """One self-check bench: its truth drawn (redrawn up to twice when the generator model cannot
     solve it) and generated. Returns (truth document or None, the generator's failure messages)."""
     (folder, truth_path, spec, hideable, n_eff, first, case_seed, sizes, realism, gen, reducer, realistic) = args
-    from rvflex.diagnose.effects import EFFECTS
-    from rvflex.diagnose.replay import EvaluationFailed
+    from rvflex.diagnosis.effects import EFFECTS
+    from rvflex.diagnosis.replay import EvaluationFailed
 
     effects = tuple(EFFECTS[n] for n in hideable)
     msgs = []
@@ -435,8 +435,8 @@ def selfcheck(out_dir: str | Path, settings: SelfCheckSettings = SelfCheckSettin
     ``wall_s``, and ``per_case``).
     """
     from rvflex import catalog
-    from rvflex.diagnose.fit import diagnose, signature_sizes
-    from rvflex.diagnose.replay import plan_from_dataset
+    from rvflex.diagnosis.fit import diagnose, signature_sizes
+    from rvflex.diagnosis.replay import plan_from_dataset
 
     t0 = time.perf_counter()
     out = Path(out_dir)

@@ -22,8 +22,8 @@ from pathlib import Path
 import numpy as np
 
 from rvflex.choices import RunKind, choices
-from rvflex.diagnose.errors import BenchError
-from rvflex.diagnose.measured import TEWindow, te_window
+from rvflex.diagnosis.errors import BenchError
+from rvflex.diagnosis.measured import TEWindow, te_window
 from rvflex.spec import ReducerSpec, SpecError
 
 __all__ = [

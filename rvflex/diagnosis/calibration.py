@@ -8,9 +8,9 @@ import math
 import numpy as np
 from scipy.optimize import lsq_linear
 
-from rvflex.diagnose.linear import Candidate, Sensitivities
-from rvflex.diagnose.nominal import describe_calibration
-from rvflex.diagnose.verdict import SIGNATURE_TIE
+from rvflex.diagnosis.linear import Candidate, Sensitivities
+from rvflex.diagnosis.nominal import describe_calibration
+from rvflex.diagnosis.verdict import SIGNATURE_TIE
 
 __all__ = ["CALIBRATION_PREFERRED", "UNDETERMINED_INFO", "calibration_sentence", "calibration_ties", "undetermined"]
 

@@ -3,7 +3,7 @@
 A model's nominal stiffnesses are routinely a factor of two from the unit on the bench (seed 002
 measures 72 N·m/arcmin where our model of its unit gives 117; an independent simulator's RV-40E
 measures 275–290 N·m/arcmin against our catalogue model's 159). The calibration of the nominal
-parameters (:mod:`rvflex.diagnose.nominal`) is linearised about its start and regularised toward it,
+parameters (:mod:`rvflex.diagnosis.nominal`) is linearised about its start and regularised toward it,
 with component scales of about ±30 %: started from the catalogue values, it stops at the bounds of its
 prior ranges and what it cannot absorb swamps every effect. The bench itself states the unit's
 stiffness, so the diagnosis measures it first and starts from there:
@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rvflex.diagnose.replay import BRANCH_FRACTIONS, Layout, PlanRun
+from rvflex.diagnosis.replay import BRANCH_FRACTIONS, Layout, PlanRun
 from rvflex.spec import ReducerSpec
 from rvflex.units import ARCMIN, ARCSEC
 

@@ -7,9 +7,9 @@ import math
 import numpy as np
 from scipy.optimize import lsq_linear
 
-from rvflex.diagnose.effects import Effect
-from rvflex.diagnose.linear import Candidate, Problem, bounds, lin_fit, prior_of
-from rvflex.diagnose.replay import shift_measured
+from rvflex.diagnosis.effects import Effect
+from rvflex.diagnosis.linear import Candidate, Problem, bounds, lin_fit, prior_of
+from rvflex.diagnosis.replay import shift_measured
 
 __all__ = ["SIGNATURE_TIE", "TIE_RSS_RATIO", "equivalent", "fmt_mag", "fmt_pct", "is_significant",
            "undetermined_effect", "verdict", "withheld_check"]

@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 
 from rvflex.io import save_figure
-from rvflex.sweep.analysis import classify
-from rvflex.sweep.designs import Design
+from rvflex.sweeps.analysis import classify
+from rvflex.sweeps.designs import Design
 
 __all__ = ["plot_indices", "plot_main_effects"]
 

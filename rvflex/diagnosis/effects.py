@@ -23,11 +23,11 @@ An :class:`Effect` acts in one of four ways (``kind``):
     parameter (1 = the other model).
 
 No effect carries a hand-written signature: the diagnosis finds each one's orders, load and
-direction dependence by running the model with it (:mod:`rvflex.diagnose.fit`).
+direction dependence by running the model with it (:mod:`rvflex.diagnosis.fit`).
 
 Register a new effect by adding one object::
 
-    from rvflex.diagnose.effects import EFFECTS, Effect, Param, register
+    from rvflex.diagnosis.effects import EFFECTS, Effect, Param, register
     register(Effect("my_effect", "what it is", (Param("size_m", "m", -1e-5, 1e-5, 3e-6),),
                     apply=my_apply))   # my_apply(spec, errors, x) -> (spec, errors), module-level
 
@@ -101,18 +101,18 @@ class Effect:
     secant for a negative one (for responses whose slope differs on the two sides of zero, as
     a clearance that opens on one side and closes into preload on the other).
     ``per_run`` (kind ``"model"``): ``apply`` receives the run as a fourth argument.
-    ``run_fields``: run attributes (of :class:`~rvflex.diagnose.replay.PlanRun`) that must be
+    ``run_fields``: run attributes (of :class:`~rvflex.diagnosis.replay.PlanRun`) that must be
     known (finite) for every run of a dataset for the effect to be evaluated, e.g.
     ``("temperature_C",)``.
     ``prior_sigma`` (one per parameter, parameter units) marks an *uncertain nominal parameter* of
-    the model rather than an unmodelled effect (:mod:`rvflex.diagnose.nominal`): it is calibrated
+    the model rather than an unmodelled effect (:mod:`rvflex.diagnosis.nominal`): it is calibrated
     before any effect is attributed, with a regulariser ‖(x − c)/σ‖² toward its nominal value c
     (``prior_center``, default 0);
     ``separating_runs`` names the bench runs that tell it from look-alike effects.
     ``coupled_to`` (kind ``"model"``): the name of a fidelity effect whose model changes this
     effect's signature (the contact stiffness shapes the elastic discs' pin-mesh orders): the
     effect's secant is taken on that model too, and the difference from the rigid one enters in
-    proportion to the fidelity effect's share (:mod:`rvflex.diagnose.sensitivity`).
+    proportion to the fidelity effect's share (:mod:`rvflex.diagnosis.sensitivity`).
     """
 
     name: str
@@ -191,7 +191,7 @@ class Effect:
         return True, ""
 
     def available_for(self, plan) -> tuple[bool, str]:
-        """Whether the runs ``plan`` (:class:`~rvflex.diagnose.replay.PlanRun` sequence) carry what
+        """Whether the runs ``plan`` (:class:`~rvflex.diagnosis.replay.PlanRun` sequence) carry what
         this effect needs (``run_fields``), and why not."""
         for fld in self.run_fields:
             missing = [p.label for p in plan if not math.isfinite(float(getattr(p, fld, math.nan)))]

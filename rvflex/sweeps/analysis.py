@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from rvflex.io import write_text
-from rvflex.sweep.designs import SALIB_KINDS, Design, salib_problem, salib_samples
+from rvflex.sweeps.designs import SALIB_KINDS, Design, salib_problem, salib_samples
 
 __all__ = ["classify", "range_table", "sensitivity_indices", "write_indices_csv"]
 

@@ -40,8 +40,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 def _guarded(cmd):
     """Report bad bench input and a non-converging baseline as one ``rvflex: error:`` line (exit 2)."""
     def run(args: argparse.Namespace) -> int:
-        from rvflex.diagnose.bench import BenchError
-        from rvflex.diagnose.replay import EvaluationFailed
+        from rvflex.diagnosis.bench import BenchError
+        from rvflex.diagnosis.replay import EvaluationFailed
 
         try:
             return cmd(args)
@@ -56,11 +56,11 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
 
     from tqdm import tqdm
 
-    from rvflex.diagnose.bench import read_bench
-    from rvflex.diagnose.effects import EFFECTS
-    from rvflex.diagnose.fit import diagnose
-    from rvflex.diagnose.replay import DiagnosisSettings
-    from rvflex.diagnose.report import json_document, write_report
+    from rvflex.diagnosis.bench import read_bench
+    from rvflex.diagnosis.effects import EFFECTS
+    from rvflex.diagnosis.fit import diagnose
+    from rvflex.diagnosis.replay import DiagnosisSettings
+    from rvflex.diagnosis.report import json_document, write_report
     from rvflex.io import emit
     from rvflex.spec import SpecError
 
@@ -98,8 +98,8 @@ def _cmd_selfcheck(args: argparse.Namespace) -> int:
     import tempfile
 
     from rvflex.api import load_reducer
-    from rvflex.diagnose.replay import DiagnosisSettings
-    from rvflex.diagnose.selfcheck import SelfCheckSettings, selfcheck
+    from rvflex.diagnosis.replay import DiagnosisSettings
+    from rvflex.diagnosis.selfcheck import SelfCheckSettings, selfcheck
     from rvflex.io import write_atomic
     from rvflex.spec import SpecError
 

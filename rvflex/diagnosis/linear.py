@@ -10,8 +10,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import lsq_linear
 
-from rvflex.diagnose.effects import Effect
-from rvflex.diagnose.replay import DiagnosisSettings, Layout, Response, shift_measured
+from rvflex.diagnosis.effects import Effect
+from rvflex.diagnosis.replay import DiagnosisSettings, Layout, Response, shift_measured
 
 __all__ = ["Candidate", "Problem", "Sensitivities", "bic", "bounds", "lin_fit", "make_candidate",
            "denoise_orders", "nuisance_columns", "prior_of", "prior_penalty", "split_params", "weights"]

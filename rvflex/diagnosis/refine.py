@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rvflex.diagnose.linear import (
+from rvflex.diagnosis.linear import (
     Candidate,
     Problem,
     Sensitivities,
@@ -26,7 +26,7 @@ from rvflex.diagnose.linear import (
     prior_penalty,
     split_params,
 )
-from rvflex.diagnose.replay import DiagnosisSettings, Response
+from rvflex.diagnosis.replay import DiagnosisSettings, Response
 
 __all__ = ["REFINE_RETRY_STEPS", "RefineState", "evaluate_sets", "refine"]
 
@@ -59,7 +59,7 @@ def evaluate_sets(runner, sens: Sensitivities, resp0: Response, actives: list[tu
                   lay) -> list[tuple]:
     """Model runs of each active set ((Effect, x) pairs), fidelity shares added linearly (see the
     module docstring), the change from the nominal features ``f0`` cleared of the model's numerical
-    noise (:func:`~rvflex.diagnose.linear.denoise_orders`). Returns (features | None, response | None,
+    noise (:func:`~rvflex.diagnosis.linear.denoise_orders`). Returns (features | None, response | None,
     message) per set."""
     model_sets = [tuple((e, x) for e, x in a if e.kind != "fidelity") for a in actives]
     out = []

@@ -6,8 +6,8 @@ import shutil
 import time
 from pathlib import Path
 
-from rvflex.sweep.designs import monte_carlo_design
-from rvflex.sweep.executors import sweep, warm_process
+from rvflex.sweeps.designs import monte_carlo_design
+from rvflex.sweeps.executors import sweep, warm_process
 
 __all__ = ["bench_sweep"]
 

@@ -8,9 +8,9 @@ from pathlib import Path
 
 import numpy as np
 
-from rvflex.diagnose.linear import Candidate, nuisance_columns
-from rvflex.diagnose.nominal import describe_calibration
-from rvflex.diagnose.replay import BRANCH_FRACTIONS, shift_measured
+from rvflex.diagnosis.linear import Candidate, nuisance_columns
+from rvflex.diagnosis.nominal import describe_calibration
+from rvflex.diagnosis.replay import BRANCH_FRACTIONS, shift_measured
 from rvflex.geometry.formulas import ARCSEC_PER_RAD
 
 __all__ = ["gap_table", "json_document", "where_list", "write_report"]
