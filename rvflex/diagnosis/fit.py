@@ -39,6 +39,7 @@ import numpy as np
 
 from rvflex.diagnosis.anchor import Anchor, anchor, scale_stiffness
 from rvflex.diagnosis.calibration import CALIBRATION_PREFERRED, calibration_sentence, calibration_ties, undetermined
+from rvflex.diagnosis.discrepancy import Discrepancy, evidence, feature_groups
 from rvflex.diagnosis.linear import (
     Candidate,
     Problem,
@@ -107,6 +108,7 @@ class Diagnosis:
     separating_runs: tuple[str, ...] = ()  # runs that would separate such a tie
     undetermined: dict = dc.field(default_factory=dict)  # nominal parameters the runs do not determine: why
     anchor: Anchor = dc.field(default_factory=Anchor)  # the global stiffness scale the calibration starts from
+    discrepancy: Discrepancy | None = None  # what the calibrated model leaves, per order band and run
 
     def to_dataframe(self, table: str = "ranking"):
         """A tidy pandas table: ``"ranking"`` (one row per candidate: name, score, gap shrink, withheld
@@ -322,10 +324,15 @@ def diagnose(dataset, *, settings: DiagnosisSettings | None = None, effects: tup
     folds = withheld_folds(plan)
     none = dc.replace(none, gap_shrink_pct=_shrink(none.rss, nominal_model.rss),
                       withheld=withheld_check(prob, plan, none, nominal_model, f0, folds))
+    groups = feature_groups(lay, plan, spec.cycloid.pin_count)
+    disc = Discrepancy.of(prob, none, groups)  # what the calibrated model leaves, per order band and run
     out = []
     for c in allc:
         wh = withheld_check(prob, plan, c, none, f0, folds, hold_nominal=True)
-        out.append(dc.replace(c, score=none.bic - c.bic, gap_shrink_pct=_shrink(c.rss, none.rss), withheld=wh))
+        bic_score = none.bic - c.bic
+        score = bic_score if settings.evidence_model == "bic" else evidence(prob, c, none, groups)
+        out.append(dc.replace(c, score=score, bic_score=bic_score, gap_shrink_pct=_shrink(c.rss, none.rss),
+                              withheld=wh))
     out.sort(key=lambda c: -c.score)
     chosen = None
     final = []
@@ -373,7 +380,7 @@ def diagnose(dataset, *, settings: DiagnosisSettings | None = None, effects: tup
                  "them.")
     return Diagnosis(dataset, settings, plan, lay, w, y, none, none.response or resp0, tuple(final), chosen,
                      folds, unavailable, failed, size, text, runner.model_runs,
-                     time.perf_counter() - t0, tied, nominal_model, windows, cal_ties, runs_needed, held, anc)
+                     time.perf_counter() - t0, tied, nominal_model, windows, cal_ties, runs_needed, held, anc, disc)
 
 
 def _baseline(runner: ModelRunner) -> tuple[np.ndarray, Response]:

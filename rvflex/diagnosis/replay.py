@@ -85,10 +85,18 @@ class DiagnosisSettings:
     pair_top : int or None
         None: every pair of effects is fitted; an int: only pairs with one of the best
         ``pair_top`` single effects.
+    evidence_model : {"discrepancy", "bic"}
+        How an effect's evidence is measured against the calibrated model. "discrepancy" (default):
+        against a model discrepancy with its own variance per order band and run, profiled
+        (:mod:`rvflex.diagnosis.discrepancy`); "bic": one variance for every feature (the plain BIC)
+        plus the ``min_shrink_pct`` rule (the rule before the discrepancy model, kept to compare).
     bic_threshold : float
-        Minimum BIC improvement over "no effect" for an effect to count (10: very strong).
+        Minimum evidence over "no effect" (2 log Bayes factor in BIC's approximation) for an effect
+        to count (10: very strong).
     min_shrink_pct : float
-        Minimum share of the gap (weighted rms) an accepted effect removes (%).
+        With ``evidence_model="bic"``: minimum share of the gap (weighted rms) an accepted effect
+        removes (%). Both models: what a pair's second effect must remove of what the better single
+        leaves, and the share that makes calibration alone "nominal parameters off".
     min_withheld_pct : float
         Minimum improvement of the withheld runs' prediction for acceptance (%).
     order_floor_arcsec : float
@@ -114,6 +122,7 @@ class DiagnosisSettings:
     refine_iterations: int = 5
     refine_min_gain: float = 0.02
     pair_top: int | None = None
+    evidence_model: str = "discrepancy"
     bic_threshold: float = 10.0
     min_shrink_pct: float = 25.0
     min_withheld_pct: float = 10.0
@@ -129,6 +138,8 @@ class DiagnosisSettings:
         if self.positions_per_rev is not None and self.positions_per_rev < 2 * k + 2:
             raise ValueError(f"positions_per_rev = {self.positions_per_rev}: needs ≥ 2·max_order + 2 "
                              f"= {2 * k + 2}")
+        if self.evidence_model not in EVIDENCE_MODELS:
+            raise ValueError(f"evidence_model = {self.evidence_model!r}: must be one of {', '.join(EVIDENCE_MODELS)}")
         if k < 1 or self.hysteresis_steps < 8 or self.workers < 1:
             raise ValueError("max_order ≥ 1, hysteresis_steps ≥ 8 and workers ≥ 1 are required")
 
@@ -154,6 +165,7 @@ class DiagnosisSettings:
         return self
 
 
+EVIDENCE_MODELS = ("discrepancy", "bic")
 DEFAULT_MAX_ORDER = 127  # analysed orders where no bench data set the sampling
 MAX_ORDER_CAP = 255  # the model grid grows with the orders (576 positions for the RV-40E at 255): capped for cost
 

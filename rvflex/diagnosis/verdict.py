@@ -184,8 +184,11 @@ def verdict(cands, chosen, none, has_folds, settings, unavailable, failed, tied=
 
 
 def is_significant(c: Candidate, settings) -> bool:
-    """A candidate that passes the evidence and gap-shrink rules (whether or not it is confirmed)."""
-    return c.score >= settings.bic_threshold and c.gap_shrink_pct >= settings.min_shrink_pct
+    """A candidate whose evidence passes ``bic_threshold`` (whether or not it is confirmed); with the
+    single-variance evidence ("bic") it must also remove ``min_shrink_pct`` of the gap."""
+    if settings.evidence_model == "bic":
+        return c.score >= settings.bic_threshold and c.gap_shrink_pct >= settings.min_shrink_pct
+    return c.score >= settings.bic_threshold
 
 
 def undetermined_effect(c: Candidate) -> str:
