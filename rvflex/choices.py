@@ -19,7 +19,7 @@ from typing import Literal, get_args
 from rvflex.spec_types import SpecError
 
 __all__ = ["BodyFidelity", "ContactLawKind", "DesignKind", "Distribution", "EffectKind", "Executor", "FEPart",
-           "Fidelity", "Mismatch", "PatchShape", "RunKind", "SeatCoupling", "SeatMarker", "TEMode", "check_choice",
+           "DiscrepancyKind", "EvidenceModel", "Fidelity", "Mismatch", "PatchShape", "RunKind", "SeatCoupling", "SeatMarker", "TEMode", "check_choice",
            "choices", "did_you_mean"]
 
 Fidelity = Literal["rigid", "flexible", "flexible-carrier"]
@@ -64,6 +64,14 @@ model is built with, on the run conditions, on the recorded TE, or as another mo
 
 RunKind = Literal["te", "hysteresis"]
 """Kinds of bench run (:mod:`rvflex.diagnosis.bench`): a loaded-TE run or a torque cycle."""
+
+EvidenceModel = Literal["discrepancy", "bic"]
+"""How a diagnosis weighs an effect's evidence: against a model discrepancy per order band and run, or with
+one variance for all features (the plain BIC, with the fixed gap-shrink rule)."""
+
+DiscrepancyKind = Literal["orders", "mesh orders", "wind-up", "torque cycle"]
+"""Kinds of the diagnosis' discrepancy groups: a TE run's octave band of orders, its pin-mesh orders, the
+wind-ups of the TE runs, a torque cycle."""
 
 Mismatch = Literal["none", "realistic", "far"]
 """Self-check generators: the diagnosing model's family, another one per case, or another one whose

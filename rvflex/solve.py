@@ -102,7 +102,6 @@ def solve_at(model: ReducerModel, ss, theta_in: float, q_abs: np.ndarray) -> np.
     return np.asarray(mbs.systemData.GetODE2Coordinates()) + model.reference
 
 
-_solve_at = solve_at  # old private name, still imported by rvflex.diagnosis.replay (use solve_at)
 
 SUBSTEP_LEVELS = 3  # a step that fails is retried in 2, 4, then 8 sub-steps from the last converged state
 

@@ -26,9 +26,9 @@ from rvflex import catalog
 from rvflex.diagnosis.bench import read_bench
 from rvflex.diagnosis.effects import EFFECTS
 from rvflex.diagnosis.fit import diagnose
-from rvflex.diagnosis.replay import DiagnosisSettings
 from rvflex.diagnosis.report import json_document
 from rvflex.diagnosis.selfcheck import generate_case
+from rvflex.diagnosis.settings import DiagnosisSettings
 
 __all__ = ["DiagnosisDemo", "run_diagnosis_demo"]
 

@@ -16,7 +16,9 @@ import pytest
 
 from rvflex import catalog
 from rvflex.diagnosis.bench import BenchError, read_bench
-from rvflex.diagnosis.replay import DiagnosisSettings, measured_runs, plan_from_dataset
+from rvflex.diagnosis.features import measured_runs
+from rvflex.diagnosis.plan import plan_from_dataset
+from rvflex.diagnosis.settings import DiagnosisSettings
 
 SPEC = catalog.load("rv40e")
 RATIO = SPEC.nominal_ratio

@@ -21,13 +21,10 @@ from rvflex.diagnosis.bench import (
     write_bench,
 )
 from rvflex.diagnosis.effects import EFFECTS, Effect, Param, available_effects
+from rvflex.diagnosis.features import branch_angles, shift_measured
 from rvflex.diagnosis.fit import withheld_folds, withheld_split
-from rvflex.diagnosis.replay import (
-    DiagnosisSettings,
-    PlanRun,
-    branch_angles,
-    shift_measured,
-)
+from rvflex.diagnosis.plan import PlanRun
+from rvflex.diagnosis.settings import DiagnosisSettings
 from rvflex.options import ModelOptions
 from rvflex.spec import ErrorSpec
 
@@ -185,10 +182,10 @@ def test_friction_acts_on_the_torque_cycle_through_a_coulomb_play():
 
 def test_origin_shift_is_exact_for_a_pure_harmonic():
     """Shifting the measured features by δ must equal sampling the pattern at p + δ."""
-    from rvflex.diagnosis.replay import _layout
+    from rvflex.diagnosis.plan import feature_layout
 
     plan = (PlanRun("te", "a", 1, 412.0),)
-    lay = _layout(plan, 10)
+    lay = feature_layout(plan, 10)
     f = np.zeros(lay.n)
     f[lay.cos[0].start + 2] = 1.0  # cos 3p
     d = 0.3
@@ -621,7 +618,8 @@ def test_the_pin_ring_runout_is_parameterised_by_the_doubled_angle():
     of φ moves the order-2·z_c TE by about 1.6″ (measured: ±0.79″ at 5 µm). So the effect's
     parameters are (r cos 2φ, r sin 2φ): the effect maps them to φ = atan2/2, and a linear fit in
     them can turn the runout (in x/y components the two secants were antiparallel on the TE)."""
-    from rvflex.diagnosis.replay import PlanRun, evaluate
+    from rvflex.diagnosis.plan import PlanRun
+    from rvflex.diagnosis.replay import evaluate
     from rvflex.solve import hysteresis_cycle
     from rvflex.units import ARCSEC
 

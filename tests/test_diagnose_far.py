@@ -13,8 +13,11 @@ from rvflex import catalog
 from rvflex.diagnosis.anchor import ANCHOR_MIN_RATIO, anchor, compliance, scale_stiffness
 from rvflex.diagnosis.bench import read_bench
 from rvflex.diagnosis.effects import EFFECTS
+from rvflex.diagnosis.features import features
 from rvflex.diagnosis.linear import make_candidate
-from rvflex.diagnosis.replay import HYST_FRACTIONS, DiagnosisSettings, PlanRun, _layout, evaluate, features
+from rvflex.diagnosis.plan import HYST_FRACTIONS, PlanRun, feature_layout
+from rvflex.diagnosis.replay import evaluate
+from rvflex.diagnosis.settings import DiagnosisSettings
 from rvflex.diagnosis.verdict import undetermined_effect
 from rvflex.options import ModelOptions
 from rvflex.solve import hysteresis_cycle
@@ -36,7 +39,7 @@ def test_the_anchor_reads_the_units_compliance_from_the_torque_cycle_beyond_half
     hysteresis offset. The compliance read is the slope beyond ±50 % (the catalogue's stiffness), and
     the anchor against a model twice as compliant is ×2 (applied: beyond ANCHOR_MIN_RATIO)."""
     plan = _cycle_plan()
-    lay = _layout(plan, 16)
+    lay = feature_layout(plan, 16)
     t = np.concatenate([-HYST_FRACTIONS[::-1], HYST_FRACTIONS]) * TR
 
     def branch(c_far, offset):
@@ -62,13 +65,13 @@ def test_the_anchor_reads_the_wind_up_change_between_two_loads_without_a_torque_
     """Without a torque cycle the unit's compliance comes from the mean TE of two forward runs at 412
     and 206 N·m (the common TE offset cancels in their difference)."""
     plan = (PlanRun("te", "a", 1, 412.0), PlanRun("te", "b", 1, 206.0), PlanRun("te", "c", -1, 412.0))
-    lay = _layout(plan, 8)
+    lay = feature_layout(plan, 8)
     f = np.zeros(lay.n)
     for r, p in enumerate(plan):
         f[lay.dc[r]] = 500.0 - p.direction * 0.3 * p.load_Nm  # output lags by 0.3 ″/N·m, offset 500″
     c, src = compliance(f, lay, plan)
     assert src == "wind-up" and abs(c) == pytest.approx(0.3, rel=1e-9)
-    none = anchor(f[:0], f[:0], _layout((), 8), ())
+    none = anchor(f[:0], f[:0], feature_layout((), 8), ())
     assert not none.source and not none.applied and "do not measure" in none.sentence()
 
 

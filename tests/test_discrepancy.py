@@ -11,7 +11,8 @@ import numpy as np
 from rvflex.diagnosis.discrepancy import Discrepancy, evidence, feature_groups, residual
 from rvflex.diagnosis.effects import EFFECTS
 from rvflex.diagnosis.linear import Problem, bounds, lin_fit, make_candidate, nuisance_columns
-from rvflex.diagnosis.replay import HYST_FRACTIONS, DiagnosisSettings, PlanRun, _layout
+from rvflex.diagnosis.plan import HYST_FRACTIONS, PlanRun, feature_layout
+from rvflex.diagnosis.settings import DiagnosisSettings
 from rvflex.diagnosis.verdict import is_significant
 
 Z_B = 40
@@ -28,7 +29,7 @@ def _bench(ecc_arcsec: tuple[float, float], seed: int = 0):
     80, 120, an encoder eccentricity (a, b in arcsec on order 1, the same in both TE runs), and 0.02″ of
     noise on every TE order; zero wind-ups and torque-cycle angles. The model is zero everywhere."""
     rng = np.random.default_rng(seed)
-    lay = _layout(PLAN, MAX_ORDER)
+    lay = feature_layout(PLAN, MAX_ORDER)
     y = np.zeros(lay.n)
     for r in lay.te_runs:
         a, b = y[lay.cos[r]], y[lay.sin[r]]
@@ -62,7 +63,7 @@ def _fit(prob, J, effects):
 
 
 def test_the_groups_partition_the_features_by_run_band_and_kind():
-    lay = _layout(PLAN, MAX_ORDER)
+    lay = feature_layout(PLAN, MAX_ORDER)
     groups = feature_groups(lay, PLAN, Z_B)
     rows = np.concatenate([g.rows for g in groups])
     assert np.array_equal(np.sort(rows), np.arange(lay.n))  # every feature in exactly one group
@@ -84,13 +85,14 @@ def test_the_residual_reproduces_the_fits_weighted_rss():
 def test_an_effect_confined_to_one_band_is_evidenced_against_a_larger_discrepancy_elsewhere():
     """A 3.6″ order-1 eccentricity beside 3″ of model-form discrepancy on three mesh orders: it removes
     only 18 % of the weighted gap (the fixed 25 % rule rejected it), but it clears its own band down to
-    the floor. Against the discrepancy: each TE run's order-1 group goes from RSS (3.6/0.05)² = 5184 over
-    2 features to noise, 2·log(2592) = 15.7 each; less 2·log(n) for the two parameters, ≈ 18."""
+    the floor. Against the discrepancy: each TE run's order-1 group goes from RSS (3.6/0.05)² = 5200 over
+    2 features (−2 log L = 2·log(5200/2) + 2 = 17.7) to noise below the floor (≈ 0), 35 for both runs;
+    less 2·log(n) for the two parameters, ≈ 22."""
     prob, J = _bench((3.0, 2.0))
     none, c = _fit(prob, J, ()), _fit(prob, J, (ECC,))
     groups = feature_groups(prob.lay, PLAN, Z_B)
     ev = evidence(prob, c, none, groups)
-    expected = 2 * 2 * math.log((3.0**2 + 2.0**2) / FLOOR**2 / 2) - 2 * math.log(prob.lay.n)
+    expected = 2 * (2 * math.log((3.0**2 + 2.0**2) / FLOOR**2 / 2) + 2) - 2 * math.log(prob.lay.n)
     assert abs(ev - expected) < 1.5  # the noise moves each group's RSS by a few per cent
     shrink = 100 * (1 - math.sqrt(c.rss / none.rss))
     assert shrink < 25.0

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rvflex.diagnosis.replay import BRANCH_FRACTIONS, Layout, PlanRun
+from rvflex.diagnosis.plan import BRANCH_FRACTIONS, Layout, PlanRun
 from rvflex.spec import ReducerSpec
 from rvflex.units import ARCMIN, ARCSEC
 

@@ -59,8 +59,8 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
     from rvflex.diagnosis.bench import read_bench
     from rvflex.diagnosis.effects import EFFECTS
     from rvflex.diagnosis.fit import diagnose
-    from rvflex.diagnosis.replay import DiagnosisSettings
     from rvflex.diagnosis.report import json_document, write_report
+    from rvflex.diagnosis.settings import DiagnosisSettings
     from rvflex.io import emit
     from rvflex.spec import SpecError
 
@@ -98,8 +98,8 @@ def _cmd_selfcheck(args: argparse.Namespace) -> int:
     import tempfile
 
     from rvflex.api import load_reducer
-    from rvflex.diagnosis.replay import DiagnosisSettings
     from rvflex.diagnosis.selfcheck import SelfCheckSettings, selfcheck
+    from rvflex.diagnosis.settings import DiagnosisSettings
     from rvflex.io import write_atomic
     from rvflex.spec import SpecError
 

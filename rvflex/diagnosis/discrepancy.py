@@ -30,8 +30,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rvflex.choices import DiscrepancyKind
+from rvflex.diagnosis.features import shift_measured
 from rvflex.diagnosis.linear import Candidate, Problem, prior_penalty
-from rvflex.diagnosis.replay import Layout, shift_measured
+from rvflex.diagnosis.plan import Layout
 
 __all__ = ["ORDER_BANDS", "Discrepancy", "DiscrepancyGroup", "evidence", "feature_groups", "residual"]
 
@@ -45,7 +47,7 @@ class DiscrepancyGroup:
     run index (None for the wind-ups of all TE runs); ``orders`` the band (first, last) for TE orders."""
 
     label: str
-    kind: str  # "orders", "mesh orders", "wind-up" or "torque cycle"
+    kind: DiscrepancyKind
     run: int | None
     rows: np.ndarray
     orders: tuple[int, int] | None = None
@@ -119,20 +121,28 @@ class Discrepancy:
                 for g, a, s in zip(self.groups, self.rms_arcsec, self.sigma)]
 
 
-def _profile(groups, r: np.ndarray) -> float:
-    """−2 log profile likelihood of weighted residual ``r`` (constant dropped): Σ n_g log max(RSS_g/n_g, 1)."""
+def _neg2_loglik(groups, r: np.ndarray, pool: float, nu: float) -> float:
+    """−2 log likelihood of weighted residual ``r`` (constant dropped), each group at its variance estimate
+    σ²_g = max((RSS_g + ν·pool)/(n_g + ν), 1): the group's own RSS shrunk toward the pooled variance ``pool``
+    with ν prior degrees of freedom (ν = 0: profiled per group)."""
     out = 0.0
     for g in groups:
         n = len(g.rows)
-        out += n * math.log(max(float(r[g.rows] @ r[g.rows]) / n, 1.0))
+        rss = float(r[g.rows] @ r[g.rows])
+        s2 = max((rss + nu * pool) / (n + nu), 1.0)
+        out += n * math.log(s2) + rss / s2
     return out
 
 
-def evidence(prob: Problem, c: Candidate, ref: Candidate, groups) -> float:
-    """Evidence of ``c`` against ``ref`` with the discrepancy profiled per group: the drop of
-    Σ_g n_g log max(RSS_g/n_g, 1) plus the drop of the nominal parameters' prior penalty, less
-    log(n) per added parameter (2 log of a Bayes factor in BIC's approximation; 10 is "very strong")."""
+def evidence(prob: Problem, c: Candidate, ref: Candidate, groups, pooling: float = 0.0) -> float:
+    """Evidence of ``c`` against ``ref`` with a discrepancy variance per group: the drop of the −2 log
+    likelihood (each group at its variance estimate, shrunk toward the reference's pooled variance with
+    ``pooling`` prior degrees of freedom; see :func:`_neg2_loglik`) plus the drop of the nominal
+    parameters' prior penalty, less log(n) per added parameter (2 log of a Bayes factor in BIC's
+    approximation; 10 is "very strong")."""
     n = prob.lay.n
-    d = (_profile(groups, residual(prob, ref)) + prior_penalty(ref.effects, ref.x)
-         - _profile(groups, residual(prob, c)) - prior_penalty(c.effects, c.x))
+    r_ref, r_c = residual(prob, ref), residual(prob, c)
+    pool = max(float(r_ref @ r_ref) / n, 1.0)
+    d = (_neg2_loglik(groups, r_ref, pool, pooling) + prior_penalty(ref.effects, ref.x)
+         - _neg2_loglik(groups, r_c, pool, pooling) - prior_penalty(c.effects, c.x))
     return d - (c.k - ref.k) * math.log(n)

@@ -101,7 +101,7 @@ class Effect:
     secant for a negative one (for responses whose slope differs on the two sides of zero, as
     a clearance that opens on one side and closes into preload on the other).
     ``per_run`` (kind ``"model"``): ``apply`` receives the run as a fourth argument.
-    ``run_fields``: run attributes (of :class:`~rvflex.diagnosis.replay.PlanRun`) that must be
+    ``run_fields``: run attributes (of :class:`~rvflex.diagnosis.plan.PlanRun`) that must be
     known (finite) for every run of a dataset for the effect to be evaluated, e.g.
     ``("temperature_C",)``.
     ``prior_sigma`` (one per parameter, parameter units) marks an *uncertain nominal parameter* of
@@ -191,7 +191,7 @@ class Effect:
         return True, ""
 
     def available_for(self, plan) -> tuple[bool, str]:
-        """Whether the runs ``plan`` (:class:`~rvflex.diagnosis.replay.PlanRun` sequence) carry what
+        """Whether the runs ``plan`` (:class:`~rvflex.diagnosis.plan.PlanRun` sequence) carry what
         this effect needs (``run_fields``), and why not."""
         for fld in self.run_fields:
             missing = [p.label for p in plan if not math.isfinite(float(getattr(p, fld, math.nan)))]

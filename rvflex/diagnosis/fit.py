@@ -1,6 +1,6 @@
 """Which effect: calibrate the uncertain nominal parameters, then attribute what is left.
 
-1. The bench runs' features are read and checked (:func:`~rvflex.diagnosis.replay.measured_runs`:
+1. The bench runs' features are read and checked (:func:`~rvflex.diagnosis.features.measured_runs`:
    bad or undetermined data are refused before any model run). The nominal model (the reducer as
    specified, no errors) is run under every bench run's conditions; the measured and model
    features are weighted by their noise/model-form floors.
@@ -40,6 +40,7 @@ import numpy as np
 from rvflex.diagnosis.anchor import Anchor, anchor, scale_stiffness
 from rvflex.diagnosis.calibration import CALIBRATION_PREFERRED, calibration_sentence, calibration_ties, undetermined
 from rvflex.diagnosis.discrepancy import Discrepancy, evidence, feature_groups
+from rvflex.diagnosis.features import measured_runs
 from rvflex.diagnosis.linear import (
     Candidate,
     Problem,
@@ -52,16 +53,9 @@ from rvflex.diagnosis.linear import (
     weights,
 )
 from rvflex.diagnosis.nominal import NOMINAL, REPLACES, nominal_parameters
+from rvflex.diagnosis.plan import Layout, PlanRun, plan_from_dataset
 from rvflex.diagnosis.refine import refine
-from rvflex.diagnosis.replay import (
-    DiagnosisSettings,
-    EvaluationFailed,
-    Layout,
-    PlanRun,
-    Response,
-    measured_runs,
-    plan_from_dataset,
-)
+from rvflex.diagnosis.replay import EvaluationFailed, Response
 from rvflex.diagnosis.runs import ModelRunner
 from rvflex.diagnosis.sensitivity import (
     available_candidates,
@@ -70,6 +64,7 @@ from rvflex.diagnosis.sensitivity import (
     signature_size,
     signature_sizes,
 )
+from rvflex.diagnosis.settings import DiagnosisSettings
 from rvflex.diagnosis.verdict import equivalent, is_significant, undetermined_effect, verdict, withheld_check
 from rvflex.spec import ErrorSpec, ReducerSpec
 
@@ -330,7 +325,8 @@ def diagnose(dataset, *, settings: DiagnosisSettings | None = None, effects: tup
     for c in allc:
         wh = withheld_check(prob, plan, c, none, f0, folds, hold_nominal=True)
         bic_score = none.bic - c.bic
-        score = bic_score if settings.evidence_model == "bic" else evidence(prob, c, none, groups)
+        score = (bic_score if settings.evidence_model == "bic"
+                 else evidence(prob, c, none, groups, settings.discrepancy_pooling))
         out.append(dc.replace(c, score=score, bic_score=bic_score, gap_shrink_pct=_shrink(c.rss, none.rss),
                               withheld=wh))
     out.sort(key=lambda c: -c.score)

@@ -11,7 +11,10 @@ import numpy as np
 from scipy.optimize import lsq_linear
 
 from rvflex.diagnosis.effects import Effect
-from rvflex.diagnosis.replay import DiagnosisSettings, Layout, Response, shift_measured
+from rvflex.diagnosis.features import shift_measured
+from rvflex.diagnosis.plan import Layout
+from rvflex.diagnosis.replay import Response
+from rvflex.diagnosis.settings import DiagnosisSettings
 
 __all__ = ["Candidate", "Problem", "Sensitivities", "bic", "bounds", "lin_fit", "make_candidate",
            "denoise_orders", "nuisance_columns", "prior_of", "prior_penalty", "split_params", "weights"]

@@ -26,7 +26,8 @@ from rvflex.diagnosis.linear import (
     prior_penalty,
     split_params,
 )
-from rvflex.diagnosis.replay import DiagnosisSettings, Response
+from rvflex.diagnosis.replay import Response
+from rvflex.diagnosis.settings import DiagnosisSettings
 
 __all__ = ["REFINE_RETRY_STEPS", "RefineState", "evaluate_sets", "refine"]
 

@@ -8,9 +8,10 @@ from pathlib import Path
 
 import numpy as np
 
+from rvflex.diagnosis.features import shift_measured
 from rvflex.diagnosis.linear import Candidate, nuisance_columns
 from rvflex.diagnosis.nominal import describe_calibration
-from rvflex.diagnosis.replay import BRANCH_FRACTIONS, shift_measured
+from rvflex.diagnosis.plan import BRANCH_FRACTIONS
 from rvflex.geometry.formulas import ARCSEC_PER_RAD
 
 __all__ = ["gap_table", "json_document", "where_list", "write_report"]

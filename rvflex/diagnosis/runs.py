@@ -4,18 +4,20 @@ hash of everything that determines them (spec, errors, plan, resolution, law, ac
 
 from __future__ import annotations
 
+import dataclasses as dc
 import hashlib
 import pickle
 from pathlib import Path
 
 import numpy as np
 
-from rvflex.diagnosis.replay import EvaluationFailed, evaluate, features
+from rvflex.diagnosis.features import features
+from rvflex.diagnosis.replay import EvaluationFailed, evaluate
 from rvflex.parallel import Outcome, map_warm
 
 __all__ = ["CACHE_VERSION", "ModelRunner"]
 
-CACHE_VERSION = "diag-11"  # 11: a rigid TE run goes on by the chord Newton once Exudyn's solver bisects; 10: the chord Newton re-initialised after Exudyn's solver ran
+CACHE_VERSION = "diag-12"  # 12: the plan in the key as plain tuples (no module path); 11: a rigid TE run goes on by the chord Newton once Exudyn's solver bisects; 10: the chord Newton re-initialised after Exudyn's solver ran
 
 
 # ----------------------------------------------------------------------------- workers (module level: picklable)
@@ -54,7 +56,10 @@ class ModelRunner:
         self.model_runs = 0
         from rvflex.spec import dumps_errors, dumps_spec
 
-        self._base = hashlib.sha256(pickle.dumps((CACHE_VERSION, dumps_spec(spec), dumps_errors(errors), plan,
+        # the plan as plain tuples: a pickled PlanRun carries its module path, and moving the class would void
+        # every cache
+        self._base = hashlib.sha256(pickle.dumps((CACHE_VERSION, dumps_spec(spec), dumps_errors(errors),
+                                                  tuple(dc.astuple(p) for p in plan),
                                                   settings.positions_per_rev, settings.max_order,
                                                   settings.hysteresis_steps, repr(law)))).hexdigest()
 

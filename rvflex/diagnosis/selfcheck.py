@@ -35,7 +35,9 @@ import numpy as np
 from rvflex.choices import Mismatch, check_choice
 from rvflex.diagnosis.bench import BenchDataset, BenchRun, read_bench, write_bench
 from rvflex.diagnosis.effects import Effect, available_effects
-from rvflex.diagnosis.replay import DiagnosisSettings, PlanRun, evaluate
+from rvflex.diagnosis.plan import PlanRun
+from rvflex.diagnosis.replay import evaluate
+from rvflex.diagnosis.settings import DiagnosisSettings
 from rvflex.options import ModelOptions
 from rvflex.parallel import map_warm
 from rvflex.spec import ErrorSpec, ReducerSpec, load_spec
@@ -436,12 +438,14 @@ def selfcheck(out_dir: str | Path, settings: SelfCheckSettings = SelfCheckSettin
     """
     from rvflex import catalog
     from rvflex.diagnosis.fit import diagnose, signature_sizes
-    from rvflex.diagnosis.replay import plan_from_dataset
+    from rvflex.diagnosis.plan import plan_from_dataset
 
     t0 = time.perf_counter()
     out = Path(out_dir)
     spec = load_spec(settings.reducer) if settings.reducer.endswith(".toml") else catalog.load(settings.reducer)
-    settings = dc.replace(settings, diagnosis=settings.diagnosis.for_spec(spec))  # the model grid it will use
+    # the signature sizes that decide what is drawn are taken on the default orders (no bench exists yet); each
+    # diagnosis resolves its own from its bench's sampling (255 orders for the realistic benches' 1024 samples)
+    probe_settings = settings.diagnosis.for_spec(spec)
     effects, _ = available_effects(settings.effects)
     rng = np.random.default_rng(settings.seed)
     cache = Path(cache_dir) if cache_dir else out / "cache"
@@ -452,7 +456,7 @@ def selfcheck(out_dir: str | Path, settings: SelfCheckSettings = SelfCheckSettin
         BenchRun(m["file"], m["kind"], np.empty(0), np.empty(0), np.empty(0), np.empty(0),
                  direction=m.get("direction", "forward"), load_Nm=m.get("load_Nm", 0.0),
                  torque_max_Nm=m.get("torque_max_Nm", 0.0), temperature_C=m["temperature_C"]) for m in meta))
-    sizes = signature_sizes(spec, plan_from_dataset(probe, settings.diagnosis), settings.diagnosis,
+    sizes = signature_sizes(spec, plan_from_dataset(probe, probe_settings), probe_settings,
                             settings.effects, cache_dir=cache)
     hideable = tuple(e for e in effects if (settings.draw_fidelity_effects or e.kind != "fidelity")
                      and sizes.get(e.name, 0.0) >= MIN_SIGNATURE)

@@ -10,9 +10,11 @@ from pathlib import Path
 import numpy as np
 
 from rvflex.diagnosis.effects import Effect, available_effects
+from rvflex.diagnosis.features import features
 from rvflex.diagnosis.linear import Candidate, Sensitivities, denoise_orders, weights
-from rvflex.diagnosis.replay import DiagnosisSettings, EvaluationFailed, features, recorded
+from rvflex.diagnosis.replay import EvaluationFailed, recorded
 from rvflex.diagnosis.runs import ModelRunner
+from rvflex.diagnosis.settings import DiagnosisSettings
 from rvflex.spec import ErrorSpec, ReducerSpec
 
 __all__ = ["available_candidates", "second_effect_adds", "sensitivities", "signature_size", "signature_sizes"]

@@ -8,8 +8,8 @@ import numpy as np
 from scipy.optimize import lsq_linear
 
 from rvflex.diagnosis.effects import Effect
+from rvflex.diagnosis.features import shift_measured
 from rvflex.diagnosis.linear import Candidate, Problem, bounds, lin_fit, prior_of
-from rvflex.diagnosis.replay import shift_measured
 
 __all__ = ["SIGNATURE_TIE", "TIE_RSS_RATIO", "equivalent", "fmt_mag", "fmt_pct", "is_significant",
            "undetermined_effect", "verdict", "withheld_check"]

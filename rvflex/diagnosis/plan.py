@@ -1,0 +1,99 @@
+"""The plan of a diagnosis: every bench run becomes a :class:`PlanRun` (direction, load, torque cycle,
+temperature) that the model is run under, and the :class:`Layout` of the feature vector both sides are
+reduced to (:mod:`rvflex.diagnosis.features`)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from rvflex.choices import RunKind
+from rvflex.diagnosis.settings import DiagnosisSettings
+
+__all__ = ["BRANCH_FRACTIONS", "HYST_FRACTIONS", "Layout", "PlanRun", "feature_layout", "plan_from_dataset"]
+
+HYST_FRACTIONS = np.array([0.02, 0.05, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.97])
+BRANCH_FRACTIONS = np.concatenate([-HYST_FRACTIONS[::-1], HYST_FRACTIONS])
+"""The torques (shares of the amplitude, increasing) at which each torque-cycle branch is read."""
+
+
+@dataclass(frozen=True)
+class PlanRun:
+    """What the model is run under for one bench run (SI).
+
+    ``torque_path_Nm``: the replayed torque cycle (hysteresis); ``torque_eff_Nm``: the torque
+    the model actually sees when an effect changes it (friction), else empty;
+    ``temperature_C``: the run's recorded temperature (°C), NaN when the bench did not give it
+    (the model itself is temperature-free; per-run effects such as thermal expansion use it).
+    """
+
+    kind: RunKind
+    label: str
+    direction: int = 1
+    load_Nm: float = 0.0
+    torque_max_Nm: float = 0.0
+    torque_path_Nm: tuple[float, ...] = ()
+    torque_eff_Nm: tuple[float, ...] = ()
+    temperature_C: float = math.nan
+
+
+@dataclass(frozen=True, eq=False)
+class Layout:
+    """Where each run's features sit in the feature vector.
+
+    For TE run r: ``dc[r]`` the mean, ``cos[r]``/``sin[r]`` slices of a_1…a_K, b_1…b_K;
+    for hysteresis run r: ``hyst[r]`` a slice of 4·len(HYST_FRACTIONS) angles.
+    """
+
+    n: int
+    dc: dict
+    cos: dict
+    sin: dict
+    hyst: dict
+    max_order: int
+
+    @property
+    def te_runs(self) -> list[int]:
+        return sorted(self.dc)
+
+    def run_rows(self, r: int) -> np.ndarray:
+        """Feature indices of run ``r``."""
+        if r in self.dc:
+            return np.r_[self.dc[r], np.arange(self.cos[r].start, self.cos[r].stop),
+                         np.arange(self.sin[r].start, self.sin[r].stop)]
+        return np.arange(self.hyst[r].start, self.hyst[r].stop)
+
+
+def plan_from_dataset(dataset, settings: DiagnosisSettings) -> tuple[PlanRun, ...]:
+    """One :class:`PlanRun` per bench run (same direction, load, torque amplitude)."""
+    from rvflex.solve import hysteresis_cycle
+
+    out = []
+    for r in dataset.runs:
+        temp = float(r.temperature_C)
+        if r.kind == "te":
+            out.append(PlanRun("te", r.label, 1 if r.direction == "forward" else -1, float(r.load_Nm),
+                               temperature_C=temp))
+        else:
+            path = hysteresis_cycle(r.torque_max_Nm, settings.hysteresis_steps)
+            out.append(PlanRun("hysteresis", r.label, torque_max_Nm=float(r.torque_max_Nm),
+                               torque_path_Nm=tuple(float(t) for t in path), temperature_C=temp))
+    return tuple(out)
+
+
+def feature_layout(plan: tuple[PlanRun, ...], max_order: int) -> Layout:
+    """Where each run's features sit (:class:`Layout`) for ``plan`` at orders 1 … ``max_order``."""
+    i = 0
+    dcs, cos, sin, hyst = {}, {}, {}, {}
+    for r, p in enumerate(plan):
+        if p.kind == "te":
+            dcs[r] = i
+            cos[r] = slice(i + 1, i + 1 + max_order)
+            sin[r] = slice(i + 1 + max_order, i + 1 + 2 * max_order)
+            i += 1 + 2 * max_order
+        else:
+            hyst[r] = slice(i, i + 4 * len(HYST_FRACTIONS))
+            i += 4 * len(HYST_FRACTIONS)
+    return Layout(i, dcs, cos, sin, hyst, max_order)
