@@ -35,7 +35,7 @@ _LAZY = {
     "ReversalBacklash": "rvflex.scenarios.reversal_backlash",
     "FlexibilityEffect": "rvflex.scenarios.flexibility_effect",
     "sweep": "rvflex.studies",
-    "load_design": "rvflex.sweeps.designs",
+    "load_design": "rvflex.studies",
     "Design": "rvflex.sweeps.designs",
     "Factor": "rvflex.sweeps.designs",
     "diagnose": "rvflex.studies",
@@ -62,8 +62,8 @@ if TYPE_CHECKING:  # for type checkers and IDEs; at run time the names load lazi
     from rvflex.scenarios.lost_motion import LostMotion
     from rvflex.scenarios.reversal_backlash import ReversalBacklash
     from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
-    from rvflex.studies import diagnose, selfcheck, sweep
-    from rvflex.sweeps.designs import Design, Factor, load_design
+    from rvflex.studies import diagnose, load_design, selfcheck, sweep
+    from rvflex.sweeps.designs import Design, Factor
 
 
 def __getattr__(name: str):

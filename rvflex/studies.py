@@ -25,10 +25,11 @@ from rvflex.diagnosis.bench import BenchDataset, read_bench
 from rvflex.diagnosis.fit import Diagnosis
 from rvflex.diagnosis.replay import DiagnosisSettings
 from rvflex.spec import ErrorSpec, SpecError
-from rvflex.sweeps.designs import Design, design_points, load_design
+from rvflex.sweeps import designs
+from rvflex.sweeps.designs import Design, design_points
 from rvflex.sweeps.executors import SweepResult
 
-__all__ = ["diagnose", "selfcheck", "sweep"]
+__all__ = ["diagnose", "load_design", "selfcheck", "sweep"]
 
 
 def _names(field: str, value, known) -> tuple[str, ...] | None:
@@ -180,6 +181,32 @@ def selfcheck(out_dir: str | os.PathLike | None = None, *, cases: int = 20, seed
                        "realism": dc.asdict(settings.realism), "mismatch": settings.mismatch,
                        "realistic": dc.asdict(settings.realistic), "far": dc.asdict(settings.far)}
     return doc
+
+
+def load_design(path: str | os.PathLike) -> Design:
+    """Read and validate a sweep design TOML file.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The design file: a ``[sweep]`` table (name, reducer, scenario, kind, ``load_Nm``, ...), one
+        ``[[factor]]`` table per factor (deviations in m) and an optional ``[model]`` table;
+        described in the command reference (``rvflex sweep``), e.g. ``scenarios/designs/smoke.toml``.
+
+    Returns
+    -------
+    Design
+        The validated design.
+
+    Raises
+    ------
+    SpecError
+        An unreadable file or a bad value, naming the file, the TOML key (``[sweep].kind``,
+        ``factor[2].levels``, ``[model].fidelity``), the value and the rule.
+    """
+    import rvflex.scenarios  # noqa: F401 -- registers the scenarios a design may name (rvflex.scenarios.sweepable)
+
+    return designs.load_design(path)
 
 
 def sweep(design: Design | str | os.PathLike, store: str | os.PathLike | None = None, *, executor: Executor = "process",
