@@ -22,7 +22,9 @@ from pathlib import Path
 
 from rvflex.choices import Executor, Mismatch, check_choice, did_you_mean
 from rvflex.diagnosis.bench import BenchDataset, read_bench
+from rvflex.diagnosis.effects import EFFECTS
 from rvflex.diagnosis.fit import Diagnosis
+from rvflex.diagnosis.nominal import NOMINAL
 from rvflex.diagnosis.replay import DiagnosisSettings
 from rvflex.spec import ErrorSpec, SpecError
 from rvflex.sweeps import designs
@@ -43,6 +45,14 @@ def _names(field: str, value, known) -> tuple[str, ...] | None:
         if v not in known:
             raise SpecError(field, v, f"unknown name; known: {', '.join(known)}{did_you_mean(v, known)}")
     return tuple(value)
+
+
+def _diagnosis_arguments(who: str, effects, nominal, settings):
+    """The effects and nominal parameters of a diagnosis as tuples of known names (None: all) and its
+    settings checked, for :func:`diagnose` and :func:`selfcheck` (``who``: the function, for messages)."""
+    if not isinstance(settings, (DiagnosisSettings, type(None))):
+        raise TypeError(f"rvflex.{who}: settings must be an rvflex.DiagnosisSettings, got {type(settings).__name__}")
+    return _names("effects", effects, tuple(EFFECTS)), _names("nominal", nominal, tuple(NOMINAL)), settings
 
 
 def diagnose(bench: str | os.PathLike | BenchDataset, *, effects: tuple[str, ...] | None = None,
@@ -93,9 +103,7 @@ def diagnose(bench: str | os.PathLike | BenchDataset, *, effects: tuple[str, ...
     EvaluationFailed
         The model does not converge under the bench's conditions.
     """
-    from rvflex.diagnosis.effects import EFFECTS
     from rvflex.diagnosis.fit import diagnose as fit_diagnose
-    from rvflex.diagnosis.nominal import NOMINAL
 
     if isinstance(bench, BenchDataset):
         dataset = bench
@@ -104,10 +112,7 @@ def diagnose(bench: str | os.PathLike | BenchDataset, *, effects: tuple[str, ...
     else:
         raise TypeError(f"rvflex.diagnose: bench must be a folder or a BenchDataset (rvflex.read_bench(...)), "
                         f"got {type(bench).__name__}")
-    effects = _names("effects", effects, tuple(EFFECTS))
-    nominal = _names("nominal", nominal, tuple(NOMINAL))
-    if not isinstance(settings, (DiagnosisSettings, type(None))):
-        raise TypeError(f"rvflex.diagnose: settings must be an rvflex.DiagnosisSettings, got {type(settings).__name__}")
+    effects, nominal, settings = _diagnosis_arguments("diagnose", effects, nominal, settings)
     if not isinstance(errors, (ErrorSpec, type(None))):
         raise TypeError(f"rvflex.diagnose: errors must be an rvflex.ErrorSpec, got {type(errors).__name__}")
     return fit_diagnose(dataset, settings=settings, effects=effects, nominal=nominal, errors=errors,
@@ -115,7 +120,9 @@ def diagnose(bench: str | os.PathLike | BenchDataset, *, effects: tuple[str, ...
 
 
 def selfcheck(out_dir: str | os.PathLike | None = None, *, cases: int = 20, seed: int = 1, mismatch: Mismatch = "none",
-              reducer: str | os.PathLike = "rv40e", workers: int = 2, progress=None, log=None) -> dict:
+              reducer: str | os.PathLike = "rv40e", effects: tuple[str, ...] | None = None,
+              nominal: tuple[str, ...] | None = None, settings: DiagnosisSettings | None = None, progress=None,
+              log=None) -> dict:
     """Check the diagnosis blind: write synthetic benches with hidden effects, diagnose each, score.
 
     Every case draws one or two effects (or none: a control case) at random magnitudes, writes a
@@ -138,8 +145,14 @@ def selfcheck(out_dir: str | os.PathLike | None = None, *, cases: int = 20, seed
         ×0.5 … ×2 (``"far"``).
     reducer : str or os.PathLike, optional
         The unit: a built-in reducer name or a spec TOML file.
-    workers : int, optional
-        Processes for the model runs (≥ 1).
+    effects : tuple of str, optional
+        The effects hidden and diagnosed (default: every registered effect the bench plan can
+        show), as in :func:`diagnose`.
+    nominal : tuple of str, optional
+        The nominal parameters each diagnosis calibrates (default: all), as in :func:`diagnose`.
+    settings : DiagnosisSettings, optional
+        The settings of every diagnosis, its process-pool size included (default:
+        ``DiagnosisSettings()``).
     progress : callable, optional
         ``progress(done, total)`` over the cases.
     log : callable, optional
@@ -155,7 +168,8 @@ def selfcheck(out_dir: str | os.PathLike | None = None, *, cases: int = 20, seed
     Raises
     ------
     SpecError
-        ``cases`` or ``workers`` below 1, an unknown ``mismatch`` or reducer (naming the parameter).
+        ``cases`` below 1, an unknown ``mismatch``, reducer, effect or nominal parameter (naming the
+        parameter).
     """
     import dataclasses as dc
 
@@ -163,20 +177,22 @@ def selfcheck(out_dir: str | os.PathLike | None = None, *, cases: int = 20, seed
     from rvflex.diagnosis.selfcheck import SelfCheckSettings
     from rvflex.diagnosis.selfcheck import selfcheck as run_selfcheck
 
-    for field, value in (("cases", cases), ("workers", workers)):
-        if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-            raise SpecError(field, value, "must be an integer ≥ 1")
+    if isinstance(cases, bool) or not isinstance(cases, int) or cases < 1:
+        raise SpecError("cases", cases, "must be an integer ≥ 1")
     check_choice("mismatch", mismatch, Mismatch)
+    effects, nominal, settings = _diagnosis_arguments("selfcheck", effects, nominal, settings)
     reducer = os.fspath(reducer)
     # a spec file by its absolute path: the benches written elsewhere refer to it
     reducer = str(Path(reducer).resolve()) if reducer.endswith(".toml") else reducer
     load_reducer(reducer, field="reducer")  # one clear message for an unknown name or a bad spec, before any run
-    settings = SelfCheckSettings(cases=cases, seed=seed, diagnosis=DiagnosisSettings(workers=workers),
-                                 mismatch=mismatch, control_every=5 if mismatch == "none" else 4, reducer=reducer)
+    settings = SelfCheckSettings(cases=cases, seed=seed, diagnosis=settings or DiagnosisSettings(), mismatch=mismatch,
+                                 control_every=5 if mismatch == "none" else 4, reducer=reducer, effects=effects,
+                                 nominal=nominal)
     with tempfile.TemporaryDirectory(prefix="rvflex-selfcheck-") as tmp:
         out = Path(out_dir) if out_dir is not None else Path(tmp)
         doc = run_selfcheck(out, settings, progress=progress, log=log or (lambda line: None))
     doc["settings"] = {"cases": settings.cases, "seed": settings.seed, "reducer": settings.reducer,
+                       "effects": settings.effects, "nominal": settings.nominal,
                        "diagnosis": dc.asdict(settings.diagnosis), "generator": dc.asdict(settings.generator),
                        "realism": dc.asdict(settings.realism), "mismatch": settings.mismatch,
                        "realistic": dc.asdict(settings.realistic), "far": dc.asdict(settings.far)}

@@ -34,8 +34,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "stiffness also drawn ×0.5 … ×2 and a nominal clearance 0–8 µm")
     s.add_argument("--reducer", default="rv40e", metavar="NAME|SPEC",
                    help="the unit: a built-in reducer name or a spec TOML file (default rv40e)")
-    s.set_defaults(func=_guarded(_cmd_selfcheck), flags={"cases": "--cases", "workers": "--workers",
-                                                        "mismatch": "--mismatch", "reducer": "--reducer"})
+    s.set_defaults(func=_guarded(_cmd_selfcheck), flags={"cases": "--cases", "mismatch": "--mismatch",
+                                                        "reducer": "--reducer"})
 
 
 def _guarded(cmd):
@@ -86,13 +86,18 @@ def _cmd_selfcheck(args: argparse.Namespace) -> int:
     import json
     import tempfile
 
+    from rvflex.diagnosis.replay import DiagnosisSettings
     from rvflex.io import write_atomic
+    from rvflex.spec import SpecError
     from rvflex.studies import selfcheck
 
+    if args.workers < 1:
+        raise SpecError("--workers", args.workers, "must be at least 1")
     with tempfile.TemporaryDirectory(prefix="rvflex-selfcheck-") as tmp:
         out = Path(args.out) if args.out else Path(tmp)
         doc = selfcheck(out, cases=args.cases, seed=args.seed, mismatch=args.mismatch, reducer=args.reducer,
-                        workers=args.workers, log=lambda s: print(s, file=sys.stderr, flush=True))
+                        settings=DiagnosisSettings(workers=args.workers),
+                        log=lambda s: print(s, file=sys.stderr, flush=True))
         summary = {k: doc[k] for k in ("cases", "mismatch", "top1_rate", "top2_rate", "magnitude_within_25pct_rate",
                                        "median_gap_shrink_pct", "control_correct_rate", "calibration_rate",
                                        "calibration_rate_all_scales", "wall_s")}
