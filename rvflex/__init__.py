@@ -7,6 +7,8 @@ The top-level names load on first use (PEP 562), so ``import rvflex`` stays fast
     spec = rvflex.load_reducer("rv40e")
     r = rvflex.run(rvflex.LoadedTE(spec, load_Nm=412.0, options="flexible"))
     r.metrics.te_pp_arcsec; r.to_dataframe(); r.to_xarray(); r.plot(); r.write("out/te")
+    rvflex.sweep("design.toml").to_dataframe()        # a tolerance sweep
+    rvflex.diagnose("bench_dir").to_dataframe()       # the sim-to-real gap of bench data
 """
 
 from __future__ import annotations
@@ -32,14 +34,25 @@ _LAZY = {
     "LostMotion": "rvflex.scenarios.lost_motion",
     "ReversalBacklash": "rvflex.scenarios.reversal_backlash",
     "FlexibilityEffect": "rvflex.scenarios.flexibility_effect",
+    "sweep": "rvflex.studies",
+    "load_design": "rvflex.studies",
+    "Design": "rvflex.sweeps.designs",
+    "Factor": "rvflex.sweeps.designs",
+    "diagnose": "rvflex.studies",
+    "read_bench": "rvflex.diagnosis.bench",
+    "DiagnosisSettings": "rvflex.diagnosis.settings",
+    "selfcheck": "rvflex.studies",
 }
 
-__all__ = ["ErrorSpec", "FlexibilityEffect", "LoadedTE", "LostMotion", "ModelOptions", "PartSettings", "ReducerModel",
-           "ReducerSpec", "Result", "ReversalBacklash", "RunError", "SpecError", "__version__", "build_reducer",
-           "load_errors", "load_reducer", "run"]
+__all__ = ["Design", "DiagnosisSettings", "ErrorSpec", "Factor", "FlexibilityEffect", "LoadedTE", "LostMotion",
+           "ModelOptions", "PartSettings", "ReducerModel", "ReducerSpec", "Result", "ReversalBacklash", "RunError",
+           "SpecError", "__version__", "build_reducer", "diagnose", "load_design", "load_errors", "load_reducer",
+           "read_bench", "run", "selfcheck", "sweep"]
 
 if TYPE_CHECKING:  # for type checkers and IDEs; at run time the names load lazily
     from rvflex.api import RunError, load_errors, load_reducer, run
+    from rvflex.diagnosis.bench import read_bench
+    from rvflex.diagnosis.settings import DiagnosisSettings
     from rvflex.fe.reduce import PartSettings
     from rvflex.model import ReducerModel, build_reducer
     from rvflex.options import ModelOptions
@@ -49,6 +62,8 @@ if TYPE_CHECKING:  # for type checkers and IDEs; at run time the names load lazi
     from rvflex.scenarios.lost_motion import LostMotion
     from rvflex.scenarios.reversal_backlash import ReversalBacklash
     from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
+    from rvflex.studies import diagnose, load_design, selfcheck, sweep
+    from rvflex.sweeps.designs import Design, Factor
 
 
 def __getattr__(name: str):

@@ -145,6 +145,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
 
     from tqdm import tqdm
 
+    from rvflex.studies import sweep
     from rvflex.sweeps import (
         SALIB_KINDS,
         classify,
@@ -155,7 +156,6 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         range_table,
         registry,
         sensitivity_indices,
-        sweep,
         write_indices_csv,
     )
 
@@ -164,7 +164,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     n = len(design_points(design))
     with tqdm(total=n, desc=f"sweep {design.name}", unit="point", file=sys.stderr, mininterval=0.5) as bar:
         res = sweep(design, out / f"{design.name}.sqlite", executor=args.executor, workers=args.workers,
-                    scheduler=args.scheduler, progress=lambda: bar.update(1))
+                    scheduler=args.scheduler, progress=lambda done, total: bar.update(done - bar.n))
     entry = registry.get(design.scenario)
     metric, unit = entry.metric, entry.unit
     keys = sorted({k for r in res.rows for k in r})

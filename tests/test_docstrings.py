@@ -25,9 +25,9 @@ import rvflex  # noqa: E402 -- after the importorskip
 
 CODES = {"GL08", "SS01", "PR01", "PR02", "RT01"}
 EXEMPT = {"rvflex.fe.types.PartSettings": "FE work's module; fields carry their units in their names"}
-UNIT_SUFFIX = re.compile(r"_(m|mm|um|N|Nm|Nm_per_arcmin|N_per_m|Ns_m|rad|deg|s|rpm|Hz|Pa|kg|arcsec|arcmin)$")
+UNIT_SUFFIX = re.compile(r"_(m|mm|um|N|Nm|Nm_per_arcmin|N_per_m|Ns_m|rad|deg|s|rpm|Hz|Pa|kg|arcsec|arcmin|pct)$")
 UNIT_WORDS = re.compile(r"(\b(m|mm|µm|N|N·m|N·m/arcmin|N/m|rad|s|rpm|Hz|Pa|kg|arcsec|arcmin|deg)\b|[°″′]|\(–\)|"
-                        r"dimensionless|fraction|revolutions|per output revolution|\bcount\b)")
+                        r"dimensionless|fraction|%|revolutions|per output revolution|\bcount\b)")
 
 
 def _public_objects() -> list[object]:
@@ -43,9 +43,30 @@ def _public_objects() -> list[object]:
     return objs + results
 
 
-def _surface() -> list[tuple[str, object]]:
-    """(qualified name, object) of every public object and the public members its classes define."""
+def _returned_classes() -> list[type]:
+    """The classes the public functions return that are not public names themselves (a sweep's
+    SweepResult, the Diagnosis): their methods are the user's surface too."""
+    objs = [getattr(rvflex, n) for n in sorted(rvflex.__all__) if not n.startswith("__")]
     out = []
+    for obj in objs:
+        if not inspect.isfunction(obj):
+            continue
+        returns = inspect.signature(obj).return_annotation
+        if isinstance(returns, str):
+            returns = getattr(sys.modules[obj.__module__], returns, None)
+        if inspect.isclass(returns) and returns.__module__.startswith("rvflex") and returns not in objs + out:
+            out.append(returns)
+    return out
+
+
+def _surface() -> list[tuple[str, object]]:
+    """(qualified name, object) of every public object and the public members its classes define,
+    and the public methods of the classes the public functions return."""
+    out = []
+    for cls in _returned_classes():
+        for member, value in vars(cls).items():
+            if not member.startswith("_") and inspect.isfunction(value):
+                out.append((f"{cls.__module__}.{cls.__qualname__}.{member}", value))
     for obj in _public_objects():
         qual = f"{obj.__module__}.{obj.__qualname__}"
         out.append((qual, obj))

@@ -360,3 +360,69 @@ def test_flexible_design_point_equals_the_flexible_scenario_run(tmp_path, coarse
     assert res.rows[0]["te_pp_arcsec"] == pytest.approx(runs["flexible"].te_pp_arcsec, rel=1e-9, abs=1e-9)
     assert res.rows[0]["mean_windup_arcsec"] == pytest.approx(runs["flexible"].mean_windup_arcsec, rel=1e-9)
     assert abs(runs["flexible"].mean_windup_arcsec - runs["rigid"].mean_windup_arcsec) > 0.1  # the discs' compliance
+
+
+@pytest.mark.parametrize("python, message", [
+    (dict(factors=(("eccentricity", (1e-6,)),)), r"^factors\[0\] = \('eccentricity', \(1e-06,\)\): must be an rvflex.Factor"),
+    (dict(factors=()), r"^factors = \(\): a design needs a non-empty tuple of Factor"),
+    (dict(kind="L9"), r"^factors\[0\]\.levels = \(-2e-06, 2e-06\): L9 needs 3 levels"),
+    (dict(load_Nm="412"), r"^load_Nm = '412': must be a non-negative number"),
+    (dict(positions_per_rev=64.0), r"^positions_per_rev = 64.0: must be an integer ≥ 4"),
+    (dict(revolutions=0), r"^revolutions = 0: must be a positive number"),
+    (dict(kind="morris", samples=4), r"^factors\[0\] = \(nan, nan\): eccentricity: morris needs low < high"),
+])
+def test_design_errors_from_python_name_the_parameter(python, message):
+    """A Design made in Python is refused naming its parameter (no TOML key, no file)."""
+    from rvflex.sweeps import Design, Factor
+
+    kwargs = dict(name="d", reducer="rv40e", scenario="te", kind="single-factor", load_Nm=412.0,
+                  factors=(Factor("eccentricity", (-2e-6, 2e-6)),)) | python
+    with pytest.raises(SpecError, match=message):
+        Design(**kwargs)
+
+
+def test_factor_errors_from_python_name_the_parameter():
+    from rvflex.sweeps import Factor
+
+    with pytest.raises(SpecError, match=r"^name = 'eccentricty': unknown factor; .*did you mean 'eccentricity'\?$"):
+        Factor("eccentricty", (1e-6,))
+    with pytest.raises(SpecError, match=r"^levels\[1\] = 2.0: expected a deviation in metres, at most ±1 mm"):
+        Factor("eccentricity", (1e-6, 2.0))
+    with pytest.raises(SpecError, match=r"^levels\[0\] = '1e-6': must be a number"):
+        Factor("eccentricity", ("1e-6",))
+    with pytest.raises(SpecError, match=r"^low = -1e-06: a clearance cannot be negative"):
+        Factor("eccentric_bearing_clearance", low=-1e-6, high=1e-6)
+    with pytest.raises(SpecError, match=r"^sigma = -1e-06: must be positive"):
+        Factor("eccentricity", sigma=-1e-6)
+
+
+@pytest.mark.parametrize("old, new, message", [
+    ("levels = [-2e-6, 2e-6]", 'levels = [-2e-6, "2e-6"]', r"factor\[0\]\.levels\[1\] = '2e-6': must be a number"),
+    ("levels = [-2e-6, 2e-6]", "levels = [-2e-6, 2]", r"factor\[0\]\.levels\[1\] = 2.0: expected a deviation in metres"),
+    ("levels = [-2e-6, 2e-6]", "levels = -2e-6", r"factor\[0\]\.levels = -2e-06: must be an array"),
+    ("levels = [-2e-6, 2e-6]", "level = [-2e-6, 2e-6]", r"factor\[0\]\.level = .*unknown key; .*did you mean 'levels'"),
+    ('kind = "single-factor"', 'kind = "L9"', r"factor\[0\]\.levels = \(-2e-06, 2e-06\): L9 needs 3 levels"),
+    ("load_Nm = 412.0", 'load_Nm = "412"', r"\[sweep\]\.load_Nm = '412': must be a non-negative number"),
+    ("positions_per_rev = 64", "positions_per_rev = 64.5", r"\[sweep\]\.positions_per_rev = 64.5: must be an integer"),
+    ("revolutions = 0.25", "revolutions = -1.0", r"\[sweep\]\.revolutions = -1.0: must be a positive number"),
+    ('name = "smoke"', "name = 3", r"\[sweep\]\.name = 3: must be a non-empty string"),
+])
+def test_design_errors_from_a_file_name_the_file_and_the_toml_key(tmp_path, old, new, message):
+    """The same rules read from a design file name the file and the TOML key instead."""
+    p = tmp_path / "d.toml"
+    text = SMOKE.read_text()
+    assert old in text
+    p.write_text(text.replace(old, new, 1))
+    with pytest.raises(SpecError, match=message) as err:
+        load_design(p)
+    assert str(err.value).startswith(f"{p}: ")
+
+
+def test_a_design_file_with_integer_levels_has_the_digest_of_float_levels(tmp_path):
+    """TOML integers are read as floats: ``levels = [0, 1e-6]`` is the design ``[0.0, 1e-6]`` (the
+    same store)."""
+    a, b = tmp_path / "a.toml", tmp_path / "b.toml"
+    text = SMOKE.read_text()
+    a.write_text(text.replace("levels = [-1e-6, 1e-6]", "levels = [0, 1e-6]"))
+    b.write_text(text.replace("levels = [-1e-6, 1e-6]", "levels = [0.0, 1e-6]"))
+    assert load_design(a).digest == load_design(b).digest

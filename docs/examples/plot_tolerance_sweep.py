@@ -5,21 +5,19 @@ A tolerance sweep: which deviation moves TE most
 The repository's smoke design (``scenarios/designs/smoke.toml``, shipped as
 ``rvflex.scenarios``' package data): three factors of the rigid RV-40E at two levels each, one
 at a time, quasi-static loaded TE at 412 N·m over a quarter output revolution at coarse
-resolution. The sweep runs serially here and stores every finished point in SQLite, so a rerun
-resumes; ``rvflex sweep`` runs the same design from the command line.
+resolution. The sweep runs serially here; with ``store=`` it keeps every finished point in
+SQLite, so a rerun resumes. ``rvflex sweep`` runs the same design from the command line.
 """
 
-import tempfile
 from importlib import resources
-from pathlib import Path
 
 import matplotlib.pyplot as plt
 
-from rvflex.sweeps import classify, load_design, range_table, sweep
+import rvflex
+from rvflex.sweeps import classify, range_table
 
-design = load_design(resources.files("rvflex.scenarios") / "designs" / "smoke.toml")
-with tempfile.TemporaryDirectory() as tmp:
-    result = sweep(design, Path(tmp) / "smoke.sqlite", executor="serial")
+design = rvflex.load_design(resources.files("rvflex.scenarios") / "designs" / "smoke.toml")
+result = rvflex.sweep(design, executor="serial")  # store="smoke.sqlite" would keep the points to resume
 table = result.to_dataframe()
 factors = [f.name for f in design.factors]
 shown = table[factors + ["te_pp_arcsec"]].copy()

@@ -340,6 +340,18 @@ def _resolve_reducer(table: dict, folder: Path, where: str) -> tuple[ReducerSpec
 def read_bench(folder: str | Path) -> BenchDataset:
     """Read and validate a bench dataset folder.
 
+    Parameters
+    ----------
+    folder : str or os.PathLike
+        The dataset: ``bench.toml`` (the reducer and one ``[[run]]`` table per run) and one CSV
+        file per run, SI columns (``time_s``, ``theta_in_rad``, ``theta_out_rad``, ``torque_Nm``);
+        the format is described in the diagnosis guide (docs/diagnosis.md).
+
+    Returns
+    -------
+    BenchDataset
+        The reducer spec and the runs, every value checked.
+
     Raises
     ------
     BenchError

@@ -18,7 +18,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     d.add_argument("--workers", type=int, default=2, help="processes for the model runs (default 2)")
     d.add_argument("--cache", help="model-run cache folder (default: OUT/.cache when --out is given)")
     d.add_argument("--effects", help="comma-separated candidate effects (default: all registered)")
-    d.set_defaults(func=_guarded(_cmd_diagnose))
+    d.set_defaults(func=_guarded(_cmd_diagnose), flags={"effects": "--effects"})
     s = sub.add_parser("selfcheck", help="diagnose synthetic bench datasets with hidden effects and score the result")
     s.add_argument("--cases", type=int, default=20, help="number of datasets (default 20)")
     s.add_argument("--seed", type=int, default=1, help="random seed (default 1)")
@@ -34,7 +34,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "stiffness also drawn ×0.5 … ×2 and a nominal clearance 0–8 µm")
     s.add_argument("--reducer", default="rv40e", metavar="NAME|SPEC",
                    help="the unit: a built-in reducer name or a spec TOML file (default rv40e)")
-    s.set_defaults(func=_guarded(_cmd_selfcheck))
+    s.set_defaults(func=_guarded(_cmd_selfcheck), flags={"cases": "--cases", "mismatch": "--mismatch",
+                                                        "reducer": "--reducer"})
 
 
 def _guarded(cmd):
@@ -52,73 +53,51 @@ def _guarded(cmd):
 
 
 def _cmd_diagnose(args: argparse.Namespace) -> int:
-    import time
-
     from tqdm import tqdm
 
     from rvflex.diagnosis.bench import read_bench
-    from rvflex.diagnosis.effects import EFFECTS
-    from rvflex.diagnosis.fit import diagnose
-    from rvflex.diagnosis.report import json_document, write_report
+    from rvflex.diagnosis.report import json_document
     from rvflex.diagnosis.settings import DiagnosisSettings
     from rvflex.io import emit
     from rvflex.spec import SpecError
+    from rvflex.studies import diagnose
 
     dataset = read_bench(args.bench_dir)  # every bad input is refused here, before anything runs or is written
     if args.workers < 1:
         raise SpecError("--workers", args.workers, "must be at least 1")
-    effects = None
-    if args.effects:
-        effects = tuple(x.strip() for x in args.effects.split(",") if x.strip())
-        bad = [x for x in effects if x not in EFFECTS]
-        if bad:
-            raise SpecError("--effects", bad[0], f"unknown effect; registered: {', '.join(EFFECTS)}")
+    effects = tuple(x.strip() for x in args.effects.split(",") if x.strip()) if args.effects else None
     cache = args.cache or (str(Path(args.out) / ".cache") if args.out else None)
-    settings = DiagnosisSettings(workers=args.workers)
-    t0 = time.perf_counter()
     with tqdm(total=1, desc="diagnosis: model runs", unit="run", file=sys.stderr, mininterval=0.5) as bar:
         def progress(done: int, total: int) -> None:
             bar.total = total
             bar.update(done - bar.n)
 
-        diag = diagnose(dataset, settings=settings, effects=effects, cache_dir=cache, progress=progress)
-    doc = json_document(diag)
-    doc["wall_s"] = time.perf_counter() - t0
+        diag = diagnose(dataset, effects=effects, settings=DiagnosisSettings(workers=args.workers), cache_dir=cache,
+                        progress=progress)
     print(diag.verdict)
     for c in diag.candidates[:5]:
         print(f"  {c.name:48s} score {c.score:10.1f}  shrink {c.gap_shrink_pct:5.0f} %  "
               f"{'accepted' if c.accepted else ''}")
-    print(f"{diag.model_runs} model runs, {doc['wall_s']:.0f} s")
-    return emit(args, doc, lambda out: write_report(diag, out, doc))
+    print(f"{diag.model_runs} model runs, {diag.wall_s:.0f} s")
+    return emit(args, json_document(diag) if args.json else {}, diag.write)
 
 
 def _cmd_selfcheck(args: argparse.Namespace) -> int:
-    import dataclasses as dc
     import json
     import tempfile
 
-    from rvflex.api import load_reducer
-    from rvflex.diagnosis.selfcheck import SelfCheckSettings, selfcheck
     from rvflex.diagnosis.settings import DiagnosisSettings
     from rvflex.io import write_atomic
     from rvflex.spec import SpecError
+    from rvflex.studies import selfcheck
 
-    if args.cases < 1:
-        raise SpecError("--cases", args.cases, "must be at least 1")
     if args.workers < 1:
         raise SpecError("--workers", args.workers, "must be at least 1")
-    reducer = str(Path(args.reducer).resolve()) if args.reducer.endswith(".toml") else args.reducer
-    load_reducer(reducer, field="--reducer")  # one clear message for an unknown name or a bad spec, before any run
-    settings = SelfCheckSettings(cases=args.cases, seed=args.seed, diagnosis=DiagnosisSettings(workers=args.workers),
-                                 mismatch=args.mismatch, control_every=5 if args.mismatch == "none" else 4,
-                                 reducer=reducer)
     with tempfile.TemporaryDirectory(prefix="rvflex-selfcheck-") as tmp:
         out = Path(args.out) if args.out else Path(tmp)
-        doc = selfcheck(out, settings, log=lambda s: print(s, file=sys.stderr, flush=True))
-        doc["settings"] = {"cases": settings.cases, "seed": settings.seed, "reducer": settings.reducer,
-                           "diagnosis": dc.asdict(settings.diagnosis), "generator": dc.asdict(settings.generator),
-                           "realism": dc.asdict(settings.realism), "mismatch": settings.mismatch,
-                           "realistic": dc.asdict(settings.realistic), "far": dc.asdict(settings.far)}
+        doc = selfcheck(out, cases=args.cases, seed=args.seed, mismatch=args.mismatch, reducer=args.reducer,
+                        settings=DiagnosisSettings(workers=args.workers),
+                        log=lambda s: print(s, file=sys.stderr, flush=True))
         summary = {k: doc[k] for k in ("cases", "mismatch", "top1_rate", "top2_rate", "magnitude_within_25pct_rate",
                                        "median_gap_shrink_pct", "control_correct_rate", "calibration_rate",
                                        "calibration_rate_all_scales", "wall_s")}

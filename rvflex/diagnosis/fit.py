@@ -106,10 +106,23 @@ class Diagnosis:
     discrepancy: Discrepancy | None = None  # what the calibrated model leaves, per order band and run
 
     def to_dataframe(self, table: str = "ranking"):
-        """A tidy pandas table: ``"ranking"`` (one row per candidate: name, score, gap shrink, withheld
-        improvement, accepted, refined, and each parameter in SI), ``"gap"`` (per run and metric:
-        measured, nominal model, calibrated and after the accepted effect) or ``"calibration"`` (the
-        calibrated nominal parameters)."""
+        """One of the diagnosis's tables as a tidy pandas DataFrame.
+
+        Parameters
+        ----------
+        table : {"ranking", "gap", "calibration"}, optional
+            ``"ranking"`` (default): one row per candidate effect, best first: name, score (BIC
+            improvement), gap shrink (%), withheld improvement (%), accepted, refined, and each
+            parameter in SI (unit in the column name). ``"gap"``: per run and metric, the measured
+            value, the nominal model's, the calibrated model's and the model's with the accepted
+            effect (unit in the ``unit`` column). ``"calibration"``: the calibrated nominal
+            parameters with their intervals.
+
+        Returns
+        -------
+        pandas.DataFrame
+            The table.
+        """
         import pandas as pd
 
         from rvflex.diagnosis.report import json_document
@@ -135,6 +148,57 @@ class Diagnosis:
                             | {"nominal_model": b["model"], "calibrated": cal["model"], "after": a["model"]})
             return pd.DataFrame(rows)
         raise ValueError(f"table = {table!r}: must be 'ranking', 'gap' or 'calibration'")
+
+    def plot(self, ax=None, run: int | None = None):
+        """Plot one bench run against the model, as the report's figures do.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Where to draw (default: a new :class:`matplotlib.figure.Figure`; pyplot is not used).
+        run : int, optional
+            Index of the bench run (``dataset.runs``; default: the first TE run, else the first
+            torque cycle). A TE run is drawn as TE (arcsec) over the output position (°):
+            measured, with the fitted offset and encoder origin removed, the calibrated model and
+            the model with the accepted effect; a torque cycle as torque (N·m) over the output
+            angle (arcmin).
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            The axes drawn on.
+        """
+        from rvflex.diagnosis.report import draw_run
+
+        if run is None:
+            run = self.layout.te_runs[0] if self.layout.te_runs else min(self.layout.hyst)
+        if not (isinstance(run, int) and 0 <= run < len(self.plan)):
+            raise ValueError(f"run = {run!r}: must be a run index, 0 … {len(self.plan) - 1}")
+        if ax is None:
+            from matplotlib.figure import Figure
+
+            ax = Figure(figsize=(8, 3.2), layout="constrained").subplots()
+        draw_run(ax, self, run)
+        ax.legend(fontsize=8)
+        return ax
+
+    def write(self, out: str | Path) -> list[Path]:
+        """Write the report of ``rvflex diagnose --out``: report.md, diagnosis.json and the plots (PNG).
+
+        Parameters
+        ----------
+        out : str or os.PathLike
+            The folder (created when missing); every file is computed first and written
+            through a temporary name.
+
+        Returns
+        -------
+        list of pathlib.Path
+            The files written.
+        """
+        from rvflex.diagnosis.report import write_report
+
+        return write_report(self, out)
 
 
 def withheld_split(plan: tuple[PlanRun, ...]) -> tuple[tuple[int, ...], tuple[int, ...]]:

@@ -14,7 +14,7 @@ from rvflex.diagnosis.nominal import describe_calibration
 from rvflex.diagnosis.plan import BRANCH_FRACTIONS
 from rvflex.geometry.formulas import ARCSEC_PER_RAD
 
-__all__ = ["gap_table", "json_document", "where_list", "write_report"]
+__all__ = ["draw_run", "gap_table", "json_document", "where_list", "write_report"]
 
 
 def _run_meta(diag, r: int) -> tuple[str, float]:
@@ -243,18 +243,10 @@ def _plots(diag, out: Path) -> list[Path]:
         fig = Figure(figsize=(11, 3.0 * len(te_runs)), layout="constrained")
         axes = fig.subplots(len(te_runs), 1,
                                  squeeze=False)
-        deg = np.arange(512) * 360 / 512
         for ax, r in zip(axes[:, 0], te_runs):
-            ref = ch or base
-            y = shift_measured(diag.measured, lay, ref.delta)[:, 0] - _nuis(diag) @ ref.nuisance
-            ax.plot(deg, _te_grid(diag, y, r), color="k", lw=1.0, label="measured (offset, origin removed)")
-            ax.plot(deg, _te_grid(diag, base.model_features, r), color="C0", lw=1.0, ls="--", label="model")
-            if ch is not None:
-                ax.plot(deg, _te_grid(diag, ch.model_features, r), color="C3", lw=1.0, label=f"corrected: {ch.name}")
-            ax.set_title(diag.plan[r].label, fontsize=9)
-            ax.set_ylabel("TE (arcsec)")
-            ax.grid(alpha=0.3)
-        axes[-1, 0].set_xlabel("output position (°)")
+            draw_run(ax, diag, r)
+            if r != te_runs[-1]:
+                ax.set_xlabel("")
         axes[0, 0].legend(fontsize=8, loc="best")
         p = out / "te_measured_model_corrected.png"
         fig.savefig(p, dpi=110)
@@ -286,22 +278,7 @@ def _plots(diag, out: Path) -> list[Path]:
         fig = Figure(figsize=(7 * len(hyst), 4.8), layout="constrained")
         axes = fig.subplots(1, len(hyst), squeeze=False)
         for ax, r in zip(axes[0], hyst):
-            run = diag.dataset.runs[r]
-            ref = ch or base
-            nu = (_nuis(diag) @ ref.nuisance)[lay.hyst[r]][0]
-            ax.plot(run.theta_out_rad * ARCSEC_PER_RAD / 60 - nu / 60, run.torque_Nm, ".", ms=2, color="k",
-                    label="measured")
-            for c, col, lab in ((base, "C0", "model"), (ch, "C3", "corrected")):
-                if c is None or c.response is None:
-                    continue
-                off = (_nuis(diag) @ c.nuisance)[lay.hyst[r]][0] - nu
-                ax.plot(c.response.theta[r] * ARCSEC_PER_RAD / 60 + off / 60, c.response.torque[r], "-", color=col,
-                        lw=1.0, label=lab)
-            ax.set_xlabel("output angle (arcmin)")
-            ax.set_ylabel("output torque (N·m)")
-            ax.set_title(diag.plan[r].label, fontsize=9)
-            ax.grid(alpha=0.3)
-            ax.legend(fontsize=8)
+            draw_run(ax, diag, r)
         p = out / "hysteresis_loops.png"
         fig.savefig(p, dpi=110)
         paths.append(p)
@@ -336,6 +313,42 @@ def _plots(diag, out: Path) -> list[Path]:
         fig.savefig(p, dpi=110)
         paths.append(p)
     return paths
+
+
+def draw_run(ax, diag, run: int) -> None:
+    """Draw bench run ``run`` (its index in ``diag.plan``) on ``ax`` as the report's plots do: a TE
+    run's TE over one output revolution (arcsec against degrees; measured with the fitted offset and
+    origin removed, the calibrated model, the model with the accepted effect), a torque cycle's
+    torque against the output angle (N·m against arcmin)."""
+    lay = diag.layout
+    base, ch = diag.baseline, diag.chosen
+    ref = ch or base
+    if run in lay.hyst:
+        data = diag.dataset.runs[run]
+        nu = (_nuis(diag) @ ref.nuisance)[lay.hyst[run]][0]
+        ax.plot(data.theta_out_rad * ARCSEC_PER_RAD / 60 - nu / 60, data.torque_Nm, ".", ms=2, color="k",
+                label="measured")
+        for c, col, lab in ((base, "C0", "model"), (ch, "C3", "corrected")):
+            if c is None or c.response is None:
+                continue
+            off = (_nuis(diag) @ c.nuisance)[lay.hyst[run]][0] - nu
+            ax.plot(c.response.theta[run] * ARCSEC_PER_RAD / 60 + off / 60, c.response.torque[run], "-", color=col,
+                    lw=1.0, label=lab)
+        ax.set_xlabel("output angle (arcmin)")
+        ax.set_ylabel("output torque (N·m)")
+    else:
+        deg = np.arange(512) * 360 / 512
+        y = shift_measured(diag.measured, lay, ref.delta)[:, 0] - _nuis(diag) @ ref.nuisance
+        ax.plot(deg, _te_grid(diag, y, run), color="k", lw=1.0, label="measured (offset, origin removed)")
+        ax.plot(deg, _te_grid(diag, base.model_features, run), color="C0", lw=1.0, ls="--", label="model")
+        if ch is not None:
+            ax.plot(deg, _te_grid(diag, ch.model_features, run), color="C3", lw=1.0, label=f"corrected: {ch.name}")
+        ax.set_xlabel("output position (°)")
+        ax.set_ylabel("TE (arcsec)")
+    ax.set_title(diag.plan[run].label, fontsize=9)
+    ax.grid(alpha=0.3)
+    if run in lay.hyst:
+        ax.legend(fontsize=8)
 
 
 def _mag_text(e, m, lo, hi) -> str:

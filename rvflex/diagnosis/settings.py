@@ -16,7 +16,7 @@ __all__ = ["DEFAULT_MAX_ORDER", "MAX_ORDER_CAP", "DiagnosisSettings", "alias_fre
 class DiagnosisSettings:
     """Settings of a diagnosis (and of the model runs it makes).
 
-    Attributes
+    Parameters
     ----------
     positions_per_rev : int or None
         Model positions per output revolution (≥ 2·max_order + 2). None (default): the smallest
@@ -36,7 +36,7 @@ class DiagnosisSettings:
         Most model evaluations per refined candidate; after the second, a candidate stops once
         an evaluation lowers its residual by less than ``refine_min_gain`` (or its step converges).
     refine_min_gain : float
-        Relative residual decrease an evaluation must bring to go on refining.
+        Relative residual decrease an evaluation must bring to go on refining (fraction).
     pair_top : int or None
         None: every pair of effects is fitted; an int: only pairs with one of the best
         ``pair_top`` single effects.
@@ -50,7 +50,7 @@ class DiagnosisSettings:
         model's pooled one (0: each group's own, profiled; large: one variance for all).
     bic_threshold : float
         Minimum evidence over "no effect" (2 log Bayes factor in BIC's approximation) for an effect
-        to count (10: very strong).
+        to count (dimensionless; 10: very strong).
     min_shrink_pct : float
         With ``evidence_model="bic"``: minimum share of the gap (weighted rms) an accepted effect
         removes (%). Both models: what a pair's second effect must remove of what the better single
@@ -60,10 +60,10 @@ class DiagnosisSettings:
     order_floor_arcsec : float
         Model-form floor of an order coefficient (arcsec): residuals below it are not signal.
     order_floor_rel : float
-        Model-form floor of an order relative to its amplitude (the larger of measured and nominal):
+        Model-form floor of an order relative to its amplitude (fraction; the larger of measured and nominal):
         another program's contact law and stiffnesses move an order's amplitude by tens of per cent.
     mesh_order_floor_rel : float
-        The same for the pin-mesh orders (multiples of z_b) alone, where the contact-law form and the
+        The same (fraction) for the pin-mesh orders (multiples of z_b) alone, where the contact-law form and the
         disc flexibility put several arcseconds of TE.
     eval_timeout_s : float
         Wall-time budget of one run of a model evaluation before the evaluation counts as failed (s).
@@ -102,15 +102,37 @@ class DiagnosisSettings:
             raise ValueError("max_order ≥ 1, hysteresis_steps ≥ 8 and workers ≥ 1 are required")
 
     def for_dataset(self, dataset) -> DiagnosisSettings:
-        """These settings for a bench dataset: the analysed orders from its sampling when ``max_order``
-        is None (:func:`orders_resolved`), then :meth:`for_spec` of its reducer."""
+        """These settings for a bench dataset.
+
+        Parameters
+        ----------
+        dataset : BenchDataset
+            The bench: the analysed orders come from its sampling when ``max_order`` is None
+            (:func:`orders_resolved`), then :meth:`for_spec` of its reducer.
+
+        Returns
+        -------
+        DiagnosisSettings
+            The settings with ``max_order`` and ``positions_per_rev`` set.
+        """
         s = self if self.max_order is not None else dc.replace(self, max_order=orders_resolved(dataset))
         return s.for_spec(dataset.reducer)
 
     def for_spec(self, spec) -> DiagnosisSettings:
-        """These settings for ``spec``: the position grid chosen by :func:`alias_free_positions` when
-        None, else checked by :func:`aliasing_problem` (ValueError naming the folded harmonic); a
-        ``max_order`` of None is DEFAULT_MAX_ORDER."""
+        """These settings for a reducer.
+
+        Parameters
+        ----------
+        spec : ReducerSpec
+            The reducer: the position grid is chosen by :func:`alias_free_positions` when None,
+            else checked by :func:`aliasing_problem` (ValueError naming the folded harmonic); a
+            ``max_order`` of None is DEFAULT_MAX_ORDER.
+
+        Returns
+        -------
+        DiagnosisSettings
+            The settings with ``max_order`` and ``positions_per_rev`` set.
+        """
         if self.max_order is None:
             return dc.replace(self, max_order=DEFAULT_MAX_ORDER).for_spec(spec)
         z_b = spec.cycloid.pin_count

@@ -84,16 +84,28 @@ class SweepResult:
     cpu_busiest_worker_s: float = 0.0  # the largest per-worker sum of it (the pool's CPU makespan)
 
     def to_dataframe(self):
-        """The table as a pandas DataFrame: one row per point (index ``point``), the factor
-        deviations (SI, as in the design) and the metrics (unit in the name), ``error`` where a
-        point failed."""
+        """The points as a pandas DataFrame.
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per point (index ``point``): the factor deviations (SI, as in the design) and
+            the metrics (unit in the name, e.g. ``te_pp_arcsec``), ``error`` where a point failed.
+        """
         import pandas as pd
 
         return pd.DataFrame(self.rows).set_index("point") if self.rows else pd.DataFrame(index=pd.Index([], name="point"))
 
     def to_xarray(self):
-        """The table as an xarray Dataset over ``point``, each variable with ``units`` and
-        ``long_name`` (factor deviations from :data:`~rvflex.sweeps.factors.FACTORS`, metrics from their names)."""
+        """The points as an xarray Dataset.
+
+        Returns
+        -------
+        xarray.Dataset
+            The table over the dimension ``point``, each variable with ``units`` and ``long_name``
+            (factor deviations from :data:`~rvflex.sweeps.factors.FACTORS`, metrics from their
+            names); the executor, workers and point counts in ``attrs``.
+        """
         import xarray as xr
 
         from rvflex.sweeps.factors import FACTORS

@@ -54,5 +54,5 @@ def get(name: str) -> SweepScenario:
     try:
         return _REGISTRY[name]
     except KeyError:
-        raise SpecError("[sweep].scenario", name, f"not a registered sweep scenario ({', '.join(_REGISTRY) or 'none'}"
+        raise SpecError("scenario", name, f"not a registered sweep scenario ({', '.join(_REGISTRY) or 'none'}"
                                                   f"; the built-in ones register on `import rvflex.scenarios`)") from None
