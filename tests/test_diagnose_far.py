@@ -222,3 +222,32 @@ def test_an_order_234_signature_is_found_from_1024_sample_runs(tmp_path):
                     effects=("pin_position_h2", "pin_position_h3", "pin_ring_runout"))
     assert diag.settings.max_order == 255
     assert diag.chosen is not None and diag.chosen.name == "pin_position_h3", diag.verdict
+
+
+def test_an_effect_the_calibration_can_stand_in_for_is_named_as_a_tie():
+    """Signatures written here: a series compliance whose two columns, at their typical size, are
+    combinations of the contact and needle-bearing stiffness columns within those parameters' prior
+    ranges (0.3·a + 0.2·b and 0.1·a + 0.4·b) is a look-alike of the calibration and named with its
+    separating runs; an encoder eccentricity with independent columns is not."""
+    from rvflex.diagnosis.calibration import calibration_lookalikes, lookalike_sentence
+    from rvflex.diagnosis.linear import Sensitivities
+    from rvflex.diagnosis.nominal import NOMINAL
+
+    rng = np.random.default_rng(7)
+    n = 200
+    a, b = rng.normal(size=n), rng.normal(size=n)
+    ser, enc = EFFECTS["output_series_compliance"], EFFECTS["output_encoder_eccentricity"]
+    steps = [p.step for p in ser.params]
+    sens = Sensitivities(plus={"contact_stiffness": a[:, None], "needle_bearing_stiffness": b[:, None],
+                               ser.name: np.column_stack([(0.3 * a + 0.2 * b) / steps[0], (0.1 * a + 0.4 * b) / steps[1]]),
+                               enc.name: rng.normal(size=(n, 2)) / enc.params[0].step}, minus={})
+    cal = (NOMINAL["contact_stiffness"], NOMINAL["needle_bearing_stiffness"])
+    calibrated = make_candidate(cal, np.zeros(2), np.zeros(0), 0.0, float(n), np.column_stack([a, b]), n, 0,
+                                np.zeros(n), refined=True)
+    out = calibration_lookalikes((ser, enc), calibrated, sens, np.ones(n))
+    assert list(out) == [ser.name]
+    names, runs, ratio = out[ser.name]
+    assert set(names) == {"contact_stiffness", "needle_bearing_stiffness"} and ratio < 1e-6
+    assert runs[0] == ser.separating_runs
+    text = lookalike_sentence(out)
+    assert ser.name in text and "TE runs at two loads" in text and "100 %" in text

@@ -12,7 +12,7 @@ from rvflex.diagnosis.linear import Candidate, Sensitivities
 from rvflex.diagnosis.nominal import describe_calibration
 from rvflex.diagnosis.verdict import SIGNATURE_TIE
 
-__all__ = ["CALIBRATION_PREFERRED", "UNDETERMINED_INFO", "calibration_sentence", "calibration_ties", "undetermined"]
+__all__ = ["CALIBRATION_PREFERRED", "UNDETERMINED_INFO", "calibration_lookalikes", "calibration_sentence", "lookalike_sentence", "calibration_ties", "undetermined"]
 
 UNDETERMINED_INFO = 1.0  # a prior σ of the parameter moves the weighted features by less: the runs do not determine it
 
@@ -87,12 +87,44 @@ def calibration_ties(chosen: Candidate, cal, sens: Sensitivities, w) -> tuple[tu
         if not e.nominal:
             sig += chosen.jacobian[:, i:i + e.n] @ xe
         i += e.n
+    now = {e.name: xe for e, xe in chosen.split() if e.nominal}
+    return _reproduced(sig, cal, now, sens, w)
+
+
+def calibration_lookalikes(effects, calibrated: Candidate, sens: Sensitivities, w) -> dict:
+    """Effects the calibration can stand in for: those whose signature at typical size (each parameter's
+    secant at its step, every column on its own) the nominal parameters, within their prior ranges from
+    the calibrated values, reproduce to within CALIBRATION_PREFERRED. Such an effect can be neither found
+    nor excluded by these runs whatever its evidence; the report names it as a tie with the runs that would
+    separate them. Returns {effect name: (nominal parameters, separating runs, worst relative residual)}."""
+    cal = tuple(e for e in calibrated.effects if e.nominal)
+    now = {e.name: xe for e, xe in calibrated.split() if e.nominal}
+    out = {}
+    for e in effects:
+        if e.nominal or e.name not in sens:
+            continue
+        worst, names, runs = 0.0, (), ()
+        for j, prm in enumerate(e.params):
+            nm, rn, ratio = _reproduced(sens.plus[e.name][:, j] * prm.step, cal, now, sens, w)
+            worst = max(worst, ratio)
+            names, runs = tuple(dict.fromkeys(names + nm)), tuple(dict.fromkeys(runs + rn))
+        if names and worst <= CALIBRATION_PREFERRED:
+            own = (e.separating_runs,) if e.separating_runs else ()
+            out[e.name] = (names, tuple(dict.fromkeys(own + runs)), worst)
+    return out
+
+
+def _reproduced(sig: np.ndarray, cal, now: dict, sens: Sensitivities, w) -> tuple[tuple[str, ...], tuple[str, ...], float]:
+    """How well the nominal parameters ``cal`` (from their values ``now``, within their ranges) reproduce the
+    model change ``sig``: (the parameters that carry it, their separating runs, relative weighted residual;
+    no names beyond SIGNATURE_TIE)."""
+    if not cal:
+        return (), (), math.inf
     sig = sig * w
     norm = float(np.linalg.norm(sig))
     if norm <= 0:
         return (), (), math.inf
     J = np.column_stack([sens.plus[c.name] for c in cal]) * w[:, None]
-    now = {e.name: xe for e, xe in chosen.split() if e.nominal}  # room left from the calibrated values
     lo = np.concatenate([c.lower - now.get(c.name, c.center) for c in cal])
     hi = np.concatenate([c.upper - now.get(c.name, c.center) for c in cal])
     coef = lsq_linear(J, sig, bounds=(lo, hi), method="bvls").x
@@ -103,3 +135,13 @@ def calibration_ties(chosen: Candidate, cal, sens: Sensitivities, w) -> tuple[tu
     names = tuple(c.name for c, s in zip(cal, share) if s > 0.1 * share.max())
     runs = tuple(dict.fromkeys(c.separating_runs for c in cal if c.name in names and c.separating_runs))
     return names, runs, ratio
+
+
+def lookalike_sentence(lookalikes: dict) -> str:
+    """The verdict's sentence on the effects the calibration can stand in for ("" when none)."""
+    if not lookalikes:
+        return ""
+    parts = [f"{name} from the calibrated {', '.join(names)} (within their prior ranges they reproduce "
+             f"{100 * (1 - ratio):.0f} % of its signature at typical size; {'; '.join(runs) or 'no run named'} would "
+             "separate them)" for name, (names, runs, ratio) in lookalikes.items()]
+    return "These runs cannot tell " + "; nor ".join(parts) + ": a tie, not an exclusion."

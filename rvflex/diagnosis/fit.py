@@ -38,7 +38,14 @@ from pathlib import Path
 import numpy as np
 
 from rvflex.diagnosis.anchor import Anchor, anchor, scale_stiffness
-from rvflex.diagnosis.calibration import CALIBRATION_PREFERRED, calibration_sentence, calibration_ties, undetermined
+from rvflex.diagnosis.calibration import (
+    CALIBRATION_PREFERRED,
+    calibration_lookalikes,
+    calibration_sentence,
+    calibration_ties,
+    lookalike_sentence,
+    undetermined,
+)
 from rvflex.diagnosis.discrepancy import Discrepancy, evidence, feature_groups
 from rvflex.diagnosis.features import measured_runs
 from rvflex.diagnosis.linear import (
@@ -104,6 +111,7 @@ class Diagnosis:
     undetermined: dict = dc.field(default_factory=dict)  # nominal parameters the runs do not determine: why
     anchor: Anchor = dc.field(default_factory=Anchor)  # the global stiffness scale the calibration starts from
     discrepancy: Discrepancy | None = None  # what the calibrated model leaves, per order band and run
+    lookalikes: dict = dc.field(default_factory=dict)  # effects the calibration can stand in for (see calibration_lookalikes)
 
     def to_dataframe(self, table: str = "ranking"):
         """One of the diagnosis's tables as a tidy pandas DataFrame.
@@ -434,13 +442,20 @@ def diagnose(dataset, *, settings: DiagnosisSettings | None = None, effects: tup
             + calibration_sentence(none, nominal_model, chosen if demoted is None else demoted, settings, held,
                                    open_effect=open_effect, anchor_scale=anc.scale)
             + " " + text)
+    # effects the calibration can stand in for (an output series compliance against the bearing stiffnesses):
+    # named as ties, since these runs can neither find nor exclude them
+    named = {e.name for c in (chosen, demoted) if c is not None for e in c.attributed}
+    lookalikes = calibration_lookalikes([e for e in usable if e.name not in named], none, sens, w)
     if cal_ties and demoted is None:
         text += (f" Partly tied with the calibration of {', '.join(cal_ties)} (within their prior ranges they reproduce "
                  f"{100 * (1 - tie_ratio):.0f} % of the effect's signature): {'; '.join(runs_needed)} would separate "
                  "them.")
+    if lookalikes:
+        text += " " + lookalike_sentence(lookalikes)
     return Diagnosis(dataset, settings, plan, lay, w, y, none, none.response or resp0, tuple(final), chosen,
                      folds, unavailable, failed, size, text, runner.model_runs,
-                     time.perf_counter() - t0, tied, nominal_model, windows, cal_ties, runs_needed, held, anc, disc)
+                     time.perf_counter() - t0, tied, nominal_model, windows, cal_ties, runs_needed, held, anc, disc,
+                     lookalikes)
 
 
 def _baseline(runner: ModelRunner) -> tuple[np.ndarray, Response]:
