@@ -10,8 +10,9 @@ octave band of orders (1, 2–3, 4–7, …, 128–255) without the pin-mesh ord
 orders (multiples of z_b) as a band of their own; the wind-ups of all TE runs; each torque cycle.
 The weighted features (in units of their floors, see :func:`rvflex.diagnosis.linear.weights`) of a
 group g have discrepancy variance σ²_g ≥ 1 (the floor: below it is noise), estimated by maximum
-likelihood under each hypothesis (profiled). The −2 log profile likelihood of a residual is then
-Σ_g n_g log max(RSS_g / n_g, 1), up to a constant.
+likelihood under each hypothesis (profiled, σ²_g = max(RSS_g / n_g, 1)), optionally shrunk toward the
+reference's pooled variance with ν prior degrees of freedom (``DiagnosisSettings.discrepancy_pooling``).
+The −2 log likelihood of a residual is then Σ_g n_g log σ²_g + RSS_g / σ²_g, up to a constant.
 
 The evidence of a candidate against a reference (the calibrated model) is the drop of that
 quantity plus the drop of the nominal parameters' prior penalty, less log n per added parameter
