@@ -336,7 +336,7 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
         steps += [(theta_in[0], k_work, f0 + (1.0 - f0) * f, False) for f in LOAD_CONTINUATION]
     steps += [(th, k_work, 1.0, True) for th in theta_in]
     prev_th = theta_in[0]
-    fe = bool(model.discs.modal_nodes) or model.flexible_carrier
+    fe = bool(model.modal_nodes)
     switch = chord_newton is None and not fe  # rigid default: Exudyn's solver until it bisects
     if chord_newton is None:
         chord_newton = fe

@@ -66,6 +66,7 @@ DEFAULTS: dict[str, PartSettings] = {
     "disc": PartSettings(maxh_m=6e-3, n_modes=12, mesh_order=2, patch_half_width_m=3e-3, attach_per_tooth=0,
                          curvature_safety=1.0, attach_tangential=True),
     "carrier": PartSettings(maxh_m=6e-3, n_modes=10, mesh_order=2, curvature_safety=1.0, seat_coupling="rbe3"),
+    "housing": PartSettings(maxh_m=8e-3, n_modes=8, mesh_order=2, curvature_safety=1.0),
 }
 """The one default reduction of each part: what :func:`rvflex.fe.reduce.reduce_part` and ``rvflex
 reduce`` use when no setting is given, and what the flexible presets of
