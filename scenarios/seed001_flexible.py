@@ -49,8 +49,8 @@ class Seed001Parts:
     housing: PartSettings = HOUSING_FE
 
     def __post_init__(self) -> None:
-        if not (isinstance(self.positions_per_rev, int) and self.positions_per_rev >= 8):
-            raise SpecError("positions_per_rev", self.positions_per_rev, "must be an integer ≥ 8")
+        if not (isinstance(self.positions_per_rev, int) and self.positions_per_rev >= 16):
+            raise SpecError("positions_per_rev", self.positions_per_rev, "must be an integer ≥ 16 (as LoadedTE)")
         for name in PARTS:
             if not isinstance(getattr(self, name), PartSettings):
                 raise SpecError(name, getattr(self, name), "must be an rvflex.fe.reduce.PartSettings")

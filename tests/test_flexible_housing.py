@@ -9,6 +9,7 @@ import math
 
 import numpy as np
 import pytest
+from conftest import COARSE_DISC
 
 from rvflex import catalog
 from rvflex.contact.cycloid_pin import ContactLaw
@@ -157,3 +158,25 @@ def test_housing_options_select_the_flexible_housing():
         ModelOptions.from_table({"fidelity": "flexible", "housing": {"n_modes": 4}})
     with pytest.raises(SpecError, match="housing"):
         ModelOptions(housing="soft")
+
+
+def test_seed001_parts_scenario_adds_each_parts_wind_up(fe_cache, coarse_disc, housing):
+    """The part-by-part scenario on coarse reductions (catalogue RV-40E, no errors, 16 positions
+    of one output revolution): every FE part added winds the unit up further, the shares add
+    up to 1 and the all-flexible variant is ModelOptions.flexible_all with these reductions."""
+    from rvflex.options import CARRIER_FE, DISC_FE, HOUSING_FE, ModelOptions
+    from rvflex.scenarios.seed001_flexible import Seed001Parts, run_seed001_parts
+    from rvflex.spec import ErrorSpec
+
+    spec, _ = coarse_disc
+    sc = Seed001Parts(spec, ErrorSpec(), positions_per_rev=16, discs=dc.replace(DISC_FE, **COARSE_DISC),
+                      carrier=dc.replace(CARRIER_FE, maxh_m=8e-3, n_modes=6, mesh_order=1),
+                      housing=dc.replace(HOUSING_FE, **COARSE_HOUSING))
+    assert list(sc.variants) == ["rigid", "+discs", "+carrier", "+housing"]
+    assert sc.variants["+housing"] == dc.replace(ModelOptions.flexible_all(), discs=sc.discs, carrier=sc.carrier,
+                                                 housing=sc.housing)
+    rows = run_seed001_parts(sc, progress=None)
+    w = [r["windup_arcsec"] for r in rows]
+    assert w[0] < 0 and all(b < a for a, b in zip(w, w[1:]))  # the output lags more with each elastic part
+    assert sum(r["share_of_windup"] for r in rows) == pytest.approx(1.0, abs=1e-12)
+    assert 0.005 < rows[3]["share_of_windup"] < 0.05  # the housing: ≈ 1 % (docs/flexible.md)
