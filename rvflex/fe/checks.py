@@ -1,5 +1,6 @@
 """The reduced-vs-full static checks done when a part is reduced: the disc under rated tooth loads
-at several angles, the carrier under its bearings' load (docs/fe.md)."""
+at several angles, the carrier under its bearings' load, the pin housing under the pin forces
+(docs/fe.md, docs/flexible.md)."""
 
 from __future__ import annotations
 

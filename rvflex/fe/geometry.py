@@ -68,9 +68,10 @@ class PartGeometry:
     Attributes
     ----------
     part : str
-        ``"disc"`` or ``"carrier"``.
+        ``"disc"``, ``"carrier"`` or ``"housing"``.
     shape : netgen.occ.Solid
-        The solid (m); its faces carry the names of :data:`DISC_FACES` / :data:`CARRIER_FACES`.
+        The solid (m); its faces carry the names of :data:`DISC_FACES` / :data:`CARRIER_FACES` /
+        :data:`HOUSING_FACES`.
     interfaces : tuple of tuple of str
         One entry per Craig–Bampton interface, in order, each the face names it joins;
         the first is the floating-frame reference (clamped in the modes).
