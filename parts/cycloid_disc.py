@@ -60,7 +60,8 @@ def bore_positions(spec: ReducerSpec, errors: ErrorSpec, disc: int) -> np.ndarra
 
 
 def build(mbs, spec: ReducerSpec, errors: ErrorSpec, cranks, law: ContactLaw, eccentric_offsets: np.ndarray,
-          axes: np.ndarray, *, fidelity: BodyFidelity = "rigid", reduced=None, ground_coordinate: int = -1) -> DiscHandles:
+          axes: np.ndarray, *, fidelity: BodyFidelity = "rigid", reduced=None, ground_coordinate: int = -1,
+          housing=None) -> DiscHandles:
     """Add the discs at their reference poses (output angle 0): disc d's centre is where its
     eccentrics put it, crank axis + eccentric − bore (averaged over the cranks).
 
@@ -71,10 +72,17 @@ def build(mbs, spec: ReducerSpec, errors: ErrorSpec, cranks, law: ContactLaw, ec
     :func:`fe_disc_placements` entry ``p``, or a single one when every placement uses disc 0's
     geometry; and ``ground_coordinate``, a ground coordinate marker that holds each disc's
     out-of-plane coordinates (z, ψx, ψy).
+
+    ``housing``: the pin ring's :class:`~rvflex.parts.pin_ring.PinRingHandles`; a flexible one
+    (``modal_node`` ≥ 0) carries the pins on its seats in every disc's contact.
     """
     check_choice("fidelity", fidelity, BodyFidelity)
+    carried = {}
+    if housing is not None and housing.modal_node >= 0:
+        carried = {"housing_node": housing.modal_node, "seat": housing.seat_rows}
     if fidelity == "flexible":
-        return _build_flexible(mbs, spec, errors, cranks, law, eccentric_offsets, axes, reduced, ground_coordinate)
+        return _build_flexible(mbs, spec, errors, cranks, law, eccentric_offsets, axes, reduced, ground_coordinate,
+                               carried)
     from exudyn.itemInterface import MarkerBodyRigid, NodeRigidBody2D, ObjectRigidBody2D
 
     cy = spec.cycloid
@@ -98,7 +106,7 @@ def build(mbs, spec: ReducerSpec, errors: ErrorSpec, cranks, law: ContactLaw, ec
         # pin and disc errors may make pins interfere by a few µm at the nominal pose (the first
         # static step resolves it); deeper than 50 µm would be a broken spec
         contacts.append(add_cycloid_pin_contact(mbs, node, cy, law, disc=d, errors=errors,
-                                                initial_interference_m=50e-6))
+                                                initial_interference_m=50e-6, **carried))
         nodes.append(int(node))
         bodies.append(int(body))
         ecc_bearings.append(tuple(pairs))
@@ -203,7 +211,8 @@ def fe_disc_spec(spec: ReducerSpec, holes_turn_rad: float) -> ReducerSpec:
     return dataclasses.replace(spec, cranks=dataclasses.replace(spec.cranks, angles_rad=angles))
 
 
-def _build_flexible(mbs, spec, errors, cranks, law, eccentric_offsets, axes, reduced, ground_coordinate) -> DiscHandles:
+def _build_flexible(mbs, spec, errors, cranks, law, eccentric_offsets, axes, reduced, ground_coordinate,
+                    carried) -> DiscHandles:
     """FFRF reduced-order discs (ObjectFFRFreducedOrder on a NodeRigidBodyRxyz held in the
     plane): bearings on MarkerSuperElementRigid at the bores, the contact with the modal flank
     displacement. Global deformation is in the modes; the local Hertz approach stays in the
@@ -261,7 +270,7 @@ def _build_flexible(mbs, spec, errors, cranks, law, eccentric_offsets, axes, red
         phi = contact_mode_table(red.flank, offset, grid_per_tooth, cy.disc_teeth)
         contacts.append(add_cycloid_pin_contact(mbs, node, cy, law, disc=d, errors=errors,
                                                 initial_interference_m=50e-6, modal_node=modal, phi=phi,
-                                                offset_rad=offset))
+                                                offset_rad=offset, **carried))
         nodes.append(node)
         bodies.append(body)
         modal_nodes.append(modal)

@@ -22,16 +22,16 @@ __all__ = ["BodyFidelity", "ContactLawKind", "DesignKind", "Distribution", "Effe
            "DiscrepancyKind", "EvidenceModel", "Fidelity", "Mismatch", "PatchShape", "RunKind", "SeatCoupling", "SeatMarker", "TEMode", "check_choice",
            "choices", "did_you_mean"]
 
-Fidelity = Literal["rigid", "flexible", "flexible-carrier"]
+Fidelity = Literal["rigid", "flexible", "flexible-carrier", "flexible-all"]
 """Names of the :class:`~rvflex.options.ModelOptions` presets (the CLI's ``--fidelity``): rigid
-parts; FE discs; FE discs and carrier."""
+parts; FE discs; FE discs and carrier; FE discs, carrier and pin housing."""
 
 BodyFidelity = Literal["rigid", "flexible"]
 """How a part builder (:mod:`rvflex.parts`) builds its part: a planar rigid body or a
 Craig–Bampton FFRF body."""
 
-FEPart = Literal["disc", "carrier"]
-"""The parts :func:`rvflex.fe.reduce.reduce_part` can reduce."""
+FEPart = Literal["disc", "carrier", "housing"]
+"""The parts :func:`rvflex.fe.reduce.reduce_part` can reduce (``"housing"``: the pin housing)."""
 
 SeatMarker = Literal["virtual", "all_nodes"]
 """Flexible carrier seat markers: on four massless nodes carrying each seat's RBE3 motion

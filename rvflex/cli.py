@@ -268,10 +268,11 @@ def _model_arguments(p: argparse.ArgumentParser) -> None:
                    help="rigid bodies (ModelOptions.rigid()); flexible: FE-reduced (Craig–Bampton, FFRF) cycloid "
                         "discs (ModelOptions.flexible_discs()); flexible-carrier: FE discs and carrier "
                         "(ModelOptions.flexible_discs_and_carrier(): output face = output frame, RBE3 seats, two "
-                        "support bearings per crank). Reductions are cached under $RVFLEX_CACHE_DIR or "
+                        "support bearings per crank); flexible-all: FE discs, carrier and pin housing "
+                        "(ModelOptions.flexible_all(): the pins ride on the housing's seats). Reductions are cached under $RVFLEX_CACHE_DIR or "
                         "~/.cache/rvflex (default rigid)")
     fe = p.add_argument_group(
-        "FE disc reduction (with --fidelity flexible or flexible-carrier; each flag overrides one field of the "
+        "FE disc reduction (with --fidelity flexible, flexible-carrier or flexible-all; each flag overrides one field of the "
         f"preset's disc settings: {DISC_FE.maxh_m:g} m, order {DISC_FE.mesh_order}, {DISC_FE.n_modes} modes, "
         f"{DISC_FE.attach_per_tooth} attachment patches/tooth; carrier: {CARRIER_FE.maxh_m:g} m, order "
         f"{CARRIER_FE.mesh_order}, {CARRIER_FE.n_modes} modes, {CARRIER_FE.seat_coupling} seats)")
@@ -296,7 +297,7 @@ def _options(args: argparse.Namespace):
         return options
     if not options.flexible_discs_on:
         k = next(iter(given))
-        raise SpecError(flags[k], given[k], "applies to --fidelity flexible or flexible-carrier only")
+        raise SpecError(flags[k], given[k], "applies to --fidelity flexible, flexible-carrier or flexible-all only")
     return options.with_fe("discs", **{k[3:]: v for k, v in given.items()})
 
 

@@ -72,6 +72,8 @@ class ReducerModel:
         The FE reductions of the discs and the carrier (flexible parts), else None.
     reduced_discs : tuple of ReducedPart
         FE discs: every disc's reduction (the same object where discs share one); empty when rigid.
+    reduced_housing : ReducedPart, optional
+        The FE reduction of the pin housing (flexible housing), else None.
     """
 
     spec: ReducerSpec
@@ -91,6 +93,7 @@ class ReducerModel:
     reduced_disc: object = None  # disc 0's rvflex.fe.reduce.ReducedPart (FE discs), else None
     reduced_carrier: object = None  # the carrier's ReducedPart (FE carrier), else None
     reduced_discs: tuple = ()  # FE discs: every disc's ReducedPart (the same object where discs share one)
+    reduced_housing: object = None  # the pin housing's ReducedPart (FE housing), else None
 
     @property
     def fidelity(self) -> str:
@@ -109,6 +112,12 @@ class ReducerModel:
     def flexible_carrier(self) -> bool:
         """True when the carrier is the FE-reduced (FFRF) body."""
         return self.carrier.modal_node >= 0
+
+    @property
+    def modal_nodes(self) -> tuple[int, ...]:
+        """The NodeGenericODE2 of every FE part's modal coordinates (discs, carrier, housing)."""
+        return (self.discs.modal_nodes + ((self.carrier.modal_node,) if self.flexible_carrier else ())
+                + ((self.pins.modal_node,) if self.pins.modal_node >= 0 else ()))
 
     @property
     def output_index(self) -> int:
@@ -190,7 +199,7 @@ class ReducerModel:
                                                                         math.sin(cy.disc_phase_rad[d])])
             q[s[:2]] = rot @ (base + ecc)
             q[s[2]] = self.reference[s[2]] + th_c  # a flexible disc may sit turned by a half turn
-        for n in self.discs.modal_nodes + ((self.carrier.modal_node,) if self.flexible_carrier else ()):
+        for n in self.modal_nodes:
             i = self.mbs.GetNodeODE2Index(n)
             q[i:i + self.mbs.GetNode(n)["numberOfODE2Coordinates"]] = 0.0
         return q
@@ -198,7 +207,7 @@ class ReducerModel:
 
 def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None,
                   options: ModelOptions | str | None = None, *, law: ContactLaw | None = None,
-                  reduced_disc=None, reduced_carrier=None) -> ReducerModel:
+                  reduced_disc=None, reduced_carrier=None, reduced_housing=None) -> ReducerModel:
     """Assemble the Exudyn model of a reducer.
 
     Rigid parts are planar rigid bodies. FE discs (``options.discs`` a ``PartSettings``) are
@@ -209,7 +218,9 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None,
     (docs/flexible.md). ``reduced_disc`` / ``reduced_carrier`` (:class:`rvflex.fe.reduce.ReducedPart`)
     inject an existing reduction (``reduced_disc``: disc 0's, or a tuple with one per disc): that
     part is then flexible with the reduction's own settings,
-    which the model's ``options`` record. ``law`` overrides ``options.contact_law``.
+    which the model's ``options`` record. ``law`` overrides ``options.contact_law``. An FE pin
+    housing (``options.housing``, or ``reduced_housing`` injected) carries the pins on its seats
+    (:mod:`rvflex.parts.pin_ring`; mount face clamped to ground).
 
     Every layout takes FE discs: a disc that is disc 0 turned by a symmetry of the crank and
     pillar layout (to a whole number of teeth) shares disc 0's reduction; any other disc (three
@@ -227,8 +238,9 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None,
         ``"flexible-carrier"``; None is rigid.
     law : ContactLaw, optional
         Overrides ``options.contact_law``.
-    reduced_disc, reduced_carrier : ReducedPart, optional
-        An existing reduction of the disc (disc 0's, or a tuple with one per disc) or the carrier to use.
+    reduced_disc, reduced_carrier, reduced_housing : ReducedPart, optional
+        An existing reduction of the disc (disc 0's, or a tuple with one per disc), the carrier or
+        the pin housing to use.
 
     Returns
     -------
@@ -251,6 +263,8 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None,
         options = dataclasses.replace(options, discs=first.settings)
     if reduced_carrier is not None:
         options = dataclasses.replace(options, carrier=reduced_carrier.settings)
+    if reduced_housing is not None:
+        options = dataclasses.replace(options, housing=reduced_housing.settings)
     check_geometry(spec)  # the profile check of every spec entering a model (variants made by replace)
     errors = errors or ErrorSpec()
     errors.check_against(spec)
@@ -260,7 +274,12 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None,
     mbs = sc.AddSystem()
     ground_body = mbs.AddObject(ObjectGround())
     ground_coord = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=mbs.AddNode(NodePointGround()), coordinate=0))
-    pins = pin_ring.build(mbs, spec, errors, fidelity="rigid")
+    if options.flexible_housing_on and reduced_housing is None:
+        from rvflex.fe.reduce import reduce_part
+
+        reduced_housing = reduce_part(spec, "housing", **dataclasses.asdict(options.housing))
+    pins = pin_ring.build(mbs, spec, errors, fidelity="flexible" if options.flexible_housing_on else "rigid",
+                          reduced=reduced_housing)
     sun = input_stage.build(mbs, spec, ground_coord, fidelity="rigid")
     if flexible_carrier and reduced_carrier is None:
         from rvflex.fe.reduce import reduce_part
@@ -301,9 +320,9 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None,
         reduced_disc = reduced_discs[0]
     discs = cycloid_disc.build(mbs, spec, errors, cranks, law, ecc, axes,
                                fidelity="flexible" if options.flexible_discs_on else "rigid",
-                               reduced=reduced_discs or None, ground_coordinate=ground_coord)
+                               reduced=reduced_discs or None, ground_coordinate=ground_coord, housing=pins)
     mbs.Assemble()
     ref = np.asarray(mbs.systemData.GetODE2Coordinates(configuration=exu.ConfigurationType.Reference))
     centres = np.array([np.asarray(mbs.GetNode(n)["referenceCoordinates"])[:2] for n in discs.nodes])
     return ReducerModel(spec, errors, options, sc, mbs, sun, carrier, cranks, discs, pins, ref, axes, centres, seat_in,
-                        reduced_disc, reduced_carrier, reduced_discs)
+                        reduced_disc, reduced_carrier, reduced_discs, reduced_housing)

@@ -1,19 +1,20 @@
 """``ModelOptions``: what fidelity each part of the reducer model has, in one typed object.
 
 One frozen options object selects how :func:`rvflex.model.build_reducer` builds every part:
-the cycloid discs and the carrier are each ``"rigid"`` or an FE reduction
+the cycloid discs, the carrier and the pin housing are each ``"rigid"`` or an FE reduction
 (:class:`rvflex.fe.reduce.PartSettings`: Craig–Bampton, floating frame), the flexible
 carrier's seat markers are a :data:`SeatMarker`, and the pin contact law is the spec's
 default line contact unless one is given. The presets hold the one default reduction per
 part that every entry point (scripts, the CLI's ``--fidelity``, sweeps, the notebook) uses:
 
-============================================  ==================  ==================
-preset                                        discs               carrier
-============================================  ==================  ==================
-:meth:`ModelOptions.rigid`                    rigid               rigid
-:meth:`ModelOptions.flexible_discs`           :data:`DISC_FE`     rigid
-:meth:`ModelOptions.flexible_discs_and_carrier`  :data:`DISC_FE`  :data:`CARRIER_FE`
-============================================  ==================  ==================
+=================================================  ===============  ==================  ==================
+preset                                             discs            carrier             housing
+=================================================  ===============  ==================  ==================
+:meth:`ModelOptions.rigid`                         rigid            rigid               rigid
+:meth:`ModelOptions.flexible_discs`                :data:`DISC_FE`  rigid               rigid
+:meth:`ModelOptions.flexible_discs_and_carrier`    :data:`DISC_FE`  :data:`CARRIER_FE`  rigid
+:meth:`ModelOptions.flexible_all`                  :data:`DISC_FE`  :data:`CARRIER_FE`  :data:`HOUSING_FE`
+=================================================  ===============  ==================  ==================
 
 Variants by :func:`dataclasses.replace` (e.g. more disc modes:
 ``replace(opts, discs=replace(opts.discs, n_modes=24))``) or :meth:`ModelOptions.with_fe`.
@@ -33,11 +34,12 @@ from rvflex.spec import SpecError
 if TYPE_CHECKING:
     from rvflex.contact.cycloid_pin import ContactLaw
 
-__all__ = ["CARRIER_FE", "DISC_FE", "FIDELITIES", "Fidelity", "ModelOptions", "PartFidelity", "SeatCoupling",
+__all__ = ["CARRIER_FE", "DISC_FE", "FIDELITIES", "HOUSING_FE", "Fidelity", "ModelOptions", "PartFidelity", "SeatCoupling",
            "SeatMarker", "as_options"]
 
 FIDELITIES: tuple[str, ...] = choices(Fidelity)
-"""The preset names: ``"rigid"``, ``"flexible"`` (FE discs), ``"flexible-carrier"`` (FE discs and carrier)."""
+"""The preset names: ``"rigid"``, ``"flexible"`` (FE discs), ``"flexible-carrier"`` (FE discs and carrier),
+``"flexible-all"`` (FE discs, carrier and pin housing)."""
 
 PartFidelity = Literal["rigid"]
 """A part that is not FE-reduced (the alternative to a :class:`PartSettings`)."""
@@ -59,7 +61,13 @@ carrier``'s default): output face the reference, 4 distributing (RBE3) seats wit
 modes each, 10 fixed-interface modes, 6 mm quadratic tets (static check 3.3 % at the seats,
 0.1 % at the pillars: docs/fe.md)."""
 
-MODEL_TABLE_KEYS = ("fidelity", "discs", "carrier", "carrier_seat_marker")
+HOUSING_FE: PartSettings = DEFAULTS["housing"]
+"""Pin-housing reduction of :meth:`ModelOptions.flexible_all`, the one default housing reduction
+(:data:`rvflex.fe.reduce.DEFAULTS` ``["housing"]``, also ``rvflex reduce --part housing``'s
+default): mount face clamped to ground, two in-plane attachment modes per pin seat, 8
+fixed-interface modes, 8 mm quadratic tets (docs/flexible.md: convergence)."""
+
+MODEL_TABLE_KEYS = ("fidelity", "discs", "carrier", "housing", "carrier_seat_marker")
 """Keys of a TOML ``[model]`` table (:meth:`ModelOptions.from_table`)."""
 
 
@@ -71,7 +79,10 @@ class ModelOptions:
     ----------
     discs, carrier : ``"rigid"`` or :class:`PartSettings`
         Rigid planar bodies, or Craig–Bampton FFRF bodies reduced with these settings
-        (cached on disk). The other parts (sun, cranks, pin ring) are rigid in every preset.
+        (cached on disk). The sun and the cranks are rigid in every preset.
+    housing : ``"rigid"`` or :class:`PartSettings`
+        The pin housing: ground, or its Craig–Bampton reduction (mount face clamped to ground)
+        whose pin seats carry the pins (:mod:`rvflex.parts.pin_ring`).
     carrier_seat_marker : SeatMarker
         Marker kind of the flexible carrier's crank seats (ignored for a rigid carrier).
     contact_law : ContactLaw or None
@@ -81,11 +92,12 @@ class ModelOptions:
 
     discs: PartSettings | PartFidelity = "rigid"
     carrier: PartSettings | PartFidelity = "rigid"
+    housing: PartSettings | PartFidelity = "rigid"
     carrier_seat_marker: SeatMarker = "virtual"
     contact_law: ContactLaw | None = None
 
     def __post_init__(self) -> None:
-        for name in ("discs", "carrier"):
+        for name in ("discs", "carrier", "housing"):
             value = getattr(self, name)
             if value != "rigid" and not isinstance(value, PartSettings):
                 raise SpecError(name, value, "must be 'rigid' or an rvflex.fe.reduce.PartSettings")
@@ -115,13 +127,20 @@ class ModelOptions:
         return cls(discs=DISC_FE, carrier=CARRIER_FE)
 
     @classmethod
+    def flexible_all(cls) -> ModelOptions:
+        """FE-reduced discs, carrier and pin housing (:data:`DISC_FE`, :data:`CARRIER_FE`,
+        :data:`HOUSING_FE`): the system as seed 001's virtual prototype built it."""
+        return cls(discs=DISC_FE, carrier=CARRIER_FE, housing=HOUSING_FE)
+
+    @classmethod
     def preset(cls, fidelity: Fidelity) -> ModelOptions:
         """The preset of a fidelity name.
 
         Parameters
         ----------
-        fidelity : {"rigid", "flexible", "flexible-carrier"}
-            Rigid parts; FE-reduced discs; FE-reduced discs and carrier.
+        fidelity : {"rigid", "flexible", "flexible-carrier", "flexible-all"}
+            Rigid parts; FE-reduced discs; FE-reduced discs and carrier; FE-reduced discs,
+            carrier and pin housing.
 
         Returns
         -------
@@ -130,15 +149,16 @@ class ModelOptions:
         """
         check_choice("fidelity", fidelity, Fidelity)
         presets = {"rigid": cls.rigid, "flexible": cls.flexible_discs,
-                   "flexible-carrier": cls.flexible_discs_and_carrier}
+                   "flexible-carrier": cls.flexible_discs_and_carrier, "flexible-all": cls.flexible_all}
         return presets[fidelity]()
 
     @classmethod
     def from_table(cls, table: Mapping, where: str = "[model]", source: str | None = None) -> ModelOptions:
         """Options from a TOML table (a sweep design's ``[model]``), checked key by key.
 
-        ``fidelity`` names the preset (``"rigid"``, the default, ``"flexible"`` or
-        ``"flexible-carrier"``); the sub-tables ``discs`` and ``carrier`` override fields of that
+        ``fidelity`` names the preset (``"rigid"``, the default, ``"flexible"``,
+        ``"flexible-carrier"`` or ``"flexible-all"``); the sub-tables ``discs``, ``carrier`` and
+        ``housing`` override fields of that
         preset's reduction of the part (:class:`PartSettings` field names, SI: ``maxh_m``,
         ``n_modes``, ``attach_per_tooth`` …; the part must be flexible in the preset);
         ``carrier_seat_marker`` is a :data:`SeatMarker`. No other key is accepted.
@@ -176,7 +196,7 @@ class ModelOptions:
             check_choice(f"{where}.carrier_seat_marker", table["carrier_seat_marker"], SeatMarker, source)
             options = dataclasses.replace(options, carrier_seat_marker=table["carrier_seat_marker"])
         fields = tuple(f.name for f in dataclasses.fields(PartSettings))
-        for part in ("discs", "carrier"):
+        for part in ("discs", "carrier", "housing"):
             if part not in table:
                 continue
             over = table[part]
@@ -209,19 +229,29 @@ class ModelOptions:
         return isinstance(self.carrier, PartSettings)
 
     @property
+    def flexible_housing_on(self) -> bool:
+        """True when the pin housing is FE-reduced."""
+        return isinstance(self.housing, PartSettings)
+
+    @property
     def fidelity(self) -> str:
-        """The preset name these options extend: ``"rigid"``, ``"flexible"`` or ``"flexible-carrier"``
-        (reductions other than the presets' keep their preset's name; see :meth:`describe`)."""
+        """The preset name these options extend: ``"rigid"``, ``"flexible"``, ``"flexible-carrier"``
+        or ``"flexible-all"`` (reductions other than the presets' keep their preset's name; see
+        :meth:`describe`; a flexible housing on another combination adds ``"+housing"``)."""
+        if self.flexible_housing_on:
+            if self.flexible_carrier_on and self.flexible_discs_on:
+                return "flexible-all"
+            return dataclasses.replace(self, housing="rigid").fidelity + "+housing"
         if self.flexible_carrier_on:
             return "flexible-carrier" if self.flexible_discs_on else "rigid+carrier"
         return "flexible" if self.flexible_discs_on else "rigid"
 
-    def with_fe(self, part: Literal["discs", "carrier"], **settings) -> ModelOptions:
+    def with_fe(self, part: Literal["discs", "carrier", "housing"], **settings) -> ModelOptions:
         """These options with the reduction of one flexible part changed.
 
         Parameters
         ----------
-        part : {"discs", "carrier"}
+        part : {"discs", "carrier", "housing"}
             The part; it must be flexible in these options.
         **settings
             :class:`PartSettings` fields to change (SI: ``maxh_m``; ``n_modes=24`` …).
@@ -250,7 +280,8 @@ class ModelOptions:
         Returns
         -------
         str
-            E.g. ``discs FE 6 mm order 2, 12 modes, 0 attachment patches/tooth; carrier rigid``.
+            E.g. ``discs FE 6 mm order 2, 12 modes, 0 attachment patches/tooth; carrier rigid;
+            housing rigid``.
         """
 
         def part(p) -> str:
@@ -262,7 +293,10 @@ class ModelOptions:
         car = part(self.carrier)
         if self.flexible_carrier_on:
             car += f", {self.carrier.seat_coupling} seats ({self.carrier_seat_marker} markers)"
-        return f"discs {part(self.discs)}; carrier {car}"
+        hou = "rigid" if not self.flexible_housing_on else (
+            f"FE {self.housing.maxh_m * 1e3:g} mm order {self.housing.mesh_order}, {self.housing.n_modes} modes, "
+            f"2 attachment modes/pin seat")
+        return f"discs {part(self.discs)}; carrier {car}; housing {hou}"
 
     def as_dict(self) -> dict:
         """Plain values (for result attributes and JSON).
@@ -274,14 +308,14 @@ class ModelOptions:
         """
         def part(p):
             return dataclasses.asdict(p) if isinstance(p, PartSettings) else p
-        return {"discs": part(self.discs), "carrier": part(self.carrier),
+        return {"discs": part(self.discs), "carrier": part(self.carrier), "housing": part(self.housing),
                 "carrier_seat_marker": self.carrier_seat_marker,
                 "contact_law": "default (line)" if self.contact_law is None else self.contact_law.kind}
 
 
 def as_options(value: ModelOptions | Fidelity | None, field: str = "options") -> ModelOptions:
     """``value`` as :class:`ModelOptions`: options pass through, a preset name maps to its preset
-    (``"rigid"``, ``"flexible"``, ``"flexible-carrier"``), None is rigid; anything else is refused
+    (``"rigid"``, ``"flexible"``, ``"flexible-carrier"``, ``"flexible-all"``), None is rigid; anything else is refused
     naming ``field``."""
     if value is None:
         return ModelOptions.rigid()

@@ -148,6 +148,12 @@ class _ChordNewton:
         self.iterations = 0
         self.jacobians = 0
         self.fallbacks = 0
+        from threadpoolctl import ThreadpoolController
+
+        # one BLAS thread for the dense LU: a few hundred unknowns gain nothing from threads, and
+        # OpenBLAS's threads on a busy 2-core machine made one LU of 193 unknowns 0.2 s instead of
+        # 0.5 ms (measured: a flexible carrier and housing, 500 factorisations, 103 s of a 113 s run)
+        self.blas = ThreadpoolController()
 
     def reset(self) -> None:
         """Drop the solver and its Jacobian (the next :meth:`solve` initialises a new one). Called
@@ -176,7 +182,8 @@ class _ChordNewton:
         from scipy.linalg import lu_factor
 
         self.solver.ComputeNewtonJacobian(self.model.mbs, self.ss)
-        self.lu = lu_factor(self.solver.GetSystemJacobian(), check_finite=False)
+        with self.blas.limit(limits=1, user_api="blas"):
+            self.lu = lu_factor(self.solver.GetSystemJacobian(), check_finite=False)
         self.jacobians += 1
 
     def solve(self, q_abs: np.ndarray) -> np.ndarray:
@@ -335,7 +342,7 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
         steps += [(theta_in[0], k_work, f0 + (1.0 - f0) * f, False) for f in LOAD_CONTINUATION]
     steps += [(th, k_work, 1.0, True) for th in theta_in]
     prev_th = theta_in[0]
-    fe = bool(model.discs.modal_nodes) or model.flexible_carrier
+    fe = bool(model.modal_nodes)
     switch = chord_newton is None and not fe  # rigid default: Exudyn's solver until it bisects
     if chord_newton is None:
         chord_newton = fe

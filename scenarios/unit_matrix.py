@@ -29,14 +29,18 @@ from rvflex.scenarios.loaded_te import LoadedTE
 from rvflex.scenarios.lost_motion import LostMotion
 from rvflex.spec import ReducerSpec
 
-__all__ = ["COARSE_CARRIER", "COARSE_DISC", "FIDELITIES", "Cell", "markdown", "options_for", "run_cell",
+__all__ = ["COARSE_CARRIER", "COARSE_DISC", "COARSE_HOUSING", "FIDELITIES", "Cell", "markdown", "options_for", "run_cell",
            "run_matrix"]
 
-FIDELITIES: tuple[Fidelity, ...] = choices(Fidelity)
+FIDELITIES: tuple[Fidelity, ...] = ("rigid", "flexible", "flexible-carrier")
+"""The matrix's default fidelities; ``"flexible-all"`` (with the FE pin housing) runs when asked
+(``--fidelity``), not by default: it adds a housing reduction per unit."""
 COARSE_DISC = {"maxh_m": 8e-3, "n_modes": 12, "mesh_order": 1, "attach_per_tooth": 0}
 """The tests' quick disc reduction (tests/conftest.py COARSE_DISC)."""
 COARSE_CARRIER = {"maxh_m": 8e-3, "n_modes": 6, "mesh_order": 1}
 """The tests' quick carrier reduction (tests/test_flexible_carrier.py)."""
+COARSE_HOUSING = {"maxh_m": 8e-3, "n_modes": 8, "mesh_order": 1}
+"""The tests' quick housing reduction (tests/test_flexible_housing.py)."""
 
 
 @dataclass(frozen=True)
@@ -69,8 +73,13 @@ def options_for(fidelity: Fidelity, *, coarse: bool = False) -> ModelOptions:
     if fidelity == "flexible":
         opts = ModelOptions.flexible_discs()
         return opts.with_fe("discs", **COARSE_DISC) if coarse else opts
-    opts = ModelOptions.flexible_discs_and_carrier()
-    return opts.with_fe("discs", **COARSE_DISC).with_fe("carrier", **COARSE_CARRIER) if coarse else opts
+    if fidelity == "flexible-carrier":
+        opts = ModelOptions.flexible_discs_and_carrier()
+        return opts.with_fe("discs", **COARSE_DISC).with_fe("carrier", **COARSE_CARRIER) if coarse else opts
+    opts = ModelOptions.flexible_all()
+    if not coarse:
+        return opts
+    return opts.with_fe("discs", **COARSE_DISC).with_fe("carrier", **COARSE_CARRIER).with_fe("housing", **COARSE_HOUSING)
 
 
 def run_cell(spec: ReducerSpec, fidelity: Fidelity, *, positions: int = 2048, steps: int = 200,
@@ -93,7 +102,8 @@ def run_cell(spec: ReducerSpec, fidelity: Fidelity, *, positions: int = 2048, st
     except Exception as exc:  # noqa: BLE001 -- recorded per cell, the matrix goes on
         return dataclasses.replace(base, error=f"model build: {one_line(exc)}")
     t1 = time.perf_counter()
-    cached = all(r.meta.get("cached", False) for r in (*model.reduced_discs, model.reduced_carrier) if r is not None)
+    cached = all(r.meta.get("cached", False) for r in (*model.reduced_discs, model.reduced_carrier,
+                                                       model.reduced_housing) if r is not None)
     base = dataclasses.replace(base, build_s=t1 - t0, reductions_cached=cached)
     try:
         r = rvflex.run(te, model=model)
@@ -163,7 +173,7 @@ def register(sub) -> None:
                                    "Exit code 1 when a cell failed (its row says what failed).")
     p.add_argument("--units", nargs="+", metavar="UNIT",
                    help=f"catalogue names or spec TOML paths (default every built-in unit: {', '.join(catalog.names())})")
-    p.add_argument("--fidelity", nargs="+", choices=FIDELITIES, default=list(FIDELITIES),
+    p.add_argument("--fidelity", nargs="+", choices=choices(Fidelity), default=list(FIDELITIES),
                    help="fidelities (default all three)")
     p.add_argument("--positions", type=int, default=2048, help="loaded-TE positions per output revolution (default 2048)")
     p.add_argument("--steps", type=int, default=200, help="lost-motion torque steps (default 200)")

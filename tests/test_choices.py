@@ -30,10 +30,10 @@ def test_each_option_is_checked_where_it_enters():
         (lambda: ContactLaw("hertz", stiffness=1e9), r"contact law kind = 'hertz': must be one of 'linear', 'power'"),
         (lambda: PartSettings(6e-3, 10, patch_shape="box"), r"patch_shape = 'box': must be one of 'hat', 'cos2'"),
         (lambda: PartSettings(6e-3, 10, seat_coupling="rbe4"), r"seat_coupling = 'rbe4': must be one of 'rbe3'"),
-        (lambda: reduce_part(None, "housing"), r"part = 'housing': must be one of 'disc', 'carrier'"),
+        (lambda: reduce_part(None, "case"), r"part = 'case': must be one of 'disc', 'carrier', 'housing'"),
         (lambda: ModelOptions(carrier_seat_marker="nodes"), r"carrier_seat_marker = 'nodes': must be one of 'virtual'"),
         (lambda: ModelOptions.preset("elastic"), r"fidelity = 'elastic': must be one of 'rigid', 'flexible', "
-                                                 r"'flexible-carrier'"),
+                                                 r"'flexible-carrier', 'flexible-all'"),
     ]
     for make, message in cases:
         with pytest.raises(SpecError, match=message):
@@ -64,6 +64,8 @@ def test_part_builders_refuse_an_unknown_fidelity_before_building():
                         (pin_ring.build, (None,) * 3)]:
         with pytest.raises(SpecError, match=r"fidelity = 'elastic': must be one of 'rigid', 'flexible'"):
             build(*args, fidelity="elastic")
-    for build, args in [(crankshaft.build, (None,) * 6), (input_stage.build, (None,) * 3), (pin_ring.build, (None,) * 3)]:
+    for build, args in [(crankshaft.build, (None,) * 6), (input_stage.build, (None,) * 3)]:
         with pytest.raises(NotImplementedError, match=r"fidelity = 'flexible'"):
             build(*args, fidelity="flexible")  # rigid in every model: refused, not silently rigid
+    with pytest.raises(ValueError, match=r"fidelity = 'flexible': the housing needs its reduction"):
+        pin_ring.build(None, None, None, fidelity="flexible")  # flexible only on its FE reduction

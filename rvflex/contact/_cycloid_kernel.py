@@ -520,3 +520,82 @@ def evaluate(q, qd, offset, pins, radii, par, herr, hpsi, law, t_cache, phi, eta
                 # friction acts on the rigid coordinates only: the tangential flank displacement of
                 # the modes is left out (friction is off in the catalogue models)
     return max_pen, bad
+
+
+@_jit
+def evaluate_housing(q, qd, offset, pins, radii, par, herr, hpsi, law, t_cache, phi, eta, eta_d, seat, xi, xi_d,
+                     force, kmat, dmat, out, zones, zone_window, pout, npts_out, f_pin, k_pin, d_pin):
+    """:func:`evaluate` with pins carried by a flexible housing: pin i sits at P_i + S_i·ξ, with
+    ``seat`` (n, 2, h) the in-plane seat displacement rows S_i (ring frame) of the housing's h
+    modal coordinates ``xi`` (rates ``xi_d``).
+
+    The contact of a pin depends on the pin centre relative to the disc only, c = R(−θ)(P − x),
+    so a pin moved by v = S_i·ξ is the disc moved by −v: each pin is :func:`evaluate`\\ d alone at
+    x − S_i·ξ (rates likewise) and its force and Jacobians map to the coordinates (x, y, θ, η, ξ)
+    by T_i = [1, −E S_i] (E: the x, y rows): Q += T_iᵀ f_i, K += T_iᵀ K_i T_i — exact, since T_i
+    is constant. ``force`` (3 + m + h,), ``kmat``, ``dmat`` the results; ``f_pin`` (3 + m,),
+    ``k_pin``, ``d_pin`` ((3 + m)²) per-pin work buffers. Contact points are reported in the
+    ring frame (the disc's point, moved back by v). Returns as :func:`evaluate`.
+    """
+    n = 3 + eta.shape[0]
+    h = xi.shape[0]
+    for a in range(n + h):
+        force[a] = 0.0
+        for b in range(n + h):
+            kmat[a, b] = 0.0
+            dmat[a, b] = 0.0
+    qe = np.empty(3)
+    qde = np.empty(3)
+    max_pen = -1e300
+    bad = 0
+    for i in range(pins.shape[0]):
+        vx = 0.0
+        vy = 0.0
+        wx = 0.0
+        wy = 0.0
+        for k in range(h):
+            vx += seat[i, 0, k] * xi[k]
+            vy += seat[i, 1, k] * xi[k]
+            wx += seat[i, 0, k] * xi_d[k]
+            wy += seat[i, 1, k] * xi_d[k]
+        qe[0] = q[0] - vx
+        qe[1] = q[1] - vy
+        qe[2] = q[2]
+        qde[0] = qd[0] - wx
+        qde[1] = qd[1] - wy
+        qde[2] = qd[2]
+        pen, b = evaluate(qe, qde, offset, pins[i:i + 1], radii[i:i + 1], par, herr, hpsi, law, t_cache[i:i + 1],
+                          phi, eta, eta_d, f_pin, k_pin, d_pin, out[i:i + 1], zones, zone_window, pout[i:i + 1],
+                          npts_out[i:i + 1])
+        bad += b
+        if pen > max_pen:
+            max_pen = pen
+        out[i, O_PX] += vx
+        out[i, O_PY] += vy
+        for p in range(npts_out[i]):
+            pout[i, p, O_PX] += vx
+            pout[i, p, O_PY] += vy
+        if out[i, O_FORCE] <= 0.0:
+            continue  # no loaded point: f_pin, k_pin, d_pin are zero
+        for a in range(n):
+            force[a] += f_pin[a]
+            for b2 in range(n):
+                kmat[a, b2] += k_pin[a, b2]
+                dmat[a, b2] += d_pin[a, b2]
+        for k in range(h):
+            s0 = seat[i, 0, k]
+            s1 = seat[i, 1, k]
+            force[n + k] -= s0 * f_pin[0] + s1 * f_pin[1]
+            for a in range(n):
+                kmat[a, n + k] -= k_pin[a, 0] * s0 + k_pin[a, 1] * s1
+                kmat[n + k, a] -= s0 * k_pin[0, a] + s1 * k_pin[1, a]
+                dmat[a, n + k] -= d_pin[a, 0] * s0 + d_pin[a, 1] * s1
+                dmat[n + k, a] -= s0 * d_pin[0, a] + s1 * d_pin[1, a]
+            for l2 in range(h):
+                t0 = seat[i, 0, l2]
+                t1 = seat[i, 1, l2]
+                kmat[n + k, n + l2] += (s0 * (k_pin[0, 0] * t0 + k_pin[0, 1] * t1)
+                                        + s1 * (k_pin[1, 0] * t0 + k_pin[1, 1] * t1))
+                dmat[n + k, n + l2] += (s0 * (d_pin[0, 0] * t0 + d_pin[0, 1] * t1)
+                                        + s1 * (d_pin[1, 0] * t0 + d_pin[1, 1] * t1))
+    return max_pen, bad

@@ -13,7 +13,9 @@ relieved root whose radius of curvature is smaller than the pin is touched on bo
 (:func:`concave_zones` finds where the profile allows that).
 
 Which deformation it carries: the local contact compliance only (the normal law). Global
-deformation of the disc belongs to the flexible body (Craig–Bampton modes), not here.
+deformation of the disc belongs to the flexible body (Craig–Bampton modes), not here; a
+flexible pin housing moves the pins by its modal seat displacement (``housing_node``, ``seat``:
+:func:`rvflex.contact._cycloid_kernel.evaluate_housing`).
 """
 
 from __future__ import annotations
@@ -220,35 +222,53 @@ class CycloidPinContact:
     modal_node: int = -1
     phi: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 0)), repr=False)
     rigid_index: tuple[int, int, int] = (0, 1, 2)  # (x, y, θ) within the node's coordinates
+    housing_node: int = -1  # NodeGenericODE2 of a flexible housing's modal coordinates, −1: pins fixed
+    seat: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 0)), repr=False)  # (n_pins, 2, h) seat rows
 
     @property
     def n_modes(self) -> int:
         """Modal coordinates of the disc (0 for a rigid disc)."""
         return self.phi.shape[2]
 
+    @property
+    def n_housing_modes(self) -> int:
+        """Modal coordinates of the pin housing (0 for fixed pins)."""
+        return self.seat.shape[2]
+
     def evaluate(self, q: np.ndarray, qd: np.ndarray | None = None, eta: np.ndarray | None = None,
-                 eta_d: np.ndarray | None = None):
-        """Force (3 + m,), LHS Jacobians K and D ((3 + m)²), per-pin outputs and max penetration
-        at absolute rigid coordinates ``q = (x, y, θ)``, velocities ``qd`` and modal
-        coordinates ``eta`` (m,) with rates ``eta_d``."""
-        f, k, d, out, _, _, pen = self.evaluate_points(q, qd, eta, eta_d)
+                 eta_d: np.ndarray | None = None, xi: np.ndarray | None = None, xi_d: np.ndarray | None = None):
+        """Force (3 + m + h,), LHS Jacobians K and D ((3 + m + h)²), per-pin outputs and max
+        penetration at absolute rigid coordinates ``q = (x, y, θ)``, velocities ``qd``, the
+        disc's modal coordinates ``eta`` (m,) with rates ``eta_d`` and the housing's ``xi`` (h,)
+        with rates ``xi_d``."""
+        f, k, d, out, _, _, pen = self.evaluate_points(q, qd, eta, eta_d, xi, xi_d)
         return f, k, d, out, pen
 
     def evaluate_points(self, q: np.ndarray, qd: np.ndarray | None = None, eta: np.ndarray | None = None,
-                        eta_d: np.ndarray | None = None):
+                        eta_d: np.ndarray | None = None, xi: np.ndarray | None = None,
+                        xi_d: np.ndarray | None = None):
         """As :meth:`evaluate`, with every contact point: force, K, D, per-pin outputs (n, N_OUT),
         per-point outputs (n, MAX_POINTS, N_OUT), point counts (n,) and max penetration."""
-        m = self.n_modes
+        m, h = self.n_modes, self.n_housing_modes
         qd = np.zeros(3) if qd is None else np.asarray(qd, float)
         eta = np.zeros(m) if eta is None else np.asarray(eta, float)
         eta_d = np.zeros(m) if eta_d is None else np.asarray(eta_d, float)
-        n, npin = 3 + m, len(self.radii_m)
+        n, npin = 3 + m + h, len(self.radii_m)
         f, k, d, out = np.empty(n), np.empty((n, n)), np.empty((n, n)), np.empty((npin, K.N_OUT))
         pout, count = K.empty_points(npin)
-        pen, bad = K.evaluate(np.asarray(q, float), qd, self.offset_rad, self.pins_m, self.radii_m,
-                              self.profile.par, self.profile.herr, self.profile.hpsi, self._law_vec,
-                              self._t_cache, self.phi, eta, eta_d, f, k, d, out, self.zones, self.zone_window_rad,
-                              pout, count)
+        if h:
+            xi = np.zeros(h) if xi is None else np.asarray(xi, float)
+            xi_d = np.zeros(h) if xi_d is None else np.asarray(xi_d, float)
+            pen, bad = K.evaluate_housing(np.asarray(q, float), qd, self.offset_rad, self.pins_m, self.radii_m,
+                                          self.profile.par, self.profile.herr, self.profile.hpsi, self._law_vec,
+                                          self._t_cache, self.phi, eta, eta_d, self.seat, xi, xi_d, f, k, d, out,
+                                          self.zones, self.zone_window_rad, pout, count, np.empty(3 + m),
+                                          np.empty((3 + m, 3 + m)), np.empty((3 + m, 3 + m)))
+        else:
+            pen, bad = K.evaluate(np.asarray(q, float), qd, self.offset_rad, self.pins_m, self.radii_m,
+                                  self.profile.par, self.profile.herr, self.profile.hpsi, self._law_vec,
+                                  self._t_cache, self.phi, eta, eta_d, f, k, d, out, self.zones, self.zone_window_rad,
+                                  pout, count)
         if bad:
             raise RuntimeError(f"cycloid–pin contact on node {self.node}: closest-point solve failed for {bad} pins "
                                f"(or a pin has more than {K.MAX_POINTS} contact points)")
@@ -259,17 +279,22 @@ class CycloidPinContact:
         ri = list(self.rigid_index)
         q = (self.reference + np.asarray(mbs.GetNodeOutput(self.node, _exu().OutputVariableType.Coordinates)))[ri]
         qd = np.asarray(mbs.GetNodeOutput(self.node, _exu().OutputVariableType.Coordinates_t))[ri]
-        eta = eta_d = None
+        eta = eta_d = xi = xi_d = None
         if self.modal_node >= 0:
             eta = np.asarray(mbs.GetNodeOutput(self.modal_node, _exu().OutputVariableType.Coordinates))
             eta_d = np.asarray(mbs.GetNodeOutput(self.modal_node, _exu().OutputVariableType.Coordinates_t))
-        return self.pin_state_at(q, qd, eta, eta_d)
+        if self.housing_node >= 0:
+            xi = np.asarray(mbs.GetNodeOutput(self.housing_node, _exu().OutputVariableType.Coordinates))
+            xi_d = np.asarray(mbs.GetNodeOutput(self.housing_node, _exu().OutputVariableType.Coordinates_t))
+        return self.pin_state_at(q, qd, eta, eta_d, xi, xi_d)
 
     def pin_state_at(self, q: np.ndarray, qd: np.ndarray | None = None, eta: np.ndarray | None = None,
-                     eta_d: np.ndarray | None = None) -> PinState:
+                     eta_d: np.ndarray | None = None, xi: np.ndarray | None = None,
+                     xi_d: np.ndarray | None = None) -> PinState:
         """Per-pin state at absolute rigid coordinates ``q = (x, y, θ)`` and rates ``qd`` (and
-        modal coordinates): e.g. replayed from a dynamic run's recorded disc states."""
-        _, _, _, out, pout, count, _ = self.evaluate_points(q, qd, eta, eta_d)
+        the disc's and housing's modal coordinates): e.g. replayed from a dynamic run's recorded
+        disc states."""
+        _, _, _, out, pout, count, _ = self.evaluate_points(q, qd, eta, eta_d, xi, xi_d)
         return PinState(out[:, K.O_GAP].copy(), out[:, K.O_FORCE].copy(), out[:, K.O_FT].copy(),
                         out[:, [K.O_PX, K.O_PY]].copy(), out[:, K.O_T].copy(), pout[:, :, K.O_GAP].copy(),
                         pout[:, :, K.O_FORCE].copy(), pout[:, :, K.O_T].copy(), count)
@@ -280,6 +305,8 @@ class CycloidPinContact:
         q = np.asarray(q, float)
         q_t = np.asarray(q_t, float)
         w.key = q.tobytes() + q_t.tobytes()  # the Jacobian call checks it is asked at this state
+        if self.housing_node >= 0:
+            return self._force_housing(q, q_t)
         if w.scatter is None:  # a rigid disc: the object's coordinates are (x, y, θ)
             np.add(self.reference, q, out=w.q)
             w.qd[:] = q_t
@@ -293,6 +320,23 @@ class CycloidPinContact:
                                           self.profile.herr, self.profile.hpsi, self._law_vec, self._t_cache,
                                           self.phi, eta, eta_d, w.f, w.k, w.d, w.out, self.zones,
                                           self.zone_window_rad, w.pout, w.count)
+        if w.scatter is None:
+            return w.f
+        w.f_obj[w.scatter] = w.f
+        return w.f_obj
+
+    def _force_housing(self, q: np.ndarray, q_t: np.ndarray) -> np.ndarray:
+        """Force user function with the pins on a flexible housing: the object's coordinates are
+        the disc node's, the disc's modes (if any), then the housing's modes."""
+        w = self._work
+        ri, nn, m = w.rigid, len(self.reference), self.n_modes
+        np.add(self.reference[ri], q[ri], out=w.q)
+        w.qd[:] = q_t[ri]
+        w.penetration, w.bad = K.evaluate_housing(
+            w.q, w.qd, self.offset_rad, self.pins_m, self.radii_m, self.profile.par, self.profile.herr,
+            self.profile.hpsi, self._law_vec, self._t_cache, self.phi, q[nn:nn + m], q_t[nn:nn + m], self.seat,
+            q[nn + m:], q_t[nn + m:], w.f, w.k, w.d, w.out, self.zones, self.zone_window_rad, w.pout, w.count,
+            *w.pin_buffers)
         if w.scatter is None:
             return w.f
         w.f_obj[w.scatter] = w.f
@@ -341,19 +385,22 @@ class _Workspace:
     k_obj: np.ndarray
     penetration: float = -math.inf
     bad: int = 0
+    pin_buffers: tuple = ()  # flexible housing: one pin's force and Jacobians, (3 + m,), ((3 + m)²) ×2
 
     @classmethod
     def for_pins(cls, n: int, rigid_index: tuple[int, int, int] = (0, 1, 2), node_coords: int = 3,
-                 modes: int = 0) -> "_Workspace":
-        k = 3 + modes
-        nobj = node_coords + modes
+                 modes: int = 0, housing_modes: int = 0) -> "_Workspace":
+        k = 3 + modes + housing_modes
+        nobj = node_coords + modes + housing_modes
         scatter = None
         if tuple(rigid_index) != (0, 1, 2) or node_coords != 3:
             scatter = np.array(list(rigid_index) + list(range(node_coords, nobj)), dtype=np.intp)
+        kp = 3 + modes
+        pins = (np.zeros(kp), np.zeros((kp, kp)), np.zeros((kp, kp))) if housing_modes else ()
         return cls(np.full(3, np.nan), np.full(3, np.nan), np.zeros(k), np.zeros((k, k)), np.zeros((k, k)),
                    np.zeros((n, K.N_OUT)), *K.empty_points(n), b"",
                    np.zeros(0), scatter,
-                   np.asarray(rigid_index, dtype=np.intp), np.zeros(nobj), np.zeros((nobj, nobj)))
+                   np.asarray(rigid_index, dtype=np.intp), np.zeros(nobj), np.zeros((nobj, nobj)), pin_buffers=pins)
 
 
 def install_penetration_guard(mbs, contacts: list[CycloidPinContact]) -> None:
@@ -464,7 +511,8 @@ def add_cycloid_pin_contact(mbs, disc_node: int, stage: CycloidStage, law: Conta
                             errors: ErrorSpec | None = None, max_penetration_m: float = DEFAULT_MAX_PENETRATION_M,
                             initial_interference_m: float = DEFAULT_INITIAL_INTERFERENCE_M,
                             profile: CycloidProfile | None = None, modal_node: int = -1,
-                            phi: np.ndarray | None = None, offset_rad: float | None = None) -> CycloidPinContact:
+                            phi: np.ndarray | None = None, offset_rad: float | None = None,
+                            housing_node: int = -1, seat: np.ndarray | None = None) -> CycloidPinContact:
     """Add the contact between disc ``disc`` of ``stage`` (on ``disc_node``) and the fixed pin ring.
 
     Parameters
@@ -493,6 +541,10 @@ def add_cycloid_pin_contact(mbs, disc_node: int, stage: CycloidStage, law: Conta
         displacement in the profile frame on the uniform profile-parameter grid.
     offset_rad : float, optional
         Profile frame against the node's rotation (rad); default −φ_d/z_c (disc phase).
+    housing_node, seat : int, ndarray, optional
+        A flexible pin housing: its modal coordinates are the NodeGenericODE2 ``housing_node``
+        (h coordinates) and pin i sits at its nominal centre plus ``seat[i] @ ξ`` (``seat``
+        (n_pins, 2, h), m per modal unit, ring frame): the in-plane motion of its seat.
 
     Raises
     ------
@@ -511,6 +563,15 @@ def add_cycloid_pin_contact(mbs, disc_node: int, stage: CycloidStage, law: Conta
                      or mbs.GetNode(modal_node).get("numberOfODE2Coordinates") != m):
         raise ValueError(f"phi {phi.shape}: must be (n_grid ≥ 8, 2, m) with m the modal node's coordinates")
     rigid_index = (0, 1, 5) if flexible else (0, 1, 2)
+    seat = np.zeros((0, 2, 0)) if seat is None else np.ascontiguousarray(seat, dtype=float)
+    h = seat.shape[2]
+    if housing_node >= 0 and (seat.shape[:2] != (stage.pin_count, 2) or h == 0
+                              or mbs.GetNode(housing_node).get("numberOfODE2Coordinates") != h):
+        raise ValueError(f"seat {seat.shape}: must be (pin_count = {stage.pin_count}, 2, h) with h the housing "
+                         f"node's coordinates")
+    if housing_node < 0:
+        seat = np.zeros((0, 2, 0))
+        h = 0
     if not 0 <= disc < stage.disc_count:
         raise ValueError(f"disc = {disc}: the stage has {stage.disc_count} discs")
     for name, v in (("max_penetration_m", max_penetration_m), ("initial_interference_m", initial_interference_m)):
@@ -529,9 +590,9 @@ def add_cycloid_pin_contact(mbs, disc_node: int, stage: CycloidStage, law: Conta
         reference=ref,
         max_penetration_m=max_penetration_m, _law_vec=law.vector(),
         _t_cache=np.full(len(radii), np.nan),
-        _work=_Workspace.for_pins(len(radii), rigid_index, len(ref), m),
+        _work=_Workspace.for_pins(len(radii), rigid_index, len(ref), m, h),
         zones=concave_zones(prof, float(radii.max()), float(radii.min())), zone_window_rad=math.pi / stage.disc_teeth,
-        modal_node=modal_node, phi=phi, rigid_index=rigid_index)
+        modal_node=modal_node, phi=phi, rigid_index=rigid_index, housing_node=int(housing_node), seat=seat)
     _, _, _, out, _ = contact.evaluate(init[list(rigid_index)])
     worst = int(np.argmin(out[:, K.O_GAP]))
     if -out[worst, K.O_GAP] > initial_interference_m:
@@ -539,9 +600,10 @@ def add_cycloid_pin_contact(mbs, disc_node: int, stage: CycloidStage, law: Conta
                          f"{-out[worst, K.O_GAP] * 1e6:.3f} µm (tolerance {initial_interference_m * 1e6:g} µm)")
     from exudyn.itemInterface import ObjectGenericODE2
 
-    nobj = len(ref) + m
+    nobj = len(ref) + m + h
+    nodes = [disc_node] + ([modal_node] if flexible else []) + ([housing_node] if h else [])
     idx = mbs.AddObject(ObjectGenericODE2(
-        nodeNumbers=[disc_node, modal_node] if flexible else [disc_node], massMatrix=np.zeros((nobj, nobj)),
+        nodeNumbers=nodes, massMatrix=np.zeros((nobj, nobj)),
         stiffnessMatrix=np.zeros((nobj, nobj)), dampingMatrix=np.zeros((nobj, nobj)),
         forceUserFunction=contact._force_uf,
         jacobianUserFunction=contact._jacobian_uf))

@@ -51,6 +51,10 @@ def _inputs(spec: ReducerSpec, part: FEPart) -> dict:
                 "cranks": crank,
                 "pillars": {"n": ca.pillar_count, "r": ca.pillar_circle_radius_m, "hole": ca.disc_pillar_hole_radius_m},
                 "material": dataclasses.asdict(spec.materials.gears_cranks_discs)}
+    if part == "housing":
+        return {"pins": {"n": cy.pin_count, "circle": cy.pin_circle_radius_m, "r": cy.pin_radius_m},
+                "stack": {"thickness": cy.disc_thickness_m, "axial": list(cr.eccentric_axial_positions_m)},
+                "wall": geometry.HOUSING_WALL_FRACTION, "material": dataclasses.asdict(spec.materials.pin_housing)}
     return {"carrier": dataclasses.asdict(ca), "cranks": {**crank, "axial": list(cr.eccentric_axial_positions_m)},
             "disc": {"thickness": cy.disc_thickness_m, "hole": cy.disc_center_hole_radius_m},
             "material": dataclasses.asdict(spec.materials.carriers)}

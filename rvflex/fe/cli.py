@@ -20,7 +20,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     disc, carrier = DEFAULTS["disc"], DEFAULTS["carrier"]
     p = sub.add_parser("reduce", help="Craig–Bampton-reduce a flexible part (cached on disk)",
                        description="Mesh a part with netgen, reduce it (Hurty–Craig–Bampton; disc: rigid RBE2 "
-                                   "bores; carrier: output face the reference, distributing RBE3 crank seats) and "
+                                   "bores; carrier: output face the reference, distributing RBE3 crank seats; housing: "
+                                   "mount face clamped, the pin seats distributing) and "
                                    "report its size, eigenfrequencies and the reduced-vs-full static error at "
                                    "rated load. JSON keys: n_nodes, n_modes, freqs_hz, static_error_pct "
                                    "({flank, interface, max}, %), wall_s, cached. Defaults: the one reduction per "
@@ -62,6 +63,8 @@ def _describe(s, part: FEPart) -> str:
     if part == "carrier":
         words.append("distributing (RBE3) crank seats, 6 seat attachment modes each" if s.seat_coupling == "rbe3"
                      else "rigid (RBE2) crank seats")
+    elif part == "housing":
+        words.append("mount face clamped, 2 in-plane attachment modes per pin seat")
     elif s.attach_per_tooth:
         words.append(f"{s.attach_per_tooth} attachment modes per tooth"
                      f"{' (normal and tangential)' if s.attach_tangential else ''}, {s.patch_shape} patches of "

@@ -63,12 +63,14 @@ def rigid_map(pos: np.ndarray, nodes: np.ndarray, centre: np.ndarray, nn: int) -
     return sp.csr_matrix((vals, (rows, cols)), shape=(3 * nn, 6))
 
 
-def interfaces_of(fem, geom) -> tuple[Interface, ...]:
+def interfaces_of(fem, geom, centred: bool = True) -> tuple[Interface, ...]:
     """Interface node sets with area weights nudged so that their weighted centroid is the
     nominal centre exactly (a faceted coarse bore is off by up to ~0.1 mm otherwise, and
     Exudyn's ``MarkerSuperElementRigid`` puts its reference point at that centroid). Where
     positive weights cannot do it (very coarse linear meshes), the plain area weights stay
-    and ``centre_m`` is still the nominal centre: compare with ``weights @ nodes``."""
+    and ``centre_m`` is still the nominal centre: compare with ``weights @ nodes``.
+    ``centred=False`` keeps the area weights everywhere (the housing's half-cylinder pin
+    seats, whose area centroid lies outside the pin centre)."""
     pos = fem.GetNodePositionsAsArray()
     taken: set[int] = set()
     out = []
@@ -76,7 +78,9 @@ def interfaces_of(fem, geom) -> tuple[Interface, ...]:
         nodes = np.unique(np.concatenate([nodeset(fem, f) for f in faces]))
         nodes = np.array([a for a in nodes if a not in taken], dtype=int)  # interfaces must not share nodes
         taken.update(nodes.tolist())
-        w = centred_weights(area_weights(fem, nodes), pos[nodes], np.asarray(centre, float))
+        w = area_weights(fem, nodes)
+        if centred:
+            w = centred_weights(w, pos[nodes], np.asarray(centre, float))
         out.append(Interface(name, nodes, w, np.asarray(centre, float)))
     return tuple(out)
 

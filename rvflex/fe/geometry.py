@@ -7,6 +7,9 @@ Frames (metres, z = reducer axis, origin on the part's own axis):
   z = 0. Crank bores at ``crank_circle_radius_m·(cos a_k, sin a_k)`` with ``a_k =
   cranks.angles_rad[k]`` (as :func:`rvflex.parts.cycloid_disc.bore_positions` without
   errors), pillar clearance holes at :func:`pillar_angles`.
+* **Housing**: the pin-ring frame of ``parts/pin_ring.py`` (ground) — origin on the reducer
+  axis, pin 0 on +x (as :func:`rvflex.geometry.pins.pin_centres` without errors), the disc
+  stack centred on z = 0.
 * **Carrier**: the carrier body frame of ``parts/carrier.py`` — origin on the reducer
   axis, crank seats at the same crank-circle positions; the disc stack is centred on
   z = 0, the input plate on z < 0 and the output plate (with the output face) on z > 0.
@@ -33,12 +36,15 @@ __all__ = [
     "AXIAL_GAP_M",
     "CARRIER_FACES",
     "DISC_FACES",
+    "HOUSING_FACES",
+    "HOUSING_WALL_FRACTION",
     "MIN_WEB_M",
     "SAMPLES_PER_TOOTH",
     "PartGeometry",
     "carrier_geometry",
     "check_disc_layout",
     "disc_geometry",
+    "housing_geometry",
     "part_geometry",
     "pillar_angles",
     "spline_deviation_m",
@@ -49,6 +55,8 @@ AXIAL_GAP_M = 1e-3  # assumed axial clearance between the disc stack and each ca
 MIN_WEB_M = 1e-3  # thinnest ligament accepted between two holes or a hole and the tooth root
 
 DISC_FACES = ("flank", "side", "center_hole", "bore<k>", "pillar_hole<j>")
+HOUSING_FACES = ("mount_face", "free_face", "outer", "bore", "seat<i>")
+HOUSING_WALL_FRACTION = 0.25  # assumed radial wall of the pin housing beyond the pin circle, × the pin-circle radius
 CARRIER_FACES = ("output_face", "input_face", "inner_face", "main_in", "main_out", "seat_in<k>", "seat_out<k>",
                  "pillar<j>", "center_hole")
 
@@ -60,9 +68,10 @@ class PartGeometry:
     Attributes
     ----------
     part : str
-        ``"disc"`` or ``"carrier"``.
+        ``"disc"``, ``"carrier"`` or ``"housing"``.
     shape : netgen.occ.Solid
-        The solid (m); its faces carry the names of :data:`DISC_FACES` / :data:`CARRIER_FACES`.
+        The solid (m); its faces carry the names of :data:`DISC_FACES` / :data:`CARRIER_FACES` /
+        :data:`HOUSING_FACES`.
     interfaces : tuple of tuple of str
         One entry per Craig–Bampton interface, in order, each the face names it joins;
         the first is the floating-frame reference (clamped in the modes).
@@ -251,10 +260,56 @@ def carrier_geometry(spec: ReducerSpec) -> PartGeometry:
     return PartGeometry("carrier", solid, tuple(groups), tuple(names), np.array(centres), float(solid.mass))
 
 
+def housing_geometry(spec: ReducerSpec) -> PartGeometry:
+    """The pin housing: the ring that carries the pins in semicircular seats (grooves) cut into
+    its bore, as the pin ring of an RV reducer's case.
+
+    Simplifications (docs/flexible.md; the spec has no housing dimensions): a plain ring with its
+    bore on the pin circle (each pin sits half in its seat), the outer radius
+    ``pin_circle_radius_m·(1 + HOUSING_WALL_FRACTION)`` (assumed wall), as long axially as the
+    disc stack plus :data:`AXIAL_GAP_M` each side (the pin length); the seats are the pin
+    cylinders of the nominal pin radius. Interfaces: ``mount`` (the end face on the output side,
+    where the case is bolted to the machine: the floating-frame reference, clamped to ground),
+    then ``seat<i>`` per pin in pin order.
+    """
+    from netgen.occ import Cylinder, Pnt, Z
+
+    cy, cr = spec.cycloid, spec.cranks
+    pos = cr.eccentric_axial_positions_m or (0.0,)
+    z0 = min(pos) - cy.disc_thickness_m / 2 - AXIAL_GAP_M
+    z1 = max(pos) + cy.disc_thickness_m / 2 + AXIAL_GAP_M
+    r_in = cy.pin_circle_radius_m
+    r_out = r_in * (1.0 + HOUSING_WALL_FRACTION)
+    if r_out - r_in - cy.pin_radius_m < 2 * MIN_WEB_M:
+        raise SpecError("cycloid.pin_radius_m", cy.pin_radius_m,
+                        f"the pin seats leave less than {2 * MIN_WEB_M * 1e3:g} mm of housing wall")
+    length = z1 - z0
+    ring = Cylinder(Pnt(0, 0, z0), Z, r_out, length) - Cylinder(Pnt(0, 0, z0 - length), Z, r_in, 3 * length)
+    for f in ring.faces:
+        bb = f.bounding_box
+        if abs(bb[1].z - bb[0].z) < 1e-5:
+            f.name = "mount_face" if bb[0].z > 0.5 * (z0 + z1) else "free_face"
+        else:
+            f.name = "outer" if max(abs(bb[1].x), abs(bb[1].y)) > 0.5 * (r_in + r_out) else "bore"
+    names, groups, centres = ["mount"], [("mount_face",)], [[0.0, 0.0, z1]]
+    for i in range(cy.pin_count):
+        a = 2 * math.pi * i / cy.pin_count
+        x, y = r_in * math.cos(a), r_in * math.sin(a)
+        seat = Cylinder(Pnt(x, y, z0 - length), Z, cy.pin_radius_m, 3 * length)
+        seat.faces.name = f"seat{i}"
+        ring = ring - seat
+        names.append(f"seat{i}")
+        groups.append((f"seat{i}",))
+        centres.append([x, y, 0.5 * (z0 + z1)])
+    return PartGeometry("housing", ring, tuple(groups), tuple(names), np.array(centres), float(ring.mass))
+
+
 def part_geometry(spec: ReducerSpec, part: FEPart) -> PartGeometry:
-    """Geometry of ``part`` (``"disc"`` or ``"carrier"``)."""
+    """Geometry of ``part`` (``"disc"``, ``"carrier"`` or ``"housing"``)."""
     if part == "disc":
         return disc_geometry(spec)
     if part == "carrier":
         return carrier_geometry(spec)
-    raise SpecError("part", part, "must be 'disc' or 'carrier'")
+    if part == "housing":
+        return housing_geometry(spec)
+    raise SpecError("part", part, "must be 'disc', 'carrier' or 'housing'")

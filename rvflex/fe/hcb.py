@@ -12,7 +12,7 @@ import time
 import numpy as np
 
 from rvflex.choices import FEPart
-from rvflex.fe.checks import carrier_check, disc_check
+from rvflex.fe.checks import carrier_check, disc_check, housing_check
 from rvflex.fe.couplings import boundary_node_sets, interfaces_of, rbe3_loads, rigid_map
 from rvflex.fe.geometry import part_geometry
 from rvflex.fe.loads import flank_of
@@ -50,8 +50,9 @@ def _available_bytes() -> int:
 def estimate_tets(volume_m3: float, maxh_m: float, part: FEPart, curvature_safety: float = 2.0) -> int:
     """Tet count estimate: 4·V/maxh³ (fitted to netgen's graded meshes, docs/fe.md) plus the
     floor that the curvature of the tooth profile forces on the disc (RV-40E: ≈ 6 000 tets
-    at curvaturesafety 1, 23 000 at 2, whatever maxh)."""
-    floor = 6_000 * curvature_safety**2 if part == "disc" else 3_000
+    at curvaturesafety 1, 23 000 at 2, whatever maxh) and the pin seats on the housing."""
+    # the housing's pin seats (3 mm radius) force ≈ 12 000 tets at curvaturesafety 1 (RV-40E: 14 300 at 8 mm)
+    floor = {"disc": 6_000 * curvature_safety**2, "housing": 12_000 * curvature_safety**2}.get(part, 3_000)
     return int(4.0 * volume_m3 / maxh_m**3 + floor)
 
 
@@ -86,7 +87,7 @@ def build(spec: ReducerSpec, part: FEPart, s: PartSettings, key: str, progress=N
     what = f"{part} (maxh {s.maxh_m * 1e3:g} mm, order {s.mesh_order}, {s.n_modes} modes)"
     geom = part_geometry(spec, part)
     n_att_planned = (s.attach_per_tooth * spec.cycloid.disc_teeth * (2 if s.attach_tangential else 1)
-                     if part == "disc" else 0)
+                     if part == "disc" else 2 * spec.cycloid.pin_count if part == "housing" else 0)
     tets_est = estimate_tets(geom.volume_m3, s.maxh_m, part, s.curvature_safety)
     need = estimate_memory_bytes(tets_est, s, n_att_planned)
     avail = _available_bytes()
@@ -98,7 +99,8 @@ def build(spec: ReducerSpec, part: FEPart, s: PartSettings, key: str, progress=N
     if s.n_modes + n_att_planned > MAX_MODE_FRACTION * dof_est:
         raise SpecError("n_modes", s.n_modes, f"{s.n_modes + n_att_planned} internal modes exceed what a mesh of "
                                               f"≈{int(dof_est):,} DOFs resolves ({MAX_MODE_FRACTION:.0%} of them)")
-    mat = spec.materials.gears_cranks_discs if part == "disc" else spec.materials.carriers
+    mat = {"disc": spec.materials.gears_cranks_discs, "carrier": spec.materials.carriers,
+           "housing": spec.materials.pin_housing}[part]
     _progress(progress, "mesh")
     try:
         ngmesh = OCCGeometry(geom.shape).GenerateMesh(maxh=s.maxh_m, curvaturesafety=s.curvature_safety)
@@ -119,10 +121,11 @@ def build(spec: ReducerSpec, part: FEPart, s: PartSettings, key: str, progress=N
     pos = fem.GetNodePositionsAsArray()
     M = fem.GetMassMatrix(sparse=True).tocsr()
     K = fem.GetStiffnessMatrix(sparse=True).tocsr()
-    itfs = interfaces_of(fem, geom)
+    itfs = interfaces_of(fem, geom, centred=part != "housing")
     # carrier with distributing (RBE3) seats: only the output face is held; the seats are
-    # elastic and get attachment modes for the loads their couplings distribute
-    rbe3 = part == "carrier" and s.seat_coupling == "rbe3"
+    # elastic and get attachment modes for the loads their couplings distribute. The housing
+    # likewise: mount face held, each pin seat elastic with two in-plane force attachment modes
+    rbe3 = (part == "carrier" and s.seat_coupling == "rbe3") or part == "housing"
     held = itfs[0].nodes if rbe3 else np.concatenate([i.nodes for i in itfs])
     n_free = 3 * (nn - held.size)
     n_int_req = s.n_modes + n_att_planned
@@ -153,9 +156,11 @@ def build(spec: ReducerSpec, part: FEPart, s: PartSettings, key: str, progress=N
             profile = build_profile(spec.cycloid)
             flank = flank_of(mesh, fem, profile, s.mesh_order)
         _progress(progress, "attachment modes")
-        if rbe3:  # 6 unit loads per seat, distributed as its RBE3 coupling does (forces, then moments)
+        if part == "housing":  # unit x and y forces per pin seat, distributed by its area weights
+            A = solver.solve(np.hstack([rbe3_loads(pos, i, nn)[:, :2] for i in itfs[1:]]))
+        elif rbe3:  # 6 unit loads per seat, distributed as its RBE3 coupling does (forces, then moments)
             A = solver.solve(np.hstack([rbe3_loads(pos, i, nn) for i in itfs[1:]]))
-        if n_att_planned:
+        if n_att_planned and part == "disc":
             n_c = s.attach_per_tooth * spec.cycloid.disc_teeth
             tc = (np.arange(n_c) + 0.5) * 2 * np.pi / n_c
             Wd = flank.weights(tc, s.patch_half_width_m, s.patch_shape).toarray()
@@ -190,6 +195,8 @@ def build(spec: ReducerSpec, part: FEPart, s: PartSettings, key: str, progress=N
     _progress(progress, "static check")
     if part == "disc":
         chk = disc_check(spec, profile, flank, s, solver, K, Psi, S.shape[1], T_all, nn)
+    elif part == "housing":
+        chk = housing_check(spec, solver, fem, itfs, K, Psi, nn)
     else:
         chk = carrier_check(spec, bfK, fem, itfs, K, Psi, nn, geom, s.seat_coupling)
     wall = time.perf_counter() - t_start

@@ -95,12 +95,12 @@ _nodeset = nodeset  # old private name (tests)
 def reduce_part(spec: ReducerSpec, part: FEPart, *, maxh_m: float | None = None, n_modes: int | None = None,
                 cache_dir: str | os.PathLike | None = None, use_cache: bool = True, progress=None,
                 **settings) -> ReducedPart:
-    """Reduce ``part`` (``"disc"`` or ``"carrier"``) of ``spec``, from the disk cache when possible.
+    """Reduce ``part`` (``"disc"``, ``"carrier"`` or ``"housing"``) of ``spec``, from the disk cache when possible.
 
     Parameters
     ----------
     spec : ReducerSpec
-    part : {"disc", "carrier"}
+    part : {"disc", "carrier", "housing"}
     maxh_m : float, optional
         Largest element size (m); default :data:`DEFAULTS` (the flexible presets' reduction of
         ``part``).

@@ -66,6 +66,7 @@ DEFAULTS: dict[str, PartSettings] = {
     "disc": PartSettings(maxh_m=6e-3, n_modes=12, mesh_order=2, patch_half_width_m=3e-3, attach_per_tooth=0,
                          curvature_safety=1.0, attach_tangential=True),
     "carrier": PartSettings(maxh_m=6e-3, n_modes=10, mesh_order=2, curvature_safety=1.0, seat_coupling="rbe3"),
+    "housing": PartSettings(maxh_m=8e-3, n_modes=8, mesh_order=2, curvature_safety=1.0),
 }
 """The one default reduction of each part: what :func:`rvflex.fe.reduce.reduce_part` and ``rvflex
 reduce`` use when no setting is given, and what the flexible presets of
@@ -143,7 +144,8 @@ class StaticCheck:
     (disc: loaded pins; carrier: pillar mid-span), in % of the largest full one.
     ``interface_pct``: disc — error of the bore reaction forces (% of the largest);
     carrier — error of the seat displacements (RBE2 seats vs elastic seats) in % of the
-    largest. ``case``: words describing the load case. ``flank_full_m``: the largest full
+    largest; housing — ``flank_pct`` the reduction's error under the model's seat loads,
+    ``interface_pct`` the seat displacements against a cosine seat pressure. ``case``: words describing the load case. ``flank_full_m``: the largest full
     flank (pillar) displacement (m); ``interface_full``: the largest full bore reaction (N,
     disc) or seat displacement (m, carrier) — the figures of the convergence study;
     ``flank_full_by_angle_m``: disc, the largest full flank displacement at each angle of
@@ -169,7 +171,7 @@ class ReducedPart:
     Attributes
     ----------
     part : FEPart
-        ``"disc"`` or ``"carrier"``.
+        ``"disc"``, ``"carrier"`` or ``"housing"``.
     settings : PartSettings
     key : str
         Cache key (content hash of geometry, material, settings, code version).
