@@ -273,6 +273,17 @@ def diagnose(dataset, *, settings: DiagnosisSettings | None = None, effects: tup
     EvaluationFailed
         The nominal model does not converge under the bench conditions.
     """
+    from threadpoolctl import threadpool_limits
+
+    # one BLAS thread for the fits (and the pool's workers forked meanwhile): their QR and products on a few
+    # thousand features gain nothing from threads on two cores, and OpenBLAS's threads on a busy machine cost
+    # (measured at load 7: the δ search's QR of 2100 × 12 and its product with the 2100 × 2048 shifted features,
+    # 94 ms with the default threads, 21 ms with one)
+    with threadpool_limits(1, user_api="blas"):
+        return _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, errors)
+
+
+def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, errors) -> Diagnosis:
     t0 = time.perf_counter()
     settings = settings or DiagnosisSettings()
     spec: ReducerSpec = dataset.reducer
