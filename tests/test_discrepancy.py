@@ -91,11 +91,15 @@ def test_an_effect_confined_to_one_band_is_evidenced_against_a_larger_discrepanc
     prob, J = _bench((3.0, 2.0))
     none, c = _fit(prob, J, ()), _fit(prob, J, (ECC,))
     groups = feature_groups(prob.lay, PLAN, Z_B)
-    ev = evidence(prob, c, none, groups)
+    ev = evidence(prob, c, none, groups, 0.0)  # each group's own variance
     expected = 2 * (2 * math.log((3.0**2 + 2.0**2) / FLOOR**2 / 2) + 2) - 2 * math.log(prob.lay.n)
     assert abs(ev - expected) < 1.5  # the noise moves each group's RSS by a few per cent
     shrink = 100 * (1 - math.sqrt(c.rss / none.rss))
     assert shrink < 25.0
+    # one pooled variance (the default): RSS 32 000 over n features, σ² = 32 000/n; the effect removes 10 400
+    pooled = evidence(prob, c, none, groups)
+    assert math.isclose(pooled, 10400 / (float(residual(prob, none) @ residual(prob, none)) / prob.lay.n)
+                        - 2 * math.log(prob.lay.n), rel_tol=0.05)
     import dataclasses as dc
 
     cand = dc.replace(c, score=ev, gap_shrink_pct=shrink)
@@ -112,6 +116,8 @@ def test_an_effect_without_signal_gains_no_evidence():
     its floor or its discrepancy, and the evidence is the parameter penalty, −2·log(n)."""
     prob, J = _bench((0.0, 0.0), seed=3)
     none, c = _fit(prob, J, ()), _fit(prob, J, (ECC,))
-    ev = evidence(prob, c, none, feature_groups(prob.lay, PLAN, Z_B))
-    assert ev < 0.0
-    assert math.isclose(ev, -2 * math.log(prob.lay.n), abs_tol=0.5)
+    groups = feature_groups(prob.lay, PLAN, Z_B)
+    for pooling in (0.0, None):
+        ev = evidence(prob, c, none, groups, pooling)
+        assert ev < 0.0
+        assert math.isclose(ev, -2 * math.log(prob.lay.n), abs_tol=0.5)

@@ -11,7 +11,8 @@ orders (multiples of z_b) as a band of their own; the wind-ups of all TE runs; e
 The weighted features (in units of their floors, see :func:`rvflex.diagnosis.linear.weights`) of a
 group g have discrepancy variance σ²_g ≥ 1 (the floor: below it is noise), estimated by maximum
 likelihood under each hypothesis (profiled, σ²_g = max(RSS_g / n_g, 1)), optionally shrunk toward the
-reference's pooled variance with ν prior degrees of freedom (``DiagnosisSettings.discrepancy_pooling``).
+reference's pooled variance with ν prior degrees of freedom (``DiagnosisSettings.discrepancy_pooling``;
+its default, None, is ν → ∞: one pooled variance, which measured best, see docs/diagnosis.md).
 The −2 log likelihood of a residual is then Σ_g n_g log σ²_g + RSS_g / σ²_g, up to a constant.
 
 The evidence of a candidate against a reference (the calibrated model) is the drop of that
@@ -122,25 +123,25 @@ class Discrepancy:
                 for g, a, s in zip(self.groups, self.rms_arcsec, self.sigma)]
 
 
-def _neg2_loglik(groups, r: np.ndarray, pool: float, nu: float) -> float:
+def _neg2_loglik(groups, r: np.ndarray, pool: float, nu: float | None) -> float:
     """−2 log likelihood of weighted residual ``r`` (constant dropped), each group at its variance estimate
     σ²_g = max((RSS_g + ν·pool)/(n_g + ν), 1): the group's own RSS shrunk toward the pooled variance ``pool``
-    with ν prior degrees of freedom (ν = 0: profiled per group)."""
+    with ν prior degrees of freedom (ν = 0: profiled per group; None: ν → ∞, ``pool`` for every group)."""
     out = 0.0
     for g in groups:
         n = len(g.rows)
         rss = float(r[g.rows] @ r[g.rows])
-        s2 = max((rss + nu * pool) / (n + nu), 1.0)
+        s2 = max(pool if nu is None else (rss + nu * pool) / (n + nu), 1.0)
         out += n * math.log(s2) + rss / s2
     return out
 
 
-def evidence(prob: Problem, c: Candidate, ref: Candidate, groups, pooling: float = 0.0) -> float:
+def evidence(prob: Problem, c: Candidate, ref: Candidate, groups, pooling: float | None = None) -> float:
     """Evidence of ``c`` against ``ref`` with a discrepancy variance per group: the drop of the −2 log
     likelihood (each group at its variance estimate, shrunk toward the reference's pooled variance with
-    ``pooling`` prior degrees of freedom; see :func:`_neg2_loglik`) plus the drop of the nominal
-    parameters' prior penalty, less log(n) per added parameter (2 log of a Bayes factor in BIC's
-    approximation; 10 is "very strong")."""
+    ``pooling`` prior degrees of freedom, None: the pooled variance itself; see :func:`_neg2_loglik`) plus
+    the drop of the nominal parameters' prior penalty, less log(n) per added parameter (2 log of a Bayes
+    factor in BIC's approximation; 10 is "very strong")."""
     n = prob.lay.n
     r_ref, r_c = residual(prob, ref), residual(prob, c)
     pool = max(float(r_ref @ r_ref) / n, 1.0)
