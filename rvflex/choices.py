@@ -18,7 +18,7 @@ from typing import Literal, get_args
 
 from rvflex.spec_types import SpecError
 
-__all__ = ["BodyFidelity", "ContactLawKind", "DesignKind", "Distribution", "EffectKind", "Executor", "FEPart",
+__all__ = ["BodyFidelity", "ContactLawKind", "ConvergencePart", "DesignKind", "Distribution", "EffectKind", "Executor", "FEPart",
            "DiscrepancyKind", "EvidenceModel", "Fidelity", "Mismatch", "PatchShape", "RunKind", "SeatCoupling", "SeatMarker", "TEMode", "check_choice",
            "choices", "did_you_mean"]
 
@@ -64,6 +64,9 @@ model is built with, on the run conditions, on the recorded TE, or as another mo
 
 RunKind = Literal["te", "hysteresis"]
 """Kinds of bench run (:mod:`rvflex.diagnosis.bench`): a loaded-TE run or a torque cycle."""
+
+ConvergencePart = Literal["discs", "housing"]
+"""Parts whose FE reduction the convergence study refines (the ``ModelOptions`` field it sets)."""
 
 EvidenceModel = Literal["discrepancy", "bic"]
 """How a diagnosis weighs an effect's evidence: against a model discrepancy per order band and run, or with

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rvflex.choices import ConvergencePart, check_choice
 from rvflex.fe.reduce import PartSettings
 from rvflex.geometry.formulas import ARCSEC_PER_RAD
 from rvflex.model import build_reducer
@@ -48,15 +49,14 @@ every one has the 2 in-plane attachment modes per pin seat."""
 
 
 def fe_convergence(spec: ReducerSpec, positions: int = 32, cases: tuple[tuple[str, PartSettings], ...] | None = None,
-                   progress=print, part: str = "discs") -> list[dict]:
+                   progress=print, part: ConvergencePart = "discs") -> list[dict]:
     """Rows ``{case, n_modes, n_nodes, te_pp_arcsec, mean_windup_arcsec, s_per_step, f1_hz,
     reduce_s}`` for the rigid unit and each reduction of ``cases`` (default :data:`CASES` for
     ``part="discs"``, :data:`HOUSING_CASES` for ``"housing"``; catalogue geometry, no
     manufacturing errors, rated torque); each model is ``ModelOptions(**{part: settings})``,
     the other parts rigid. ``f1_hz`` is the first fixed-interface eigenfrequency, ``reduce_s``
     the cold reduction's wall time."""
-    if part not in ("discs", "housing"):
-        raise ValueError(f"part = {part!r}: must be 'discs' or 'housing'")
+    check_choice("part", part, ConvergencePart)
     cases = cases if cases is not None else (CASES if part == "discs" else HOUSING_CASES)
     theta = np.linspace(0.0, 2 * math.pi * spec.nominal_ratio / spec.cycloid.pin_count, positions, endpoint=False)
     rows = []
