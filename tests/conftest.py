@@ -27,3 +27,23 @@ def coarse_disc(fe_cache):
 
     spec = catalog.load("rv40e")
     return spec, reduce_part(spec, "disc", **COARSE_DISC)
+
+
+@pytest.fixture(scope="module")
+def loaded():
+    """(contact, pose): a single RV-40E disc turned 3″ into its pins (about 10 pins loaded) with a linear
+    law — the state the flexible-disc and flexible-housing contact tests perturb. One per module: the
+    contact keeps its closest-point warm start, which a module's evaluations move."""
+    import numpy as np
+
+    from rvflex import catalog
+    from rvflex.contact.cycloid_pin import ContactLaw
+    from rvflex.contact.single_disc import build_single_disc
+    from rvflex.geometry.clearance import initial_clearance_numeric
+    from rvflex.geometry.pins import nominal_disc_pose
+
+    stage = catalog.load("rv40e").cycloid
+    contact = build_single_disc(stage, ContactLaw.linear(2e8)).contact
+    centre, angle = nominal_disc_pose(stage, 0.3)
+    closing = initial_clearance_numeric(stage, eccentric_angle_rad=0.3).turn_neg_rad
+    return contact, np.array([centre[0], centre[1], angle + closing - 1.5e-5])

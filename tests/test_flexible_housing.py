@@ -12,24 +12,10 @@ import pytest
 from conftest import COARSE_DISC
 
 from rvflex import catalog
-from rvflex.contact.cycloid_pin import ContactLaw
-from rvflex.contact.single_disc import build_single_disc
-from rvflex.geometry.clearance import initial_clearance_numeric
 from rvflex.geometry.formulas import ARCSEC_PER_RAD
-from rvflex.geometry.pins import nominal_disc_pose
 
 COARSE_HOUSING = {"maxh_m": 8e-3, "n_modes": 8, "mesh_order": 1}
 """8 mm linear tets, 8 fixed-interface + 80 seat attachment modes: ≈ 3 s cold on the RV-40E."""
-
-
-@pytest.fixture(scope="module")
-def loaded():
-    """A single RV-40E disc turned 3″ into its pins (about 10 pins loaded) with a linear law."""
-    stage = catalog.load("rv40e").cycloid
-    contact = build_single_disc(stage, ContactLaw.linear(2e8)).contact
-    centre, angle = nominal_disc_pose(stage, 0.3)
-    closing = initial_clearance_numeric(stage, eccentric_angle_rad=0.3).turn_neg_rad
-    return contact, np.array([centre[0], centre[1], angle + closing - 1.5e-5])
 
 
 def _carried(contact, seat, phi=None):
