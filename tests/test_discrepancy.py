@@ -91,13 +91,13 @@ def test_an_effect_confined_to_one_band_is_evidenced_against_a_larger_discrepanc
     prob, J = _bench((3.0, 2.0))
     none, c = _fit(prob, J, ()), _fit(prob, J, (ECC,))
     groups = feature_groups(prob.lay, PLAN, Z_B)
-    ev = evidence(prob, c, none, groups, 0.0)  # each group's own variance
+    ev = evidence(prob, c, none, Discrepancy.of(prob, none, groups), 0.0)  # each group's own variance
     expected = 2 * (2 * math.log((3.0**2 + 2.0**2) / FLOOR**2 / 2) + 2) - 2 * math.log(prob.lay.n)
     assert abs(ev - expected) < 1.5  # the noise moves each group's RSS by a few per cent
     shrink = 100 * (1 - math.sqrt(c.rss / none.rss))
     assert shrink < 25.0
     # one pooled variance (the default): RSS 32 000 over n features, σ² = 32 000/n; the effect removes 10 400
-    pooled = evidence(prob, c, none, groups)
+    pooled = evidence(prob, c, none, Discrepancy.of(prob, none, groups))
     assert math.isclose(pooled, 10400 / (float(residual(prob, none) @ residual(prob, none)) / prob.lay.n)
                         - 2 * math.log(prob.lay.n), rel_tol=0.05)
     import dataclasses as dc
@@ -118,6 +118,6 @@ def test_an_effect_without_signal_gains_no_evidence():
     none, c = _fit(prob, J, ()), _fit(prob, J, (ECC,))
     groups = feature_groups(prob.lay, PLAN, Z_B)
     for pooling in (0.0, None):
-        ev = evidence(prob, c, none, groups, pooling)
+        ev = evidence(prob, c, none, Discrepancy.of(prob, none, groups), pooling)
         assert ev < 0.0
         assert math.isclose(ev, -2 * math.log(prob.lay.n), abs_tol=0.5)

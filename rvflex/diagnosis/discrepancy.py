@@ -104,13 +104,11 @@ class Discrepancy:
     @classmethod
     def of(cls, prob: Problem, c: Candidate, groups) -> Discrepancy:
         r = residual(prob, c)
-        raw = r / prob.w
-        return cls(tuple(groups), np.array([float(r[g.rows] @ r[g.rows]) for g in groups]),
-                   np.array([math.sqrt(float(np.mean(raw[g.rows] ** 2))) for g in groups]))
+        return cls(tuple(groups), _group_rss(groups, r), np.sqrt(_group_rss(groups, r / prob.w) / _sizes(groups)))
 
     @property
     def n(self) -> np.ndarray:
-        return np.array([len(g.rows) for g in self.groups], float)
+        return _sizes(self.groups)
 
     @property
     def sigma(self) -> np.ndarray:
@@ -123,28 +121,34 @@ class Discrepancy:
                 for g, a, s in zip(self.groups, self.rms_arcsec, self.sigma)]
 
 
-def _neg2_loglik(groups, r: np.ndarray, pool: float, nu: float | None) -> float:
-    """−2 log likelihood of weighted residual ``r`` (constant dropped), each group at its variance estimate
-    σ²_g = max((RSS_g + ν·pool)/(n_g + ν), 1): the group's own RSS shrunk toward the pooled variance ``pool``
-    with ν prior degrees of freedom (ν = 0: profiled per group; None: ν → ∞, ``pool`` for every group)."""
-    out = 0.0
-    for g in groups:
-        n = len(g.rows)
-        rss = float(r[g.rows] @ r[g.rows])
-        s2 = max(pool if nu is None else (rss + nu * pool) / (n + nu), 1.0)
-        out += n * math.log(s2) + rss / s2
-    return out
+def _sizes(groups) -> np.ndarray:
+    return np.array([len(g.rows) for g in groups], float)
 
 
-def evidence(prob: Problem, c: Candidate, ref: Candidate, groups, pooling: float | None = None) -> float:
-    """Evidence of ``c`` against ``ref`` with a discrepancy variance per group: the drop of the −2 log
-    likelihood (each group at its variance estimate, shrunk toward the reference's pooled variance with
-    ``pooling`` prior degrees of freedom, None: the pooled variance itself; see :func:`_neg2_loglik`) plus
-    the drop of the nominal parameters' prior penalty, less log(n) per added parameter (2 log of a Bayes
-    factor in BIC's approximation; 10 is "very strong")."""
+def _group_rss(groups, r: np.ndarray) -> np.ndarray:
+    return np.array([float(r[g.rows] @ r[g.rows]) for g in groups])
+
+
+def _neg2_loglik(n: np.ndarray, rss: np.ndarray, pool: float, nu: float | None) -> float:
+    """−2 log likelihood (constant dropped) of groups of ``n`` features with weighted residual sums of squares
+    ``rss``, each group at its variance estimate σ²_g = max((RSS_g + ν·pool)/(n_g + ν), 1): the group's own RSS
+    shrunk toward the pooled variance ``pool`` with ν prior degrees of freedom (ν = 0: profiled per group;
+    None: ν → ∞, ``pool`` for every group)."""
+    s2 = np.maximum(np.full_like(rss, pool) if nu is None else (rss + nu * pool) / (n + nu), 1.0)
+    return float(np.sum(n * np.log(s2) + rss / s2))
+
+
+def evidence(prob: Problem, c: Candidate, ref: Candidate, disc: Discrepancy, pooling: float | None = None) -> float:
+    """Evidence of ``c`` against ``ref`` with a discrepancy variance per group (``disc``: the discrepancy
+    ``ref`` leaves, :meth:`Discrepancy.of`): the drop of the −2 log likelihood (each group at its variance
+    estimate, shrunk toward the reference's pooled variance with ``pooling`` prior degrees of freedom, None:
+    the pooled variance itself; see :func:`_neg2_loglik`) plus the drop of the nominal parameters' prior
+    penalty, less log(n) per added parameter (2 log of a Bayes factor in BIC's approximation; 10 is "very
+    strong")."""
     n = prob.lay.n
-    r_ref, r_c = residual(prob, ref), residual(prob, c)
-    pool = max(float(r_ref @ r_ref) / n, 1.0)
-    d = (_neg2_loglik(groups, r_ref, pool, pooling) + prior_penalty(ref.effects, ref.x)
-         - _neg2_loglik(groups, r_c, pool, pooling) - prior_penalty(c.effects, c.x))
+    sizes = disc.n
+    pool = max(float(disc.rss.sum()) / n, 1.0)  # the groups partition the features
+    rss_c = _group_rss(disc.groups, residual(prob, c))
+    d = (_neg2_loglik(sizes, disc.rss, pool, pooling) + prior_penalty(ref.effects, ref.x)
+         - _neg2_loglik(sizes, rss_c, pool, pooling) - prior_penalty(c.effects, c.x))
     return d - (c.k - ref.k) * math.log(n)

@@ -409,7 +409,7 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
         wh = withheld_check(prob, plan, c, none, f0, folds, hold_nominal=True)
         bic_score = none.bic - c.bic
         score = (bic_score if settings.evidence_model == "bic"
-                 else evidence(prob, c, none, groups, settings.discrepancy_pooling))
+                 else evidence(prob, c, none, disc, settings.discrepancy_pooling))
         out.append(dc.replace(c, score=score, bic_score=bic_score, gap_shrink_pct=_shrink(c.rss, none.rss),
                               withheld=wh))
     out.sort(key=lambda c: -c.score)
