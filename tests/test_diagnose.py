@@ -572,22 +572,23 @@ def test_a_control_with_30pct_stiffness_mismatch_is_nominal_parameters_off(tmp_p
 
 @pytest.mark.slow
 def test_a_hidden_clearance_is_found_through_a_30pct_contact_stiffness_mismatch(tmp_path):
-    """A hidden 10 µm eccentric-bearing clearance, the generator's contact 30 % softer than the
-    diagnosing model's: the clearance is accepted and its size (nominal + excess, the observable
+    """A hidden 15 µm eccentric-bearing clearance (beyond the nominal class of 0 … 10 µm, within which
+    the runs cannot tell a hidden clearance from the nominal one), the generator's contact 30 % softer
+    than the diagnosing model's: the clearance is accepted and its size (nominal + excess, the observable
     total) is within ±25 %. At the diagnosis's default resolution: with orders only up to 95 and a
     24-step torque cycle a −10 µm pin-radius error (its torque-cycle signature is the clearance's)
     won instead, tied with the clearance — measured; the equidistant deviation now stands for the
     pin radius error in the candidate list."""
     from rvflex.diagnosis.fit import diagnose
 
-    hidden = [(EFFECTS["eccentric_bearing_clearance"], np.array([10e-6]))]
+    hidden = [(EFFECTS["eccentric_bearing_clearance"], np.array([15e-6]))]
     ds = _mismatched_bench(tmp_path, hidden, samples_per_rev=1024, contact_scale=0.7, needle_bearing_scale=1.0,
                            mesh_scale=1.0, clearance_m=0.0)
     diag = diagnose(ds, settings=DiagnosisSettings(workers=2), nominal=CAL, cache_dir=tmp_path / "cache",
                     effects=("eccentric_bearing_clearance", "pin_ring_runout", "disc_modification_deviation"))
     assert diag.chosen is not None and diag.chosen.name == "eccentric_bearing_clearance", diag.verdict
     total = diag.chosen.magnitude_of("eccentric_bearing_clearance") + diag.chosen.magnitude_of("crank_bearing_clearance")
-    assert total == pytest.approx(10e-6, rel=0.25)
+    assert total == pytest.approx(15e-6, rel=0.25)
 
 
 def test_the_verdict_says_no_unmodelled_effect_only_when_none_is_left_open():

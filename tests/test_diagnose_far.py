@@ -138,6 +138,29 @@ def test_an_effect_whose_interval_includes_zero_is_not_a_finding():
     assert "bound" in undetermined_effect(at_bound)
 
 
+def test_the_clearance_class_bounds_the_units_total_crank_bearing_clearance():
+    """The calibrated crank-bearing clearance adds to the spec's nominal one at most what is left of the
+    class 0 … 10 µm (the runs see the total only): the catalogue unit (0 µm stated) gets 10 µm of room, a
+    spec stating 3 µm gets 7 µm, and one stating 12 µm gets none, with the reason."""
+    import dataclasses
+
+    from rvflex.diagnosis.nominal import nominal_parameters
+
+    def clearance(stated_m):
+        b = SPEC.bearings
+        spec = dataclasses.replace(SPEC, bearings=dataclasses.replace(
+            b, eccentric=dataclasses.replace(b.eccentric, clearance_m=stated_m)))
+        cal, dropped = nominal_parameters(("contact_stiffness", "crank_bearing_clearance"), spec)
+        return {e.name: e for e in cal}.get("crank_bearing_clearance"), dropped
+
+    whole, _ = clearance(0.0)
+    assert whole.params[0].high == pytest.approx(10e-6, abs=1e-12)
+    part, _ = clearance(3e-6)
+    assert part.params[0].high == pytest.approx(7e-6, abs=1e-12) and part.params[0].step == pytest.approx(2.5e-6)
+    none, dropped = clearance(12e-6)
+    assert none is None and "12.0 µm" in dropped["crank_bearing_clearance"]
+
+
 def test_the_analysed_orders_follow_the_bench_sampling(tmp_path):
     """1024 samples per revolution resolve orders up to 255 (MAX_ORDER_CAP; a 3rd-harmonic pin pattern's
     TE sits at order 6·z_c = 234), 512 up to 128; the model grid follows, alias-free."""

@@ -114,6 +114,20 @@ class Discrepancy:
     def sigma(self) -> np.ndarray:
         return np.sqrt(np.maximum(self.rss / self.n, 1.0))
 
+    @property
+    def pooled(self) -> float:
+        """The pooled discrepancy variance (floor units², ≥ 1): every group's residual over every feature."""
+        return max(float(self.rss.sum() / self.n.sum()), 1.0)
+
+    def predictive_evidence(self, withheld: dict) -> float | None:
+        """Evidence of a withheld check (:func:`~rvflex.diagnosis.verdict.withheld_check`) against this
+        discrepancy: the drop of the predicted runs' weighted residual energy over the pooled variance, the
+        −2 log likelihood ratio of the two predictions (no parameter is fitted on those runs, so no
+        penalty). None when the check has no folds."""
+        if withheld.get("rss_before") is None:
+            return None
+        return (withheld["rss_before"] - withheld["rss_after"]) / self.pooled
+
     def describe(self) -> list[dict]:
         """One JSON row per group: label, kind, run, orders, features, rms (arcsec), σ (floors)."""
         return [{"group": g.label, "kind": g.kind, "run": g.run, "orders": list(g.orders) if g.orders else None,
@@ -147,7 +161,7 @@ def evidence(prob: Problem, c: Candidate, ref: Candidate, disc: Discrepancy, poo
     strong")."""
     n = prob.lay.n
     sizes = disc.n
-    pool = max(float(disc.rss.sum()) / n, 1.0)  # the groups partition the features
+    pool = disc.pooled  # the groups partition the features
     rss_c = _group_rss(disc.groups, residual(prob, c))
     d = (_neg2_loglik(sizes, disc.rss, pool, pooling) + prior_penalty(ref.effects, ref.x)
          - _neg2_loglik(sizes, rss_c, pool, pooling) - prior_penalty(c.effects, c.x))

@@ -291,8 +291,10 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
     errors = errors or ErrorSpec()
     plan = plan_from_dataset(dataset, settings)
     y, lay, windows = measured_runs(dataset, plan, settings)
-    cal = tuple(c for c in nominal_parameters(nominal) if c.available()[0] and c.available_for(plan)[0])
+    cal, no_room = nominal_parameters(nominal, spec)
+    cal = tuple(c for c in cal if c.available()[0] and c.available_for(plan)[0])
     cands, unavailable = available_candidates(effects, plan)
+    unavailable.update({n: f"not calibrated: {why}" for n, why in no_room.items()})
     replaced = {REPLACES[c.name] for c in cal if c.name in REPLACES}
     cands = tuple(e for e in cands if e.name not in replaced)
     cache = Path(cache_dir) if cache_dir else None
@@ -407,6 +409,8 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
     out = []
     for c in allc:
         wh = withheld_check(prob, plan, c, none, f0, folds, hold_nominal=True)
+        for f in (wh, *wh.get("folds", ())):
+            f["evidence"] = disc.predictive_evidence(f)
         bic_score = none.bic - c.bic
         score = (bic_score if settings.evidence_model == "bic"
                  else evidence(prob, c, none, disc, settings.discrepancy_pooling))

@@ -203,6 +203,8 @@ def json_document(diag) -> dict:
             "refined": bool(c.refined),
             "at_bound": list(c.at_bound),
             "withheld_improvement_pct": c.withheld.get("improvement_pct"),
+            "withheld_evidence": c.withheld.get("evidence"),
+            "withheld_fold_evidence": [f.get("evidence") for f in c.withheld.get("folds", ())],
         })
     ref = chosen or (diag.candidates[0] if diag.candidates else None)
     wh = dict(ref.withheld) if ref is not None else {}

@@ -91,8 +91,10 @@ def withheld_check(prob: Problem, plan, c: Candidate, ref: Candidate, f0, folds,
                              "predicted_runs": [label[r] for r in predicted_runs],
                              "improvement_pct": (100.0 * (1.0 - math.sqrt(rss_after / rss_before))
                                                  if rss_before > 0 else 0.0),
+                             "rss_before": rss_before, "rss_after": rss_after,
                              "fitted_params": [float(v) for v in x_f]})
     doc["improvement_pct"] = 100.0 * (1.0 - math.sqrt(total_after / total_before)) if total_before > 0 else 0.0
+    doc["rss_before"], doc["rss_after"] = total_before, total_after
     return doc
 
 
