@@ -348,3 +348,6 @@ def test_a_quick_selfcheck_from_python(tmp_path):
     assert doc["settings"]["effects"] == effects and doc["settings"]["diagnosis"]["max_order"] == 15
     assert len(rvflex.read_bench(tmp_path / "datasets" / "case_00").runs) == 4
     assert not list((tmp_path / "datasets").rglob("*.json"))
+    # the case's diagnosis is kept as `rvflex diagnose --json` writes it, and the score row reads the same ranking
+    report = json.loads((tmp_path / "reports" / "case_00.json").read_text())
+    assert [e["name"] for e in report["effects"]][:2] == doc["per_case"][0]["ranked"][:2]

@@ -438,6 +438,8 @@ def selfcheck(out_dir: str | Path, settings: SelfCheckSettings = SelfCheckSettin
     """
     from rvflex import catalog
     from rvflex.diagnosis.fit import diagnose, signature_sizes
+    from rvflex.diagnosis.report import json_document
+    from rvflex.io import write_atomic
     from rvflex.diagnosis.plan import plan_from_dataset
 
     t0 = time.perf_counter()
@@ -495,6 +497,9 @@ def selfcheck(out_dir: str | Path, settings: SelfCheckSettings = SelfCheckSettin
             continue
         diag = diagnose(read_bench(folder), settings=settings.diagnosis, effects=settings.effects,
                         nominal=settings.nominal, cache_dir=cache)
+        # each case's diagnosis as `rvflex diagnose --json` writes it (no plots): the misses can be read case by case
+        write_atomic(out / "reports" / f"case_{k:02d}.json",
+                     json.dumps(json_document(diag), indent=2, default=float).encode())
         truth_doc = json.loads(truth_path.read_text(encoding="utf-8"))  # scored only after the diagnosis
         row = {"case": k, **score_case(truth_doc, diag)}
         rows.append(row)
