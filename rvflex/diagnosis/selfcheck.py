@@ -438,9 +438,9 @@ def selfcheck(out_dir: str | Path, settings: SelfCheckSettings = SelfCheckSettin
     """
     from rvflex import catalog
     from rvflex.diagnosis.fit import diagnose, signature_sizes
+    from rvflex.diagnosis.plan import plan_from_dataset
     from rvflex.diagnosis.report import json_document
     from rvflex.io import write_atomic
-    from rvflex.diagnosis.plan import plan_from_dataset
 
     t0 = time.perf_counter()
     out = Path(out_dir)
