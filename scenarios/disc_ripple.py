@@ -5,14 +5,15 @@ turn (relative to the disc, ``z_b`` times per output revolution). Each disc's co
 load zone and bores therefore repeats ``n_c`` times per crank turn (``n_c`` cranks), and so does
 the TE the disc alone would make: order ``n_c·z_b``. Disc d runs at crank phase φ_d, so its
 ripple harmonic k (per crank turn) has phase k·φ_d. Two discs 180° apart: with two cranks the
-order-2 ripples are 2·180° = 360° apart and add in the TE; with three cranks 3·180° = 540° ≡
+harmonic-2 ripples are 2·180° = 360° apart and add in the TE; with three cranks 3·180° = 540° ≡
 180° apart: the discs exchange torque in antiphase at order ``3·z_b`` and the TE keeps only what
 is left at twice that order. :func:`disc_ripple` measures it: the TE and each disc's share of the
-ring torque over one crank turn, with their harmonics per crank turn; ``disc_phases_rad`` runs
+ring torque over one crank turn, with their harmonics per crank turn; :func:`with_disc_phases` makes
 variants (other disc counts and phases: two pairs 90° apart on a two-crank unit, three discs
-120° apart on a three-crank unit) that test the rule. docs/units.md quotes the table.
+120° apart on a three-crank unit) that test the rule; :func:`with_crank_count` puts the same
+discs on three cranks. docs/units.md quotes the table.
 
-    python -m rvflex.scenarios.disc_ripple [positions]
+    python -m rvflex.scenarios.disc_ripple [positions [load as a fraction of the rated torque]]
 """
 
 from __future__ import annotations
@@ -29,7 +30,7 @@ from rvflex.options import ModelOptions
 from rvflex.solve import quasi_static
 from rvflex.spec import ReducerSpec, SpecError
 
-__all__ = ["DiscRipple", "disc_ripple", "with_disc_phases"]
+__all__ = ["DiscRipple", "disc_ripple", "with_crank_count", "with_disc_phases"]
 
 
 @dataclass(frozen=True)
@@ -130,6 +131,31 @@ def with_disc_phases(spec: ReducerSpec, phases_rad: tuple[float, ...]) -> Reduce
         cranks=dataclasses.replace(spec.cranks, eccentric_axial_positions_m=axial))
 
 
+def with_crank_count(spec: ReducerSpec, count: int) -> ReducerSpec:
+    """``spec`` with ``count`` cranks evenly spaced on its crank circle and as many pillars (the
+    carrier's hole distance follows): the same discs, teeth and bearings on another support
+    layout — a variant for comparison, not a unit anyone sells.
+
+    Parameters
+    ----------
+    spec : ReducerSpec
+        The unit.
+    count : int
+        Crank count.
+
+    Returns
+    -------
+    ReducerSpec
+        The variant (named ``<name>-<count>crank``).
+    """
+    cr = spec.cranks
+    return dataclasses.replace(
+        spec, name=f"{spec.name}-{count}crank",
+        cranks=dataclasses.replace(cr, count=count, angles_rad=tuple(2 * math.pi * k / count for k in range(count))),
+        carrier=dataclasses.replace(spec.carrier, pillar_count=count,
+                                    hole_distance_m=2 * cr.crank_circle_radius_m * math.sin(math.pi / count)))
+
+
 def disc_ripple(spec: ReducerSpec, options: ModelOptions | None = None, *, load_per_disc_Nm: float | None = None,
                 positions: int = 96) -> DiscRipple:
     """Loaded TE and each disc's ring torque over one crank turn relative to the discs (1/z_b
@@ -172,17 +198,17 @@ def disc_ripple(spec: ReducerSpec, options: ModelOptions | None = None, *, load_
                       res.te_rad * ARCSEC_PER_RAD, torque)
 
 
-def _table(cases, positions: int) -> str:
+def _table(cases, positions: int, load_fraction: float = 1.0) -> str:
     rows = ["| unit | cranks | disc phases | TE pp | TE harmonic n_c (order) | TE harmonic 2n_c | "
             "disc torque harmonic n_c per disc (phase) |", "|---|---|---|---|---|---|---|"]
     for spec in cases:
-        r = disc_ripple(spec, positions=positions)
+        r = disc_ripple(spec, positions=positions, load_per_disc_Nm=load_fraction * spec.rated_torque_Nm / 2)
         nc, zb = r.cranks, r.pin_count
         t1, t2 = r.te_harmonic(nc), r.te_harmonic(2 * nc)
         tq = ", ".join(f"{abs(c):.2f} N·m ({math.degrees(np.angle(c)):.0f}°)" for c in r.torque_harmonic(nc))
         phases = ", ".join(f"{math.degrees(p):.0f}°" for p in r.disc_phases_rad)
-        rows.append(f"| {r.unit} | {nc} | {phases} | {np.ptp(r.te_arcsec):.2f}″ | {abs(t1):.3f}″ ({nc * zb}) | "
-                    f"{abs(t2):.3f}″ ({2 * nc * zb}) | {tq} |")
+        rows.append(f"| {r.unit} | {nc} | {phases} | {np.ptp(r.te_arcsec):.2f}″ | {abs(t1):.4f}″ ({nc * zb}) | "
+                    f"{abs(t2):.4f}″ ({2 * nc * zb}) | {tq} |")
     return "\n".join(rows)
 
 
@@ -193,12 +219,14 @@ if __name__ == "__main__":
     from rvflex import catalog
 
     n = int(sys.argv[1]) if len(sys.argv) > 1 else 96
+    fraction = float(sys.argv[2]) if len(sys.argv) > 2 else 1.0
     rv40e, rv160n = catalog.load("rv40e"), catalog.load("rv160n")
     pi = math.pi
+    rv40e3 = with_crank_count(rv40e, 3)
     cases = [rv40e, with_disc_phases(rv40e, (0.0, pi, 0.0, pi)), with_disc_phases(rv40e, (0.0, pi, pi / 2, 3 * pi / 2)),
-             rv160n]
+             rv40e3, with_disc_phases(rv40e3, (0.0, 2 * pi / 3, 4 * pi / 3)), rv160n]
     fixture = Path(__file__).resolve().parents[1] / "tests" / "fixtures" / "drive3_user.toml"  # a source checkout
     if fixture.is_file():
         user = catalog.resolve(str(fixture))
         cases += [user, with_disc_phases(user, (0.0, 2 * pi / 3, 4 * pi / 3))]
-    print(_table(cases, n))
+    print(_table(cases, n, fraction))
