@@ -23,7 +23,7 @@ from rvflex.diagnosis.bench import (
 from rvflex.diagnosis.effects import EFFECTS, Effect, Param, available_effects
 from rvflex.diagnosis.features import branch_angles, shift_measured
 from rvflex.diagnosis.fit import withheld_folds, withheld_split
-from rvflex.diagnosis.plan import PlanRun
+from rvflex.diagnosis.plan import BRANCH_FRACTIONS, PlanRun, feature_layout
 from rvflex.diagnosis.settings import DiagnosisSettings
 from rvflex.options import ModelOptions
 from rvflex.spec import ErrorSpec
@@ -161,10 +161,20 @@ def test_withheld_split_and_no_withheld_run():
             PlanRun("hysteresis", "h", torque_max_Nm=412.0))
     assert withheld_split(plan) == ((0, 3), (1, 2))
     assert withheld_split(plan[:1] + plan[3:]) == ((0, 1), ())  # nothing left to predict
-    # two folds, no run predicted twice: the other TE runs, then the torque cycle from the TE runs
-    assert withheld_folds(plan) == (((0, 3), (1, 2)), ((0, 1, 2), (3,)))
-    assert withheld_folds(plan[:1] + plan[3:]) == (((0,), (1,)),)
-    assert withheld_folds(plan[:1]) == () and withheld_folds(plan[3:]) == ()
+    # nothing predicted twice: the other TE runs from the forward TE run at the highest load and the torque
+    # cycle, then each half of the torque cycle from the TE runs and the other half (run, side)
+    te = ((0, 0), (1, 0), (2, 0))
+    assert withheld_folds(plan) == ((((0, 0), (3, 0)), ((1, 0), (2, 0))),
+                                    (te + ((3, 1),), ((3, -1),)), (te + ((3, -1),), ((3, 1),)))
+    assert withheld_folds(plan[:1] + plan[3:]) == ((((0, 0), (1, 1)), ((1, -1),)), (((0, 0), (1, -1)), ((1, 1),)))
+    assert withheld_folds(plan[3:]) == ((((0, 1),), ((0, -1),)), (((0, -1),), ((0, 1),)))  # a cycle checks itself
+    assert withheld_folds(plan[:1]) == ()
+    # the halves: both branches at the torques of one sign, together the whole cycle
+    lay = feature_layout(plan, 5)
+    pos, neg = lay.part_rows((3, 1)), lay.part_rows((3, -1))
+    assert sorted(np.r_[pos, neg]) == sorted(lay.run_rows(3)) and len(pos) == len(neg) == len(BRANCH_FRACTIONS)
+    torque = np.tile(BRANCH_FRACTIONS, 2)  # the branch_angles order: descending, then ascending branch
+    assert np.all(torque[pos - lay.hyst[3].start] > 0) and np.all(torque[neg - lay.hyst[3].start] < 0)
 
 
 def test_friction_acts_on_the_torque_cycle_through_a_coulomb_play():

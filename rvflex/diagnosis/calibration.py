@@ -9,7 +9,7 @@ import numpy as np
 from scipy.optimize import lsq_linear
 
 from rvflex.diagnosis.linear import Candidate, Sensitivities
-from rvflex.diagnosis.nominal import describe_calibration
+from rvflex.diagnosis.nominal import SAME_QUANTITY, describe_calibration
 from rvflex.diagnosis.verdict import SIGNATURE_TIE
 
 __all__ = ["CALIBRATION_PREFERRED", "UNDETERMINED_INFO", "calibration_lookalikes", "calibration_sentence", "lookalike_sentence", "calibration_ties", "undetermined"]
@@ -88,53 +88,61 @@ def calibration_ties(chosen: Candidate, cal, sens: Sensitivities, w) -> tuple[tu
             sig += chosen.jacobian[:, i:i + e.n] @ xe
         i += e.n
     now = {e.name: xe for e, xe in chosen.split() if e.nominal}
-    return _reproduced(sig, cal, now, sens, w)
+    return _reproduced(sig, cal, now, sens, w)[:3]
 
 
-def calibration_lookalikes(effects, calibrated: Candidate, sens: Sensitivities, w) -> dict:
+def calibration_lookalikes(effects, calibrated: Candidate, sens: Sensitivities, w, pool: float = 1.0,
+                           threshold: float = 0.0) -> dict:
     """Effects the calibration can stand in for: those whose signature at typical size (each parameter's
     secant at its step, every column on its own) the nominal parameters, within their prior ranges from
-    the calibrated values, reproduce to within CALIBRATION_PREFERRED. Such an effect can be neither found
-    nor excluded by these runs whatever its evidence; the report names it as a tie with the runs that would
-    separate them. Returns {effect name: (nominal parameters, separating runs, worst relative residual)}."""
+    the calibrated values, reproduce to within CALIBRATION_PREFERRED — or to within SIGNATURE_TIE when what
+    they leave of it is below the discrepancy: its weighted energy over the pooled discrepancy variance
+    ``pool`` (floor units²) under ``threshold`` (the most evidence the effect could earn over the
+    calibration at typical size; 0, the default: CALIBRATION_PREFERRED alone). Such an effect can be
+    neither found nor excluded by these runs whatever its evidence; the report names it as a tie with the
+    runs that would separate them. An effect on the same quantity as a nominal parameter
+    (:data:`~rvflex.diagnosis.nominal.SAME_QUANTITY`) is what lies beyond that parameter's range and is
+    not listed. Returns {effect name: (nominal parameters, separating runs, worst relative residual)}."""
     cal = tuple(e for e in calibrated.effects if e.nominal)
     now = {e.name: xe for e, xe in calibrated.split() if e.nominal}
     out = {}
     for e in effects:
-        if e.nominal or e.name not in sens:
+        if e.nominal or e.name not in sens or e.name in SAME_QUANTITY:
             continue
-        worst, names, runs = 0.0, (), ()
+        worst, names, runs, hidden = 0.0, (), (), True
         for j, prm in enumerate(e.params):
-            nm, rn, ratio = _reproduced(sens.plus[e.name][:, j] * prm.step, cal, now, sens, w)
+            nm, rn, ratio, left = _reproduced(sens.plus[e.name][:, j] * prm.step, cal, now, sens, w)
             worst = max(worst, ratio)
+            hidden = hidden and left / pool < threshold
             names, runs = tuple(dict.fromkeys(names + nm)), tuple(dict.fromkeys(runs + rn))
-        if names and worst <= CALIBRATION_PREFERRED:
+        if names and (worst <= CALIBRATION_PREFERRED or hidden):
             own = (e.separating_runs,) if e.separating_runs else ()
             out[e.name] = (names, tuple(dict.fromkeys(own + runs)), worst)
     return out
 
 
-def _reproduced(sig: np.ndarray, cal, now: dict, sens: Sensitivities, w) -> tuple[tuple[str, ...], tuple[str, ...], float]:
+def _reproduced(sig: np.ndarray, cal, now: dict, sens: Sensitivities, w) -> tuple[tuple[str, ...], tuple[str, ...], float, float]:
     """How well the nominal parameters ``cal`` (from their values ``now``, within their ranges) reproduce the
-    model change ``sig``: (the parameters that carry it, their separating runs, relative weighted residual;
-    no names beyond SIGNATURE_TIE)."""
+    model change ``sig``: (the parameters that carry it, their separating runs, relative weighted residual,
+    the weighted residual's energy; no names beyond SIGNATURE_TIE)."""
     if not cal:
-        return (), (), math.inf
+        return (), (), math.inf, math.inf
     sig = sig * w
     norm = float(np.linalg.norm(sig))
     if norm <= 0:
-        return (), (), math.inf
+        return (), (), math.inf, math.inf
     J = np.column_stack([sens.plus[c.name] for c in cal]) * w[:, None]
     lo = np.concatenate([c.lower - now.get(c.name, c.center) for c in cal])
     hi = np.concatenate([c.upper - now.get(c.name, c.center) for c in cal])
     coef = lsq_linear(J, sig, bounds=(lo, hi), method="bvls").x
-    ratio = float(np.linalg.norm(sig - J @ coef)) / norm
+    left = float(np.linalg.norm(sig - J @ coef))
+    ratio = left / norm
     if ratio > SIGNATURE_TIE:
-        return (), (), ratio
+        return (), (), ratio, left**2
     share = np.abs(coef) * np.linalg.norm(J, axis=0)
     names = tuple(c.name for c, s in zip(cal, share) if s > 0.1 * share.max())
     runs = tuple(dict.fromkeys(c.separating_runs for c in cal if c.name in names and c.separating_runs))
-    return names, runs, ratio
+    return names, runs, ratio, left**2
 
 
 def lookalike_sentence(lookalikes: dict) -> str:

@@ -2,7 +2,7 @@
 against it.
 
 A model of another program's unit (or of a real one) never reproduces it exactly: a contact law of
-another form, stiffnesses the calibration cannot separate, the elastic pin-mesh TE at a few per cent
+another form, stiffnesses the calibration cannot separate, the discs' elastic TE at multiples of z_b at a few per cent
 of its size. Kennedy and O'Hagan (2001) write the measurement as model + discrepancy + noise, with
 the discrepancy a Gaussian process of its own. Here the discrepancy is a set of independent
 variance components, one per *group* of features that share a model-form error: per TE run, each

@@ -96,7 +96,7 @@ class Diagnosis:
     baseline_response: Response
     candidates: tuple[Candidate, ...]
     chosen: Candidate | None
-    withheld_runs: tuple[tuple[tuple[int, ...], tuple[int, ...]], ...]  # the folds: (fitted, predicted) runs
+    withheld_runs: tuple  # the folds: (fitted, predicted) run parts (run, side), see withheld_folds
     unavailable: dict
     failed: dict
     signature_size: dict
@@ -225,20 +225,22 @@ def withheld_split(plan: tuple[PlanRun, ...]) -> tuple[tuple[int, ...], tuple[in
     return fitted, tuple(r for r in range(len(plan)) if r not in fitted)
 
 
-def withheld_folds(plan: tuple[PlanRun, ...]) -> tuple[tuple[tuple[int, ...], tuple[int, ...]], ...]:
-    """The folds of the withheld check, each (fitted runs, predicted runs); no run is predicted
-    twice. Fold 1 is :func:`withheld_split` (the other TE runs predicted from the forward TE run at
-    the highest load and the torque cycles); fold 2 predicts the torque cycles from the TE runs
-    (an effect whose evidence lies mostly in the torque cycle, such as friction, is confirmed
-    there). Folds with nothing to fit or to predict are left out."""
+def withheld_folds(plan: tuple[PlanRun, ...]) -> tuple[tuple[tuple[tuple[int, int], ...], tuple[tuple[int, int], ...]], ...]:
+    """The folds of the withheld check, each (fitted parts, predicted parts) of runs (run, side: 0 the whole
+    run, ±1 a torque cycle's positive / negative-torque half, :meth:`~rvflex.diagnosis.plan.Layout.part_rows`);
+    nothing is predicted twice. Fold 1 is :func:`withheld_split` (the other TE runs predicted from the forward
+    TE run at the highest load and the torque cycles); then each torque cycle's halves predict each other, with
+    the TE runs fitted too: an effect whose evidence lies in the torque cycle (friction's loop, a clearance's
+    free play, the curve's stiffening) is confirmed on the half it was not fitted on, and one read from the
+    TE runs must predict both halves. Folds with nothing to fit or to predict are left out."""
     folds = []
     fitted, predicted = withheld_split(plan)
     if fitted and predicted:
-        folds.append((fitted, predicted))
-    te = tuple(r for r, p in enumerate(plan) if p.kind == "te")
-    hyst = tuple(r for r, p in enumerate(plan) if p.kind != "te")
-    if te and hyst:
-        folds.append((te, hyst))
+        folds.append((tuple((r, 0) for r in fitted), tuple((r, 0) for r in predicted)))
+    te = tuple((r, 0) for r, p in enumerate(plan) if p.kind == "te")
+    for h in (r for r, p in enumerate(plan) if p.kind != "te"):
+        for side in (1, -1):
+            folds.append((te + ((h, side),), ((h, -side),)))
     return tuple(folds)
 
 
@@ -460,7 +462,8 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
     # effects the calibration can stand in for (an output series compliance against the bearing stiffnesses):
     # named as ties, since these runs can neither find nor exclude them
     named = {e.name for c in (chosen, demoted) if c is not None for e in c.attributed}
-    lookalikes = calibration_lookalikes([e for e in usable if e.name not in named], none, sens, w)
+    lookalikes = calibration_lookalikes([e for e in usable if e.name not in named], none, sens, w, disc.pooled,
+                                        settings.bic_threshold)
     if cal_ties and demoted is None:
         text += (f" Partly tied with the calibration of {', '.join(cal_ties)} (within their prior ranges they reproduce "
                  f"{100 * (1 - tie_ratio):.0f} % of the effect's signature): {'; '.join(runs_needed)} would separate "

@@ -33,7 +33,7 @@ from rvflex.options import ModelOptions
 from rvflex.spec import ErrorSpec, ReducerSpec
 from rvflex.units import UM
 
-__all__ = ["NOMINAL", "REPLACES", "describe_calibration", "max_pin_force", "nominal_parameters", "point_contact_law",
+__all__ = ["NOMINAL", "REPLACES", "SAME_QUANTITY", "describe_calibration", "max_pin_force", "nominal_parameters", "point_contact_law",
            "power_law_equivalent", "stiffness_scale"]
 
 COMPLIANCE_PRIOR = 0.35  # σ of the compliance change: a stiffness known to about ±30 %
@@ -166,6 +166,10 @@ def _builtin() -> tuple[Effect, ...]:
 
 NOMINAL: dict[str, Effect] = {e.name: e for e in _builtin()}
 """The calibrated nominal parameters by name."""
+
+SAME_QUANTITY = {"eccentric_bearing_clearance": "crank_bearing_clearance"}
+"""Candidate effects acting on the same quantity as a nominal parameter: the effect is what lies beyond the
+parameter's range (the runs see the total only)."""
 
 REPLACES = {"disc_flexibility": "disc_carrier_flexibility"}
 """Candidate effects a nominal parameter stands for (not attributed separately when it is calibrated)."""

@@ -12,7 +12,7 @@ import numpy as np
 from rvflex.choices import RunKind
 from rvflex.diagnosis.settings import DiagnosisSettings
 
-__all__ = ["BRANCH_FRACTIONS", "HYST_FRACTIONS", "Layout", "PlanRun", "feature_layout", "plan_from_dataset"]
+__all__ = ["BRANCH_FRACTIONS", "HYST_FRACTIONS", "Layout", "PlanRun", "feature_layout", "part_label", "plan_from_dataset"]
 
 HYST_FRACTIONS = np.array([0.02, 0.05, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.97])
 BRANCH_FRACTIONS = np.concatenate([-HYST_FRACTIONS[::-1], HYST_FRACTIONS])
@@ -64,6 +64,21 @@ class Layout:
             return np.r_[self.dc[r], np.arange(self.cos[r].start, self.cos[r].stop),
                          np.arange(self.sin[r].start, self.sin[r].stop)]
         return np.arange(self.hyst[r].start, self.hyst[r].stop)
+
+    def part_rows(self, part: tuple[int, int]) -> np.ndarray:
+        """Feature indices of a run part (run, side): side 0 the whole run; +1 / −1 the positive- / negative-torque
+        half of a torque cycle (both branches at the torques of that sign)."""
+        r, side = part
+        if side == 0:
+            return self.run_rows(r)
+        half = np.flatnonzero(np.sign(BRANCH_FRACTIONS) == side)
+        return self.hyst[r].start + np.r_[half, half + len(BRANCH_FRACTIONS)]
+
+
+def part_label(plan, part: tuple[int, int]) -> str:
+    """The label of a run part (see :meth:`Layout.part_rows`)."""
+    r, side = part
+    return plan[r].label + {0: "", 1: " (T > 0)", -1: " (T < 0)"}[side]
 
 
 def plan_from_dataset(dataset, settings: DiagnosisSettings) -> tuple[PlanRun, ...]:

@@ -11,7 +11,7 @@ import numpy as np
 from rvflex.diagnosis.features import shift_measured
 from rvflex.diagnosis.linear import Candidate, nuisance_columns
 from rvflex.diagnosis.nominal import describe_calibration
-from rvflex.diagnosis.plan import BRANCH_FRACTIONS
+from rvflex.diagnosis.plan import BRANCH_FRACTIONS, part_label
 from rvflex.geometry.formulas import ARCSEC_PER_RAD
 
 __all__ = ["draw_run", "gap_table", "json_document", "where_list", "write_report"]
@@ -208,10 +208,10 @@ def json_document(diag) -> dict:
         })
     ref = chosen or (diag.candidates[0] if diag.candidates else None)
     wh = dict(ref.withheld) if ref is not None else {}
-    label = [p.label for p in diag.plan]
-    folds = wh.get("folds") or [{"fitted_runs": [label[r] for r in f], "predicted_runs": [label[r] for r in pr],
+    folds = wh.get("folds") or [{"fitted_runs": [part_label(diag.plan, p) for p in f],
+                                 "predicted_runs": [part_label(diag.plan, p) for p in pr],
                                  "improvement_pct": None} for f, pr in diag.withheld_runs]
-    withheld = {"fitted_runs": sorted({x for f in folds for x in f["fitted_runs"]}, key=label.index),
+    withheld = {"fitted_runs": list(dict.fromkeys(x for f in folds for x in f["fitted_runs"])),
                 "predicted_runs": [x for f in folds for x in f["predicted_runs"]],
                 "improvement_pct": wh.get("improvement_pct"),
                 "folds": [{k: f[k] for k in ("fitted_runs", "predicted_runs", "improvement_pct")} for f in folds],

@@ -35,6 +35,7 @@ import numpy as np
 from rvflex.choices import Mismatch, check_choice
 from rvflex.diagnosis.bench import BenchDataset, BenchRun, read_bench, write_bench
 from rvflex.diagnosis.effects import Effect, available_effects
+from rvflex.diagnosis.nominal import SAME_QUANTITY
 from rvflex.diagnosis.plan import PlanRun
 from rvflex.diagnosis.replay import evaluate
 from rvflex.diagnosis.settings import DiagnosisSettings
@@ -374,7 +375,7 @@ def score_case(truth: dict, diag) -> dict:
     return row
 
 
-SHARED_WITH_NOMINAL = {"eccentric_bearing_clearance": ("crank_bearing_clearance", "clearance_m")}
+SHARED_WITH_NOMINAL = {e: (n, {"crank_bearing_clearance": "clearance_m"}[n]) for e, n in SAME_QUANTITY.items()}
 """Effects acting on the same quantity as a nominal parameter: their magnitude is scored as the total
 (nominal + excess), the only part the data determine."""
 CALIBRATED_SCALES = {"contact_stiffness": "contact_scale", "needle_bearing_stiffness": "needle_bearing_scale",

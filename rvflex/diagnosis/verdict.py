@@ -10,6 +10,7 @@ from scipy.optimize import lsq_linear
 from rvflex.diagnosis.effects import Effect
 from rvflex.diagnosis.features import shift_measured
 from rvflex.diagnosis.linear import Candidate, Problem, bounds, lin_fit, prior_of
+from rvflex.diagnosis.plan import part_label
 
 __all__ = ["SIGNATURE_TIE", "TIE_RSS_RATIO", "equivalent", "fmt_mag", "fmt_pct", "is_significant",
            "undetermined_effect", "verdict", "withheld_check"]
@@ -51,30 +52,29 @@ def withheld_check(prob: Problem, plan, c: Candidate, ref: Candidate, f0, folds,
     hidden thermal mismatch then predicted the withheld runs −71 % "better", held +59 %.
     Improvement = 1 − rms(prediction residual)/rms(reference's prediction residual), per fold and
     pooled over every predicted run (weighted residual energy)."""
-    label = [p.label for p in plan]
-    doc = {"fitted_runs": sorted({label[r] for f, _ in folds for r in f}, key=label.index),
-           "predicted_runs": [label[r] for _, pr in folds for r in pr], "improvement_pct": None, "folds": []}
+    doc = {"fitted_runs": list(dict.fromkeys(part_label(plan, p) for f, _ in folds for p in f)),
+           "predicted_runs": [part_label(plan, p) for _, pr in folds for p in pr], "improvement_pct": None, "folds": []}
     if not folds:
         doc["note"] = "no run usable for the withheld check"
         return doc
     lay = prob.lay
     d = c.delta
 
-    def predict(lin, fitted_runs, predicted_runs):
+    def predict(lin, fitted_parts, predicted_parts):
         base_, J_, x_ref_, lo_, hi_, prior_ = lin
-        rows_f = np.concatenate([lay.run_rows(r) for r in fitted_runs])
-        rows_p = np.concatenate([lay.run_rows(r) for r in predicted_runs])
+        rows_f = np.concatenate([lay.part_rows(p) for p in fitted_parts])
+        rows_p = np.concatenate([lay.part_rows(p) for p in predicted_parts])
         x, nu, _, _, _ = lin_fit(prob, base_, J_, x_ref_, lo_, hi_, rows=rows_f, delta=d, prior=prior_)
         model = base_ + J_ @ (x - x_ref_)
-        # nuisances: the common TE offset comes from the fitted runs; a predicted run's own
-        # hysteresis offset is no prediction, so it is refitted
+        # nuisances: the common TE offset comes from the fitted runs; a predicted torque cycle's (or half
+        # cycle's) own offset is no prediction, so it is refitted on the predicted part
         cols = prob.nuis[:, np.abs(prob.nuis[rows_f]).sum(0) > 0]
         model = model + cols @ nu
         r = (shift_measured(prob.y, lay, d)[:, 0] - model)
-        for run in predicted_runs:
-            if run in lay.hyst:
-                sl = lay.hyst[run]
-                r[sl] -= np.average(r[sl], weights=prob.w[sl] ** 2)
+        for part in predicted_parts:
+            if part[0] in lay.hyst:
+                rows = lay.part_rows(part)
+                r[rows] -= np.average(r[rows], weights=prob.w[rows] ** 2)
         rw = r[rows_p] * prob.w[rows_p]
         return float(rw @ rw), x
 
@@ -82,13 +82,13 @@ def withheld_check(prob: Problem, plan, c: Candidate, ref: Candidate, f0, folds,
     if hold_nominal:
         lin_c, lin_ref = _nominal_held(lin_c, c), _nominal_held(lin_ref, ref)
     total_before = total_after = 0.0
-    for fitted_runs, predicted_runs in folds:
-        rss_before, _ = predict(lin_ref, fitted_runs, predicted_runs)
-        rss_after, x_f = predict(lin_c, fitted_runs, predicted_runs)
+    for fitted_parts, predicted_parts in folds:
+        rss_before, _ = predict(lin_ref, fitted_parts, predicted_parts)
+        rss_after, x_f = predict(lin_c, fitted_parts, predicted_parts)
         total_before += rss_before
         total_after += rss_after
-        doc["folds"].append({"fitted_runs": [label[r] for r in fitted_runs],
-                             "predicted_runs": [label[r] for r in predicted_runs],
+        doc["folds"].append({"fitted_runs": [part_label(plan, p) for p in fitted_parts],
+                             "predicted_runs": [part_label(plan, p) for p in predicted_parts],
                              "improvement_pct": (100.0 * (1.0 - math.sqrt(rss_after / rss_before))
                                                  if rss_before > 0 else 0.0),
                              "rss_before": rss_before, "rss_after": rss_after,
