@@ -5,6 +5,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
+
 from rvflex.diagnosis.settings import DiagnosisSettings
 
 BENCH = Path(__file__).parent / "fixtures" / "bench_rv40e_small"
@@ -65,3 +67,23 @@ def test_every_nominal_parameter_has_a_verdict_wording():
         kept = "left out of the model" if name == "disc_flexibility" else "held at its nominal value"
         assert not_evaluated_sentence({name: "not calibrated: why"}, {}) == \
             f"Not calibrated: {name.replace('_', ' ')}, {kept} (why)."
+
+
+def test_bench_diagnosis_times_a_model_run_of_each_unit_side_by_side(tmp_path, capsys):
+    """``rvflex bench diagnosis`` (a speed target belongs in a benchmark, not a timed test): both
+    units run the same plan (three TE runs, one torque cycle) on the same grid, the reference's ratio
+    is 1, the table and the target line are printed and the JSON written."""
+    import json
+
+    from rvflex.cli import main
+
+    out = tmp_path / "b.json"
+    assert main(["bench", "diagnosis", "--kinds", "rigid", "--max-order", "7", "--json", str(out)]) == 0
+    text = capsys.readouterr().out
+    doc = json.loads(out.read_text())
+    rows = {r["unit"]: r for r in doc["rows"]}
+    assert set(rows) == {"rv40e", "rv80e"} and doc["ratio"]["rv40e"]["rigid"] == 1.0
+    assert rows["rv40e"]["positions_per_rev"] == rows["rv80e"]["positions_per_rev"]  # both have 40 pins
+    assert all(r["te_runs"] == 3 and r["torque_steps"] > 40 and r["cpu_s"] > 0 for r in rows.values())
+    assert "target model run ≤ 1.5× the rv40e's (CPU): " in text
+    assert doc["ratio"]["rv80e"]["rigid"] == pytest.approx(rows["rv80e"]["cpu_s"] / rows["rv40e"]["cpu_s"])
