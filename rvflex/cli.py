@@ -272,9 +272,11 @@ def _cmd_bench_diagnosis(args: argparse.Namespace) -> int:
     for r in res["rows"]:
         print(f"{r['unit']:28s} {r['kind']:12s} {r['positions_per_rev']:13d} {r['torque_steps']:12d} {r['cpu_s']:8.2f} "
               f"{r['wall_s']:8.2f} {res['ratio'][r['unit']][r['kind']]:10.2f}")
-    worst = max((v, u, k) for u, by in res["ratio"].items() for k, v in by.items())
-    print(f"target model run ≤ {res['target_ratio']:g}× the {ref}'s (CPU): {'met' if worst[0] <= res['target_ratio'] else 'NOT met'} "
-          f"(largest {worst[0]:.2f}×: {worst[1]}, {worst[2]})")
+    for unit, by in res["ratio"].items():
+        if unit != ref:
+            worst, kind = max((v, k) for k, v in by.items())
+            print(f"target {unit}: model run ≤ {res['target_ratio']:g}× the {ref}'s (CPU): "
+                  f"{'met' if worst <= res['target_ratio'] else 'NOT met'} (largest {worst:.2f}×, {kind})")
     if args.json:
         write_json(Path(args.json), res)
     return 0

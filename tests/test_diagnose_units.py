@@ -85,5 +85,34 @@ def test_bench_diagnosis_times_a_model_run_of_each_unit_side_by_side(tmp_path, c
     assert set(rows) == {"rv40e", "rv80e"} and doc["ratio"]["rv40e"]["rigid"] == 1.0
     assert rows["rv40e"]["positions_per_rev"] == rows["rv80e"]["positions_per_rev"]  # both have 40 pins
     assert all(r["te_runs"] == 3 and r["torque_steps"] > 40 and r["cpu_s"] > 0 for r in rows.values())
-    assert "target model run ≤ 1.5× the rv40e's (CPU): " in text
+    assert "target rv80e: model run ≤ 1.5× the rv40e's (CPU): " in text and "target rv40e" not in text
     assert doc["ratio"]["rv80e"]["rigid"] == pytest.approx(rows["rv80e"]["cpu_s"] / rows["rv40e"]["cpu_s"])
+
+
+def test_the_crank_effects_act_on_a_three_crank_unit():
+    """The crank eccentricity and phase errors, two parameters each, on the three-crank fixture: every
+    crank gets a value (crank 2 the common part, or no phase of its own), the model runs, and each
+    moves the TE; on a two-crank unit the values are those of before (c ± d; x per crank)."""
+    import numpy as np
+
+    from rvflex import catalog
+    from rvflex.diagnosis.effects import EFFECTS
+    from rvflex.diagnosis.replay import evaluate
+    from rvflex.diagnosis.selfcheck import campaign_plan
+    from rvflex.spec import ErrorSpec, load_spec
+
+    ecc, phase = EFFECTS["crank_eccentricity_error"], EFFECTS["crank_phase_error"]
+    two = catalog.load("rv40e")
+    assert ecc.apply_to(two, ErrorSpec(), np.array([3e-6, 1e-6]))[1].crank_eccentricity_error_m == (3e-6 + 1e-6, 3e-6 - 1e-6)
+    assert phase.apply_to(two, ErrorSpec(), np.array([5e-4, -2e-4]))[1].crank_phase_error_rad == (5e-4, -2e-4)
+    spec = load_spec(Path(__file__).parent / "fixtures" / "drive3_user.toml")
+    assert spec.cranks.count == 3
+    assert ecc.apply_to(spec, ErrorSpec(), np.array([3e-6, 1e-6]))[1].crank_eccentricity_error_m == (3e-6 + 1e-6, 3e-6 - 1e-6,
+                                                                                       3e-6)
+    assert phase.apply_to(spec, ErrorSpec(), np.array([5e-4, -2e-4]))[1].crank_phase_error_rad == (5e-4, -2e-4, 0.0)
+    plan = campaign_plan(spec, 16)[:1]  # TE at rated torque
+    settings = DiagnosisSettings(max_order=15, workers=1)
+    base = evaluate(spec, ErrorSpec(), plan, settings).te[0]
+    for e, x in ((ecc, [3e-6, 3e-6]), (phase, [5e-4, 0.0])):
+        te = evaluate(spec, ErrorSpec(), plan, settings, ((e, np.array(x)),)).te[0]
+        assert np.max(np.abs(te - base)) > 0.05 * 4.85e-6, e.name  # TE moved by more than 0.05″
