@@ -19,7 +19,7 @@ from typing import Literal, get_args
 from rvflex.spec_types import SpecError
 
 __all__ = ["BodyFidelity", "ContactLawKind", "ConvergencePart", "DesignKind", "Distribution", "EffectKind", "Executor", "FEPart",
-           "DiscrepancyKind", "EvidenceModel", "Fidelity", "Mismatch", "PatchShape", "RunKind", "SeatCoupling", "SeatMarker", "TEMode", "check_choice",
+           "DiscrepancyKind", "EvidenceModel", "Fidelity", "Mismatch", "PatchShape", "RunCostKind", "RunKind", "SeatCoupling", "SeatMarker", "TEMode", "check_choice",
            "choices", "did_you_mean"]
 
 Fidelity = Literal["rigid", "flexible", "flexible-carrier", "flexible-all"]
@@ -64,6 +64,11 @@ model is built with, on the run conditions, on the recorded TE, or as another mo
 
 RunKind = Literal["te", "hysteresis"]
 """Kinds of bench run (:mod:`rvflex.diagnosis.bench`): a loaded-TE run or a torque cycle."""
+
+RunCostKind = Literal["rigid", "flexible", "contact-law"]
+"""Kinds of diagnosis model run ``rvflex bench diagnosis`` times (:mod:`rvflex.diagnosis.runcost`): the
+rigid model; the rigid and the flexible model (the disc-flexibility share); the rigid and two flexible
+models (the contact-law form)."""
 
 ConvergencePart = Literal["discs", "housing"]
 """Parts whose FE reduction the convergence study refines (the ``ModelOptions`` field it sets)."""

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import rvflex.scenarios  # noqa: F401 -- registers the scenarios sweeps run (rvflex.scenarios.sweepable)
 from rvflex import catalog
-from rvflex.choices import Executor, Fidelity, TEMode, choices
+from rvflex.choices import Executor, Fidelity, RunCostKind, TEMode, choices
 from rvflex.io import emit, write_json, write_text
 from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
 
@@ -259,6 +259,29 @@ def _cmd_bench_contact(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_bench_diagnosis(args: argparse.Namespace) -> int:
+    from rvflex.diagnosis.runcost import bench_model_runs
+
+    if args.repeats < 1:
+        raise SpecError("--repeats", args.repeats, "must be an integer ≥ 1")
+    res = bench_model_runs(tuple(args.units), tuple(args.kinds), max_order=args.max_order, repeats=args.repeats,
+                           progress=lambda msg: print(msg, file=sys.stderr))
+    ref = res["reference"]
+    print(f"{'unit':28s} {'run kind':12s} {'positions/rev':>13s} {'torque steps':>12s} {'CPU (s)':>8s} "
+          f"{'wall (s)':>8s} {'× ' + ref:>10s}")
+    for r in res["rows"]:
+        print(f"{r['unit']:28s} {r['kind']:12s} {r['positions_per_rev']:13d} {r['torque_steps']:12d} {r['cpu_s']:8.2f} "
+              f"{r['wall_s']:8.2f} {res['ratio'][r['unit']][r['kind']]:10.2f}")
+    for unit, by in res["ratio"].items():
+        if unit != ref:
+            worst, kind = max((v, k) for k, v in by.items())
+            print(f"target {unit}: model run ≤ {res['target_ratio']:g}× the {ref}'s (CPU): "
+                  f"{'met' if worst <= res['target_ratio'] else 'NOT met'} (largest {worst:.2f}×, {kind})")
+    if args.json:
+        write_json(Path(args.json), res)
+    return 0
+
+
 def _model_arguments(p: argparse.ArgumentParser) -> None:
     """--reducer, --fidelity and --fe-* of the model commands (see :func:`_model_inputs`, :func:`_options`)."""
     from rvflex.options import CARRIER_FE, DISC_FE
@@ -380,6 +403,21 @@ def build_parser() -> argparse.ArgumentParser:
     bc.add_argument("--json", help="write the results as JSON to this path")
     bc.add_argument("--segments", type=int, default=8000, help="polygon segments of the Exudyn contact (default 8000)")
     bc.set_defaults(func=_cmd_bench_contact)
+    bd = bsub.add_parser("diagnosis", help="one model run of a diagnosis on each unit, side by side",
+                         description="One diagnosis model run of each kind (rigid; rigid + flexible: the disc-"
+                                     "flexibility share; rigid + two flexible: the contact-law form) on each unit, "
+                                     "under the self-check campaign's four runs at the diagnosis's default "
+                                     "resolution (255 orders), in one process, FE reductions from the cache; CPU "
+                                     "time and its ratio to the first unit's (rvflex.diagnosis.runcost; issue 24's "
+                                     "target: ≤ 1.5× the RV-40E's).")
+    bd.add_argument("--units", nargs="+", default=["rv40e", "rv80e"], metavar="NAME|SPEC",
+                    help="built-in reducers or spec TOML files; the first is the reference (default rv40e rv80e)")
+    bd.add_argument("--kinds", nargs="+", default=list(choices(RunCostKind)), choices=choices(RunCostKind),
+                    help="run kinds (default all)")
+    bd.add_argument("--max-order", type=int, default=255, help="analysed orders (default 255)")
+    bd.add_argument("--repeats", type=int, default=1, help="runs of each kind per unit, the least CPU kept (default 1)")
+    bd.add_argument("--json", help="write the results as JSON to this path")
+    bd.set_defaults(func=_cmd_bench_diagnosis)
     bs = bsub.add_parser("sweep", help="Monte Carlo sweep time and the 1→2 worker speed-up",
                          description="Rigid RV-40E, quasi-static loaded TE at 412 N·m over one output revolution "
                                      "(2048 positions), five tolerances uniform in their bands "

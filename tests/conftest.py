@@ -47,3 +47,19 @@ def loaded():
     centre, angle = nominal_disc_pose(stage, 0.3)
     closing = initial_clearance_numeric(stage, eccentric_angle_rad=0.3).turn_neg_rad
     return contact, np.array([centre[0], centre[1], angle + closing - 1.5e-5])
+
+
+@pytest.fixture()
+def netgen_fails(monkeypatch):
+    """netgen failing to mesh any part (its OCC geometry's GenerateMesh raises "netgen: surface meshing
+    failed"), in this process: a deliberately failing FE build."""
+    import netgen.occ
+
+    class Broken:
+        def __init__(self, shape):
+            pass
+
+        def GenerateMesh(self, **kw):
+            raise RuntimeError("netgen: surface meshing failed")
+
+    monkeypatch.setattr(netgen.occ, "OCCGeometry", Broken)

@@ -157,23 +157,13 @@ def _last_line(err: str) -> str:
     return err.replace("\r", "\n").strip().splitlines()[-1]
 
 
-def test_a_failing_fe_build_is_one_message_and_exit_1(tmp_path, monkeypatch, capsys):
+def test_a_failing_fe_build_is_one_message_and_exit_1(tmp_path, monkeypatch, capsys, netgen_fails):
     """netgen failing to mesh the disc (as in tests/test_fe.py) under ``rvflex te --fidelity
     flexible``: one line naming the unit, the run, the part and its settings; exit code 1; no
     traceback unless --debug. ``rvflex.run`` raises RunError with the same line, the FEError as cause."""
-    import netgen.occ
-
     import rvflex
     from rvflex.fe.types import FEError
 
-    class Broken:
-        def __init__(self, shape):
-            pass
-
-        def GenerateMesh(self, **kw):
-            raise RuntimeError("netgen: surface meshing failed")
-
-    monkeypatch.setattr(netgen.occ, "OCCGeometry", Broken)
     monkeypatch.setenv("RVFLEX_CACHE_DIR", str(tmp_path))  # cold: the reduction must run
     want = ("rv40e, loaded TE (flexible, 412 N·m, 16 positions/rev): meshing/assembly of the disc (maxh 6 mm, "
             "order 2, 12 modes) failed: netgen: surface meshing failed")

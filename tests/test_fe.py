@@ -135,22 +135,27 @@ def test_oversized_mesh_and_mode_count_refused_with_estimate(spec):
         reduce_part(spec, "carrier", maxh_m=8e-3, n_modes=1500, mesh_order=1, use_cache=False)
 
 
-def test_netgen_failure_names_part_and_settings(spec, monkeypatch):
+def test_netgen_failure_names_part_and_settings(spec, netgen_fails):
     """A meshing failure comes back as FEError naming the part, maxh, order and modes."""
-    import netgen.occ
-
     from rvflex.fe.reduce import FEError, reduce_part
 
-    class Broken:
-        def __init__(self, shape):
-            pass
-
-        def GenerateMesh(self, **kw):
-            raise RuntimeError("netgen: surface meshing failed")
-
-    monkeypatch.setattr(netgen.occ, "OCCGeometry", Broken)
     with pytest.raises(FEError, match=r"carrier \(maxh 8 mm, order 1, 6 modes\).*surface meshing failed"):
         reduce_part(spec, "carrier", maxh_m=8e-3, n_modes=6, mesh_order=1, use_cache=False)
+
+
+def test_a_reduction_failing_in_its_own_process_is_one_line_without_traceback(spec, tmp_path):
+    """A pool worker builds in a fresh interpreter (rvflex.fe.isolated); when that build fails, the
+    FEError carries the child's one-line error, not its traceback (the report of an RV-80E diagnosis
+    used to list 'File "…", line …' fragments of it). A real failure: more modes than the mesh resolves."""
+    from rvflex.fe.isolated import build_isolated
+    from rvflex.fe.reduce import FEError, settings_for
+
+    s = settings_for("carrier", maxh_m=8e-3, n_modes=1500, mesh_order=1)
+    with pytest.raises(FEError) as info:
+        build_isolated(spec, "carrier", s, "isolated-failure-test", tmp_path, use_cache=False)
+    msg = str(info.value)
+    assert "\n" not in msg and "Traceback" not in msg and 'File "' not in msg, msg
+    assert "SpecError: n_modes = 1500" in msg and "internal modes exceed what a mesh" in msg, msg
 
 
 # --------------------------------------------------------------------------- reduction

@@ -240,13 +240,18 @@ def _pin_harmonic(spec, errors, x, *, harmonic: int, angle_multiple: int = 1):
 
 
 def _per_crank(spec, errors, x, *, field: str):
-    old = getattr(errors, field) or (0.0,) * spec.cranks.count
-    return spec, dc.replace(errors, **{field: tuple(float(o + v) for o, v in zip(old, x))})
+    """``x`` added to cranks 0, 1, …; the cranks beyond ``x`` unchanged (a third crank's phase error is
+    the other two's relative to it plus an input offset, so two parameters describe three cranks)."""
+    n = spec.cranks.count
+    old = getattr(errors, field) or (0.0,) * n
+    add = tuple(float(v) for v in x)[:n] + (0.0,) * max(n - len(x), 0)
+    return spec, dc.replace(errors, **{field: tuple(float(o + v) for o, v in zip(old, add))})
 
 
 def _crank_modes(spec, errors, x):
+    """Common part c on every crank, differential part d on cranks 0 (+d) and 1 (−d)."""
     c, d = float(x[0]), float(x[1])
-    return _per_crank(spec, errors, (c + d, c - d), field="crank_eccentricity_error_m")
+    return _per_crank(spec, errors, (c + d, c - d) + (c,) * (spec.cranks.count - 2), field="crank_eccentricity_error_m")
 
 
 def _modification(spec, errors, x):
@@ -362,11 +367,11 @@ def _builtin() -> tuple[Effect, ...]:
         # common and differential parts: both cranks off alike change the drive's eccentricity (clearance
         # opens on one sign, preload on the other), which the sum of two one-crank secants missed (measured:
         # a −3.4/−3.2 µm pair fitted at the bounds, removing 4 % of a gap it had made)
-        Effect("crank_eccentricity_error", "eccentricity error of the crankshafts: common part (both alike) and "
-               "differential part (crank 0 = common + differential, crank 1 = common − differential)",
+        Effect("crank_eccentricity_error", "eccentricity error of the crankshafts: common part (all alike) and "
+               "differential part (crank 0 = common + differential, crank 1 = common − differential, a third = common)",
                (Param("common_m", "m", -10 * um, 10 * um, 3 * um), Param("differential_m", "m", -10 * um, 10 * um, 3 * um)),
                apply=_crank_modes, two_sided=True),
-        Effect("crank_phase_error", "eccentric phase error of each crankshaft",
+        Effect("crank_phase_error", "eccentric phase error of cranks 0 and 1 (of a third crank: relative to it)",
                tuple(Param(f"crank{k}_rad", "rad", -2e-3, 2e-3, 5e-4) for k in range(2)),
                apply=partial(_per_crank, field="crank_phase_error_rad")),
         # two-sided: a negative deviation takes clearance away (towards preload), a positive one adds it.

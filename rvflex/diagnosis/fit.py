@@ -72,7 +72,15 @@ from rvflex.diagnosis.sensitivity import (
     signature_sizes,
 )
 from rvflex.diagnosis.settings import DiagnosisSettings
-from rvflex.diagnosis.verdict import equivalent, is_significant, undetermined_effect, verdict, withheld_check
+from rvflex.diagnosis.verdict import (
+    equivalent,
+    is_significant,
+    not_evaluated_sentence,
+    reason_line,
+    undetermined_effect,
+    verdict,
+    withheld_check,
+)
 from rvflex.spec import ErrorSpec, ReducerSpec
 
 __all__ = ["Candidate", "Diagnosis", "available_candidates", "diagnose", "second_effect_adds",
@@ -293,10 +301,17 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
     errors = errors or ErrorSpec()
     plan = plan_from_dataset(dataset, settings)
     y, lay, windows = measured_runs(dataset, plan, settings)
-    cal, no_room = nominal_parameters(nominal, spec)
-    cal = tuple(c for c in cal if c.available()[0] and c.available_for(plan)[0])
     cands, unavailable = available_candidates(effects, plan)
+    nominal_all, no_room = nominal_parameters(nominal, spec)
     unavailable.update({n: f"not calibrated: {why}" for n, why in no_room.items()})
+    cal = []
+    for c in nominal_all:  # one the model cannot evaluate is named in the verdict, with why
+        why = c.available()[1] or c.available_for(plan)[1]
+        if why:
+            unavailable[c.name] = f"not calibrated: {reason_line(why)}"
+        else:
+            cal.append(c)
+    cal = tuple(cal)
     replaced = {REPLACES[c.name] for c in cal if c.name in REPLACES}
     cands = tuple(e for e in cands if e.name not in replaced)
     cache = Path(cache_dir) if cache_dir else None
@@ -324,8 +339,9 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
     sens, failed = sensitivities(runner, cands + cal, f0, resp0, plan, settings, lay)
     for c in cal:
         if c.name in failed:
-            unavailable[c.name] = f"not calibrated: {failed.pop(c.name)}"
+            unavailable[c.name] = f"not calibrated: {reason_line(failed.pop(c.name))}"
     cal = tuple(c for c in cal if c.name in sens and c.name not in unavailable)
+    not_evaluated = dict(failed)  # candidates without sensitivities (later entries: failed refinements)
     held = undetermined(cal, sens, w, nuis)  # what the runs cannot tell from noise stays nominal
     cal = tuple(c for c in cal if c.name not in held)
     size = {e.name: signature_size(e, sens, w) for e in cands + cal if e.name in sens}
@@ -455,10 +471,11 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
                 f"parameters {', '.join(cal_ties)} reproduce its signature, so these runs cannot tell it from them "
                 f"(a tie); {'; '.join(runs_needed)} would separate them.")
     open_effect = blocked is not None or bool(final and is_significant(final[0], settings))
+    missing = not_evaluated_sentence(unavailable, not_evaluated)
     text = (anc.sentence() + " "
             + calibration_sentence(none, nominal_model, chosen if demoted is None else demoted, settings, held,
                                    open_effect=open_effect, anchor_scale=anc.scale)
-            + " " + text)
+            + (" " + missing if missing else "") + " " + text)
     # effects the calibration can stand in for (an output series compliance against the bearing stiffnesses):
     # named as ties, since these runs can neither find nor exclude them
     named = {e.name for c in (chosen, demoted) if c is not None for e in c.attributed}

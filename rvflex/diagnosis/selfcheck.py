@@ -48,6 +48,7 @@ __all__ = [
     "BenchRealism",
     "GeneratorModel",
     "SelfCheckSettings",
+    "campaign_plan",
     "draw_truth",
     "generate_case",
     "score_case",
@@ -242,6 +243,13 @@ def _bench_plan(spec: ReducerSpec, gen: GeneratorModel) -> tuple[tuple[PlanRun, 
             plan.append(PlanRun("hysteresis", r["file"], torque_max_Nm=tr, torque_path_Nm=tuple(map(float, path)),
                                 temperature_C=r["temperature_C"]))
     return tuple(plan), runs
+
+
+def campaign_plan(spec: ReducerSpec, hysteresis_steps: int = DiagnosisSettings.hysteresis_steps) -> tuple[PlanRun, ...]:
+    """The self-check campaign's four runs (see :data:`BENCH_TEMPERATURES_C`) as a diagnosis of its
+    bench plans them: the torque cycle replayed in ``hysteresis_steps`` equal steps (plus the fine steps
+    around zero torque, :func:`rvflex.solve.hysteresis_cycle`)."""
+    return _bench_plan(spec, dc.replace(GeneratorModel(), hysteresis_steps=hysteresis_steps))[0]
 
 
 def _periodic(grid: np.ndarray, p: np.ndarray) -> np.ndarray:

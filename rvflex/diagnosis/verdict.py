@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 from scipy.optimize import lsq_linear
@@ -10,10 +11,11 @@ from scipy.optimize import lsq_linear
 from rvflex.diagnosis.effects import Effect
 from rvflex.diagnosis.features import shift_measured
 from rvflex.diagnosis.linear import Candidate, Problem, bounds, lin_fit, prior_of
+from rvflex.diagnosis.nominal import NOMINAL
 from rvflex.diagnosis.plan import part_label
 
 __all__ = ["SIGNATURE_TIE", "TIE_RSS_RATIO", "equivalent", "fmt_mag", "fmt_pct", "is_significant",
-           "undetermined_effect", "verdict", "withheld_check"]
+           "not_evaluated_sentence", "reason_line", "undetermined_effect", "verdict", "withheld_check"]
 
 def _linearisation(c: Candidate, f0: np.ndarray):
     """(base features, Jacobian, reference point, lower, upper, prior) a candidate is predicted with:
@@ -183,6 +185,47 @@ def verdict(cands, chosen, none, has_folds, settings, unavailable, failed, tied=
             f"{max(best.gap_shrink_pct, 0):.0f} % of the gap (score {best.score:.1f}, withheld "
             f"{fmt_pct(best.withheld.get('improvement_pct'))}); the remaining gap is model-form "
             f"mismatch and noise.")
+
+
+REASON_CHARS = 240  # a reason in the verdict is one line of at most this many characters
+
+
+def reason_line(msg: str, limit: int = REASON_CHARS) -> str:
+    """``msg`` as one line of at most ``limit`` characters, without any traceback: a message that
+    carries one (a child process's standard error, say) keeps what precedes it and its last line,
+    the exception itself."""
+    head, trace, tail = str(msg).partition("Traceback (most recent call last):")
+
+    def lines(t: str) -> list[str]:  # a child's standard error comes as lines, or joined by " | "
+        return [p.strip() for p in re.split(r"\n| \| ", t) if p.strip()]
+
+    # a traceback's frames ('File "…", line …' and their source lines) are left out, its last line kept
+    parts = [p for p in lines(head) + (lines(tail)[-1:] if trace else []) if not p.startswith('File "')]
+    line = " ".join(parts) or "no reason given"
+    return line if len(line) <= limit else line[:limit - 1].rstrip() + "…"
+
+
+def not_evaluated_sentence(unavailable: dict, failed: dict) -> str:
+    """The verdict's sentence on what could not be evaluated, each with a one-line reason: the nominal
+    parameters not calibrated (``unavailable`` entries "not calibrated: …"; a stiffness or form is held
+    at its nominal value, a fidelity share left out of the model) and the candidate effects not
+    evaluated (the other ``unavailable`` entries, and ``failed``: name → why, the effects whose
+    sensitivity runs failed); "" when everything was evaluated."""
+    cal = {k: v.removeprefix("not calibrated: ") for k, v in unavailable.items() if v.startswith("not calibrated: ")}
+    eff = {k: v for k, v in unavailable.items() if k not in cal} | {k: v for k, v in failed.items() if k not in cal}
+
+    def kept(name: str) -> str:
+        e = NOMINAL.get(name)
+        return ("left out of the model" if e is not None and e.kind == "fidelity" and e.center[0] != 0.0
+                else "held at its nominal value")
+
+    out = []
+    if cal:
+        out.append("Not calibrated: " + "; ".join(f"{k.replace('_', ' ')}, {kept(k)} ({reason_line(v)})"
+                                                  for k, v in cal.items()) + ".")
+    if eff:
+        out.append("Not evaluated: " + "; ".join(f"{k} ({reason_line(v)})" for k, v in eff.items()) + ".")
+    return " ".join(out)
 
 
 def is_significant(c: Candidate, settings) -> bool:

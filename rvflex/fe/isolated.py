@@ -32,7 +32,7 @@ def build_isolated(spec, part: FEPart, settings, key: str, cache_dir: str | os.P
     Raises
     ------
     FEError
-        The child process failed (its last lines of output are in the message).
+        The child process failed (its error, one line, is in the message).
     """
     from rvflex.fe import cache
     from rvflex.fe.types import FEError
@@ -44,10 +44,10 @@ def build_isolated(spec, part: FEPart, settings, key: str, cache_dir: str | os.P
         proc = subprocess.run([sys.executable, "-m", "rvflex.fe.isolated"], input=job, capture_output=True,
                               check=False)
         rp = cache.load(key, where) if proc.returncode == 0 else None
-        if rp is None:
-            tail = (proc.stderr or proc.stdout).decode(errors="replace").strip().splitlines()[-5:]
+        if rp is None:  # the child's last line says why (its one-line error, or a crash's last words)
+            lines = [ln.strip() for ln in (proc.stderr or proc.stdout).decode(errors="replace").splitlines() if ln.strip()]
             raise FEError(f"the {part} reduction (built in a separate process, rc {proc.returncode}) did not reach "
-                          f"the cache {cache.cache_root(where)}: " + " | ".join(tail))
+                          f"the cache {cache.cache_root(where)}: {lines[-1] if lines else 'no output'}")
     rp.meta["cached"] = False
     return rp
 
@@ -57,7 +57,11 @@ def _main() -> int:
     from rvflex.fe.hcb import build
 
     job = pickle.loads(sys.stdin.buffer.read())
-    cache.store(build(job["spec"], job["part"], job["settings"], job["key"], None), job["cache_dir"])
+    try:
+        cache.store(build(job["spec"], job["part"], job["settings"], job["key"], None), job["cache_dir"])
+    except Exception as err:  # noqa: BLE001 -- one line for the parent's FEError, not a traceback
+        print(f"{type(err).__name__}: " + " ".join(str(err).split()), file=sys.stderr)
+        return 1
     return 0
 
 
