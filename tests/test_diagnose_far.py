@@ -161,6 +161,19 @@ def test_the_clearance_class_bounds_the_units_total_crank_bearing_clearance():
     assert none is None and "12.0 µm" in dropped["crank_bearing_clearance"]
 
 
+def test_the_selfcheck_hides_a_clearance_beyond_the_class():
+    """A hidden crank-bearing clearance is what lies beyond the nominal class (0 … 10 µm of total): the
+    self-check's drawn 8 µm becomes the excess over the class top, 10 − 3 + 8 = 15 µm on a 3 µm nominal
+    clearance (total 18 µm); other effects keep their drawn values."""
+    from rvflex.diagnosis.selfcheck import beyond_the_class
+
+    ecc, run = EFFECTS["eccentric_bearing_clearance"], EFFECTS["pin_ring_runout"]
+    out = dict((e.name, x) for e, x in beyond_the_class([(ecc, np.array([8e-6])), (run, np.array([4e-6, 1e-6]))],
+                                                           SPEC, 3e-6))
+    assert out[ecc.name][0] == pytest.approx(15e-6, abs=1e-12)
+    assert np.array_equal(out[run.name], [4e-6, 1e-6])
+
+
 def test_the_analysed_orders_follow_the_bench_sampling(tmp_path):
     """1024 samples per revolution resolve orders up to 255 (MAX_ORDER_CAP; a 3rd-harmonic pin pattern's
     TE sits at order 6·z_c = 234), 512 up to 128; the model grid follows, alias-free."""
