@@ -230,12 +230,13 @@ def test_a_far_mismatch_control_is_nominal_parameters_off(tmp_path):
 def test_a_clearance_is_found_through_a_1_8_stiffness_mismatch(tmp_path):
     """A 10 µm eccentric-bearing clearance beyond a 3 µm nominal one, in a unit 1.8× stiffer than the
     model (the foreign bench's H01): accepted, with the total clearance (nominal + excess, the part the
-    data determine) within ±25 % of 13 µm. (The same test with an 8 µm pin-ring runout instead fails on
+    data determine) within ±25 % of 13 µm. (The self-check's generator takes a hidden clearance as the
+    excess over the 10 µm class top, ``beyond_the_class``: 3 µm here, 13 µm total.) (The same test with an 8 µm pin-ring runout instead fails on
     this rigid power-law generator: the runout removes 11 % of what calibration leaves and predicts the
     withheld runs worse; the foreign bench's 8 µm ring offset is found. Stated in docs/diagnosis.md.)"""
     from rvflex.diagnosis.fit import diagnose
 
-    hidden = [(EFFECTS["eccentric_bearing_clearance"], np.array([10e-6]))]
+    hidden = [(EFFECTS["eccentric_bearing_clearance"], np.array([3e-6]))]  # the generator adds the class's 7 µm
     ds = _far_bench(tmp_path, hidden, 1.8)
     diag = diagnose(ds, settings=CI, nominal=CAL, cache_dir=tmp_path / "cache",
                     effects=("eccentric_bearing_clearance", "pin_ring_runout", "disc_modification_deviation"))
