@@ -109,13 +109,13 @@ def calibration_lookalikes(effects, calibrated: Candidate, sens: Sensitivities, 
     for e in effects:
         if e.nominal or e.name not in sens or e.name in SAME_QUANTITY:
             continue
-        worst, names, runs, hidden = 0.0, (), (), True
+        worst, names, runs, below_discrepancy = 0.0, (), (), True
         for j, prm in enumerate(e.params):
             nm, rn, ratio, left = _reproduced(sens.plus[e.name][:, j] * prm.step, cal, now, sens, w)
             worst = max(worst, ratio)
-            hidden = hidden and left / pool < threshold
+            below_discrepancy = below_discrepancy and left / pool < threshold
             names, runs = tuple(dict.fromkeys(names + nm)), tuple(dict.fromkeys(runs + rn))
-        if names and (worst <= CALIBRATION_PREFERRED or hidden):
+        if names and (worst <= CALIBRATION_PREFERRED or below_discrepancy):
             own = (e.separating_runs,) if e.separating_runs else ()
             out[e.name] = (names, tuple(dict.fromkeys(own + runs)), worst)
     return out

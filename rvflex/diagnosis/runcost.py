@@ -16,12 +16,13 @@ import time
 
 import numpy as np
 
+from rvflex import catalog
 from rvflex.choices import RunCostKind, check_choice, choices
 from rvflex.diagnosis.nominal import NOMINAL
 from rvflex.diagnosis.replay import evaluate
 from rvflex.diagnosis.selfcheck import campaign_plan
 from rvflex.diagnosis.settings import DiagnosisSettings
-from rvflex.spec import ErrorSpec, ReducerSpec, load_spec
+from rvflex.spec import ErrorSpec
 
 __all__ = ["RUN_KINDS", "TARGET_RATIO", "bench_model_runs"]
 
@@ -30,12 +31,6 @@ RUN_KINDS: dict[RunCostKind, str | None] = {"rigid": None, "flexible": "disc_fle
 """The kinds of model run of a diagnosis: the nominal parameter whose run it is (None: the rigid model)."""
 
 TARGET_RATIO = 1.5  # issue 24: a model run on any unit at most 1.5× the RV-40E's
-
-
-def _spec(unit: str) -> ReducerSpec:
-    from rvflex import catalog
-
-    return load_spec(unit) if unit.endswith(".toml") else catalog.load(unit)
 
 
 def bench_model_runs(units: tuple[str, ...] = ("rv40e", "rv80e"), kinds: tuple[RunCostKind, ...] = choices(RunCostKind), *,
@@ -71,7 +66,7 @@ def bench_model_runs(units: tuple[str, ...] = ("rv40e", "rv80e"), kinds: tuple[R
         raise ValueError(f"repeats = {repeats}: must be ≥ 1")
     setups = {}
     for unit in units:
-        spec = _spec(unit)
+        spec = catalog.resolve(unit, field="--units")
         settings = DiagnosisSettings(max_order=max_order, workers=1).for_spec(spec)
         plan = campaign_plan(spec, settings.hysteresis_steps)
         setups[unit] = (spec, settings, plan)

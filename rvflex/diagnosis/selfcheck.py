@@ -41,7 +41,7 @@ from rvflex.diagnosis.replay import evaluate
 from rvflex.diagnosis.settings import DiagnosisSettings
 from rvflex.options import ModelOptions
 from rvflex.parallel import map_warm
-from rvflex.spec import ErrorSpec, ReducerSpec, load_spec
+from rvflex.spec import ErrorSpec, ReducerSpec
 from rvflex.units import ARCSEC
 
 __all__ = [
@@ -466,7 +466,7 @@ def selfcheck(out_dir: str | Path, settings: SelfCheckSettings = SelfCheckSettin
 
     t0 = time.perf_counter()
     out = Path(out_dir)
-    spec = load_spec(settings.reducer) if settings.reducer.endswith(".toml") else catalog.load(settings.reducer)
+    spec = catalog.resolve(settings.reducer)
     # the signature sizes that decide what is drawn are taken on the default orders (no bench exists yet); each
     # diagnosis resolves its own from its bench's sampling (255 orders for the realistic benches' 1024 samples)
     probe_settings = settings.diagnosis.for_spec(spec)
