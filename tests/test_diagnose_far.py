@@ -138,6 +138,29 @@ def test_an_effect_whose_interval_includes_zero_is_not_a_finding():
     assert "bound" in undetermined_effect(at_bound)
 
 
+def test_the_withheld_runs_confirm_by_the_pooled_share_or_by_replicated_folds():
+    """An effect is confirmed when the pooled prediction of the withheld runs improves by 10 %, or when two
+    folds each improve with evidence >= 10 (2 log of a "very strong" Bayes factor against the pooled
+    discrepancy), none is worse by as much, and the pooled prediction improves at all. One strong fold alone
+    (a foreign-bench control's thermal candidate: +5 %, folds 18, 0, 0) does not confirm; a friction that
+    predicts both halves of the torque cycle (+8.7 %, folds -6, 22, 23) does."""
+    from rvflex.diagnosis.settings import DiagnosisSettings
+    from rvflex.diagnosis.verdict import withheld_confirms
+
+    s = DiagnosisSettings()
+
+    def wh(pct, *ev):
+        return {"improvement_pct": pct, "folds": [{"evidence": v} for v in ev]}
+
+    assert withheld_confirms(wh(12.0, -50.0, 0.0, 0.0), s)  # the pooled rule alone, as before
+    assert withheld_confirms(wh(8.7, -6.0, 22.0, 23.0), s)
+    assert not withheld_confirms(wh(5.0, 18.0, 0.0, 0.0), s)
+    assert not withheld_confirms(wh(6.0, -15.0, 30.0, 30.0), s)  # one fold predicted worse by >= 10
+    assert not withheld_confirms(wh(-1.0, 2.0, 12.0, 12.0), s)  # the pooled prediction is worse
+    assert not withheld_confirms(wh(None), s) and not withheld_confirms(wh(8.7, None, 22.0, 23.0), s)
+    assert not withheld_confirms(wh(8.7, -6.0, 22.0, 23.0), DiagnosisSettings(confirming_folds=None))
+
+
 def test_the_clearance_class_bounds_the_units_total_crank_bearing_clearance():
     """The calibrated crank-bearing clearance adds to the spec's nominal one at most what is left of the
     class 0 … 10 µm (the runs see the total only): the catalogue unit (0 µm stated) gets 10 µm of room, a
@@ -172,6 +195,24 @@ def test_the_selfcheck_hides_a_clearance_beyond_the_class():
                                                            SPEC, 3e-6))
     assert out[ecc.name][0] == pytest.approx(15e-6, abs=1e-12)
     assert np.array_equal(out[run.name], [4e-6, 1e-6])
+
+
+def test_the_selfcheck_never_hides_an_effect_at_its_bound():
+    """A parameter at its bound is reported as a limit, never as a finding (rule of the verdict), so a hidden
+    value there is one no diagnosis may name: a draw beyond its side of the range (a negative thermal
+    mismatch, 6.9-16 ppm/K drawn against the -5 ppm/K bound) is redrawn inside it, at 40-80 % of that side."""
+    from rvflex.diagnosis.selfcheck import draw_truth
+
+    rng = np.random.default_rng(7)
+    effects = tuple(EFFECTS.values())
+    thermal = []
+    for _ in range(300):
+        for e, x in draw_truth(rng, effects, 2):
+            assert np.all(x > e.lower) and np.all(x < e.upper), (e.name, x)
+            if e.name == "thermal_expansion":
+                thermal.append(x[0])
+    neg = [v for v in thermal if v < 0]  # before: every dominant one at -5e-6 exactly
+    assert len(neg) > 20 and len(set(neg)) == len(neg) and min(neg) > -5e-6
 
 
 def test_the_analysed_orders_follow_the_bench_sampling(tmp_path):

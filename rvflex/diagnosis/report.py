@@ -214,7 +214,9 @@ def json_document(diag) -> dict:
     withheld = {"fitted_runs": list(dict.fromkeys(x for f in folds for x in f["fitted_runs"])),
                 "predicted_runs": [x for f in folds for x in f["predicted_runs"]],
                 "improvement_pct": wh.get("improvement_pct"),
-                "folds": [{k: f[k] for k in ("fitted_runs", "predicted_runs", "improvement_pct")} for f in folds],
+                "folds": [{k: f.get(k) for k in ("fitted_runs", "predicted_runs", "improvement_pct", "evidence")}
+                          for f in folds],
+                "evidence": wh.get("evidence"),
                 "effect": ref.name if ref is not None else None}
     if not diag.withheld_runs:
         withheld["note"] = "no run usable for the withheld check"
@@ -461,8 +463,9 @@ def markdown(diag, doc: dict, pngs: list[str]) -> str:
         lines.append(f"{wc['note'].capitalize()}.")
     for k, f in enumerate(wc["folds"], start=1):
         fi = "n/a" if f["improvement_pct"] is None else f"{f['improvement_pct']:+.0f} %"
+        ev = "" if f.get("evidence") is None else f", evidence {f['evidence']:.1f}"
         lines.append(f"- Fold {k}: fitted on {', '.join(f['fitted_runs'])}; predicted {', '.join(f['predicted_runs'])}: "
-                     f"improvement {fi}.")
+                     f"improvement {fi}{ev}.")
     lines += ["", (f"Improvement of the prediction of every withheld run ({wc['effect'] or '—'}, pooled over the "
                    f"folds): {imp}."), "",
               "## Gap before and after", "",

@@ -185,7 +185,8 @@ class SelfCheckSettings:
 def draw_truth(rng: np.random.Generator, effects: tuple[Effect, ...], n_effects: int,
                first: Effect | None = None, sizes: dict | None = None) -> list[tuple[Effect, np.ndarray]]:
     """Draw ``n_effects`` distinct effects and realistic magnitudes: each parameter 0.6–1.4 × its
-    typical size with a random sign (polar effects: a random phase), clipped to the bounds.
+    typical size with a random sign (polar effects: a random phase); a draw beyond the bound on its
+    side is redrawn at 40–80 % of that side of the range (the negative thermal mismatch).
     The first effect is the dominant one: the others are drawn at 0.6× — 0.6× of the typical size,
     and smaller still where their model signature at typical size (``sizes``, floor units, see
     :func:`~rvflex.diagnosis.fit.signature_sizes`) exceeds the first one's, so that they stay
@@ -210,6 +211,12 @@ def draw_truth(rng: np.random.Generator, effects: tuple[Effect, ...], n_effects:
             for j, p in enumerate(e.params):
                 sign = 1.0 if p.low == 0.0 else rng.choice([-1.0, 1.0])
                 x[j] = sign * rng.uniform(0.6, 1.4) * p.step * scale
+                # a draw beyond its side of the range is redrawn inside it (40-80 % of that side): clipped,
+                # it sat at the bound, which the diagnosis can only report as a limit, never as a finding
+                # (measured: every negative thermal mismatch was drawn at the -5 ppm/K bound, 4 misses)
+                side = p.high if x[j] > 0 else -p.low
+                if abs(x[j]) > side:
+                    x[j] = math.copysign(rng.uniform(0.4, 0.8) * side, x[j])
         out.append((e, np.clip(x, e.lower, e.upper)))
     return out
 

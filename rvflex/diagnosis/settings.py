@@ -60,6 +60,14 @@ class DiagnosisSettings:
         leaves, and the share that makes calibration alone "nominal parameters off".
     min_withheld_pct : float
         Minimum improvement of the withheld runs' prediction for acceptance (%).
+    confirming_folds : int or None
+        The other way the withheld runs confirm an effect: at least this many withheld folds each
+        predicted better with evidence ≥ ``bic_threshold`` against the pooled discrepancy, no fold
+        predicted worse by as much, and the pooled prediction better at all. The pooled improvement is
+        dominated by the fold with the most model-form residual (the TE runs' ripple), so an effect
+        whose signature lies in the torque cycle (friction, a series compliance) could not reach
+        ``min_withheld_pct`` however well it predicts both halves of the cycle. None: only
+        ``min_withheld_pct``.
     order_floor_arcsec : float
         Model-form floor of an order coefficient (arcsec): residuals below it are not signal.
     order_floor_rel : float
@@ -88,6 +96,7 @@ class DiagnosisSettings:
     bic_threshold: float = 10.0
     min_shrink_pct: float = 25.0
     min_withheld_pct: float = 10.0
+    confirming_folds: int | None = 2
     eval_timeout_s: float = 60.0  # a run takes ~1 s at 448 positions; a loose unit's bisections many more
     order_floor_arcsec: float = 0.03
     order_floor_rel: float = 0.0
@@ -103,6 +112,8 @@ class DiagnosisSettings:
         check_choice("evidence_model", self.evidence_model, EvidenceModel)
         if k < 1 or self.hysteresis_steps < 8 or self.workers < 1:
             raise ValueError("max_order ≥ 1, hysteresis_steps ≥ 8 and workers ≥ 1 are required")
+        if self.confirming_folds is not None and self.confirming_folds < 1:
+            raise ValueError(f"confirming_folds = {self.confirming_folds}: needs ≥ 1 (None: the pooled rule alone)")
 
     def for_dataset(self, dataset) -> DiagnosisSettings:
         """These settings for a bench dataset.

@@ -171,13 +171,18 @@ def verdict(cands, chosen, none, has_folds, settings, unavailable, failed, tied=
     if significant:
         why = []
         if not best.refined:
-            why.append("its model-in-the-loop evaluation failed, so only its linearised fit is known")
+            why.append("its model-in-the-loop evaluation failed, so only its linearised fit is known"
+                       if best.name in failed else
+                       "it was not evaluated with the model in the loop (the refinement budget, refine_top, ran out), "
+                       "so only its linearised fit is known")
         if undetermined_effect(best):
             why.append(undetermined_effect(best))
         wh = best.withheld.get("improvement_pct")
-        if wh is None or wh < settings.min_withheld_pct:
+        if not withheld_confirms(best.withheld, settings):
+            folds = (f", or {settings.confirming_folds} folds each predicted with evidence ≥ {settings.bic_threshold:g}"
+                     if settings.confirming_folds else "")
             why.append(f"refitted without them it predicts the withheld runs only {fmt_pct(wh)} better "
-                       f"(≥ {settings.min_withheld_pct:g} % needed)")
+                       f"(≥ {settings.min_withheld_pct:g} % needed{folds})")
         return (f"No effect is confirmed: the best candidate, {best.name}, removes {best.gap_shrink_pct:.0f} % "
                 f"of the gap (score {best.score:.1f}), but {' and '.join(why or ['it was not accepted'])}; "
                 "what calibration leaves stays unexplained.")
@@ -234,6 +239,23 @@ def is_significant(c: Candidate, settings) -> bool:
     if settings.evidence_model == "bic":
         return c.score >= settings.bic_threshold and c.gap_shrink_pct >= settings.min_shrink_pct
     return c.score >= settings.bic_threshold
+
+
+def withheld_confirms(wh: dict, settings) -> bool:
+    """Whether a withheld check (:func:`withheld_check`, its folds' ``evidence`` filled in) confirms an
+    effect: the pooled prediction of the withheld runs improves by ``min_withheld_pct``, or (replicated)
+    ``confirming_folds`` folds each improve with evidence ≥ ``bic_threshold``, none gets worse by as much
+    and the pooled prediction improves (see :class:`~rvflex.diagnosis.settings.DiagnosisSettings`)."""
+    pct = wh.get("improvement_pct")
+    if pct is None:
+        return False
+    if pct >= settings.min_withheld_pct:
+        return True
+    ev = [f.get("evidence") for f in wh.get("folds", ())]
+    if not settings.confirming_folds or pct <= 0 or not ev or any(e is None for e in ev):
+        return False
+    t = settings.bic_threshold
+    return sum(e >= t for e in ev) >= settings.confirming_folds and min(ev) > -t
 
 
 def undetermined_effect(c: Candidate) -> str:
