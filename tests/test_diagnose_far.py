@@ -324,11 +324,11 @@ def test_an_effect_the_calibration_can_stand_in_for_is_named_as_a_tie():
                                 np.zeros(n), refined=True)
     out = calibration_lookalikes((ser, enc), calibrated, sens, np.ones(n))
     assert list(out) == [ser.name]
-    names, runs, ratio = out[ser.name]
-    assert set(names) == {"contact_stiffness", "needle_bearing_stiffness"} and ratio < 1e-6
+    names, runs, ratio, part = out[ser.name]
+    assert set(names) == {"contact_stiffness", "needle_bearing_stiffness"} and ratio < 1e-6 and part == ()
     assert runs[0] == ser.separating_runs
     text = lookalike_sentence(out)
-    assert ser.name in text and "TE runs at two loads" in text and "100 %" in text
+    assert ser.name in text and "at the reducer's flange" in text and "100 %" in text
     # 80 % reproduced (a part c the stiffnesses cannot make): a tie only while what is left is below the
     # discrepancy — its energy (0.08²·n ≈ 1.3 floor units²) over the pooled variance under the threshold
     c = rng.normal(size=n)
@@ -337,6 +337,12 @@ def test_an_effect_the_calibration_can_stand_in_for_is_named_as_a_tie():
     assert calibration_lookalikes((ser,), calibrated, sens, np.ones(n)) == {}  # beyond CALIBRATION_PREFERRED
     assert ser.name in calibration_lookalikes((ser,), calibrated, sens, np.ones(n), pool=1.0, threshold=10.0)
     assert calibration_lookalikes((ser,), calibrated, sens, np.ones(n), pool=0.05, threshold=10.0) == {}
+    # the linear part alone reproduced (the stiffening part has c of its own): that part is named
+    sens.plus[ser.name] = np.column_stack([(0.3 * a + 0.2 * b) / steps[0], (0.1 * a + 0.4 * b + 0.3 * c) / steps[1]])
+    out = calibration_lookalikes((ser,), calibrated, sens, np.ones(n))
+    assert out[ser.name][3] == ("linear_twist_rad",)
+    assert "output_series_compliance (its linear_twist_rad) from the calibrated" in lookalike_sentence(out)
+    assert calibration_lookalikes((enc,), calibrated, sens, np.ones(n)) == {}
     # an effect on the nominal clearance's own quantity is what lies beyond its range: never listed
     ecc = EFFECTS["eccentric_bearing_clearance"]
     sens.plus[ecc.name] = a[:, None] / ecc.params[0].step

@@ -413,8 +413,10 @@ def _builtin() -> tuple[Effect, ...]:
                (Param("linear_twist_rad", "rad", 0.0, 600 * ARCSEC, 20 * ARCSEC),
                 Param("stiffening_twist_rad", "rad", 0.0, 600 * ARCSEC, 20 * ARCSEC)),
                kind="measurement", series=_series_twist,
-               separating_runs="TE runs at two loads and a torque cycle (a series compliance twists with the torque "
-                               "but adds no pin-mesh TE ripple; a softer mesh scales both)"),
+               separating_runs="the output angle read at the reducer's flange as well as past the coupling (the series "
+                               "compliance lies between them), or TE runs at three or more loads (a series compliance "
+                               "twists with the torque but adds no pin-mesh TE ripple; a softer bearing or contact "
+                               "changes the ripple with the load)"),
         Effect("output_encoder_eccentricity", "eccentrically mounted output encoder (measurement artefact): "
                "angle error a·cos θ + b·sin θ", polar(250 * ARCSEC, 5 * ARCSEC, ("a_rad", "b_rad"), "rad"),
                kind="measurement", measure=_encoder_eccentricity, polar=True),

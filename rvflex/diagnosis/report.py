@@ -225,7 +225,8 @@ def json_document(diag) -> dict:
             "anchor": diag.anchor.describe(),
             "discrepancy": diag.discrepancy.describe() if diag.discrepancy is not None else [],
             "calibration_lookalikes": [{"effect": k, "nominal_parameters": list(v[0]), "separating_runs": list(v[1]),
-                                        "reproduced_pct": 100.0 * (1.0 - v[2])} for k, v in diag.lookalikes.items()],
+                                        "reproduced_pct": 100.0 * (1.0 - v[2]), "parameters": list(v[3]) or None}
+                                       for k, v in diag.lookalikes.items()],
             "calibration_shrink_pct": float(diag.baseline.gap_shrink_pct),
             "calibration_withheld_improvement_pct": diag.baseline.withheld.get("improvement_pct"),
             "calibration_ties": list(diag.calibration_ties), "separating_runs": list(diag.separating_runs),
