@@ -327,7 +327,8 @@ def test_studies_refuse_bad_input_naming_the_parameter_and_the_cli_the_flag(tmp_
     for argv, message in [(["diagnose", str(bench), "--effects", "crank_eccentricity"],
                            "--effects = 'crank_eccentricity': unknown name"),
                           (["selfcheck", "--cases", "0"], "--cases = 0: must be an integer ≥ 1"),
-                          (["selfcheck", "--reducer", "rv40"], "--reducer = 'rv40'")]:
+                          (["selfcheck", "--reducer", "rv40"], "--reducer = 'rv40'"),
+                          (["selfcheck", "--reuse-benches"], "--reuse-benches = True: needs --out")]:
         assert main([*argv, "--json", str(tmp_path / "x.json")]) == 2
         assert message in capsys.readouterr().err
     assert not (tmp_path / "x.json").exists()
@@ -351,3 +352,13 @@ def test_a_quick_selfcheck_from_python(tmp_path):
     # the case's diagnosis is kept as `rvflex diagnose --json` writes it, and the score row reads the same ranking
     report = json.loads((tmp_path / "reports" / "case_00.json").read_text())
     assert [e["name"] for e in report["effects"]][:2] == doc["per_case"][0]["ranked"][:2]
+    # run again with reuse_benches: the same bench (same key) is diagnosed again, not rewritten, with the same
+    # ranking; a bench whose key does not match (another draw) is written afresh
+    bench = tmp_path / "datasets" / "case_00" / "bench.toml"
+    stamp = bench.stat().st_mtime_ns
+    again = rvflex.selfcheck(tmp_path, cases=1, seed=1, effects=effects, nominal=(), settings=quick, reuse_benches=True)
+    assert again["benches_reused"] == 1 and bench.stat().st_mtime_ns == stamp
+    assert again["per_case"][0]["ranked"][:2] == doc["per_case"][0]["ranked"][:2]
+    (tmp_path / "truth" / "case_00.key").write_text("another draw")
+    third = rvflex.selfcheck(tmp_path, cases=1, seed=1, effects=effects, nominal=(), settings=quick, reuse_benches=True)
+    assert third["benches_reused"] == 0 and bench.stat().st_mtime_ns != stamp

@@ -34,6 +34,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "stiffness also drawn ×0.5 … ×2 and a nominal clearance 0–8 µm")
     s.add_argument("--reducer", default="rv40e", metavar="NAME|SPEC",
                    help="the unit: a built-in reducer name or a spec TOML file (default rv40e)")
+    s.add_argument("--reuse-benches", action="store_true",
+                   help="diagnose again the benches --out already holds from the same draws and generator (others are "
+                        "generated): after a change to the diagnosis, the same benches")
     s.set_defaults(func=_guarded(_cmd_selfcheck), flags={"cases": "--cases", "mismatch": "--mismatch",
                                                         "reducer": "--reducer"})
 
@@ -93,10 +96,12 @@ def _cmd_selfcheck(args: argparse.Namespace) -> int:
 
     if args.workers < 1:
         raise SpecError("--workers", args.workers, "must be at least 1")
+    if args.reuse_benches and not args.out:
+        raise SpecError("--reuse-benches", True, "needs --out, the folder that holds the benches")
     with tempfile.TemporaryDirectory(prefix="rvflex-selfcheck-") as tmp:
         out = Path(args.out) if args.out else Path(tmp)
         doc = selfcheck(out, cases=args.cases, seed=args.seed, mismatch=args.mismatch, reducer=args.reducer,
-                        settings=DiagnosisSettings(workers=args.workers),
+                        settings=DiagnosisSettings(workers=args.workers), reuse_benches=args.reuse_benches,
                         log=lambda s: print(s, file=sys.stderr, flush=True))
         summary = {k: doc[k] for k in ("cases", "mismatch", "top1_rate", "top2_rate", "magnitude_within_25pct_rate",
                                        "median_gap_shrink_pct", "control_correct_rate", "calibration_rate",

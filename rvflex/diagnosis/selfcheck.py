@@ -24,6 +24,7 @@ Scoring (per effect case; the dominant hidden effect is the first one drawn):
 from __future__ import annotations
 
 import dataclasses as dc
+import hashlib
 import json
 import math
 import time
@@ -165,6 +166,7 @@ class SelfCheckSettings:
     effects: tuple[str, ...] | None = None  # candidate (and hidden) effects; None: every available effect
     nominal: tuple[str, ...] | None = None  # nominal parameters the diagnosis calibrates; None: all
     draw_fidelity_effects: bool = False  # hide other-fidelity effects too (slow: an FE model per case)
+    reuse_benches: bool = False  # a bench already in the output folder from the same draw is diagnosed again, not rewritten
     realism: BenchRealism = field(default_factory=BenchRealism)
     generator: GeneratorModel = field(default_factory=GeneratorModel)
     diagnosis: DiagnosisSettings = field(default_factory=DiagnosisSettings)
@@ -457,6 +459,29 @@ def _case_job(args):
     return None, msgs
 
 
+GENERATOR_VERSION = 1
+"""Version of what a self-check job writes (``draw_truth``, ``generate_case``, the bench plan): part of
+each bench's key, so that ``reuse_benches`` never takes a bench an older generator wrote. Bump it with any
+change to them."""
+
+
+def _job_key(job: tuple) -> str:
+    """Key of a self-check job: everything that decides its bench (not the folder it is written to)."""
+    return hashlib.sha256(repr((GENERATOR_VERSION,) + tuple(job[2:])).encode()).hexdigest()
+
+
+def _reusable(job: tuple) -> dict | None:
+    """The truth document of a bench written earlier by the same job (same key), else None."""
+    folder, truth_path = Path(job[0]), Path(job[1])
+    key_path = truth_path.with_suffix(".key")
+    try:
+        if key_path.read_text(encoding="utf-8").strip() != _job_key(job) or not (folder / "bench.toml").is_file():
+            return None
+        return json.loads(truth_path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+
+
 def selfcheck(out_dir: str | Path, settings: SelfCheckSettings = SelfCheckSettings(), *, progress=None,
               cache_dir: str | Path | None = None, log=print) -> dict:
     """Generate ``settings.cases`` datasets under ``out_dir``, diagnose each blind, score them.
@@ -512,13 +537,25 @@ def selfcheck(out_dir: str | Path, settings: SelfCheckSettings = SelfCheckSettin
                      settings.generator, settings.reducer,
                      settings.family))
     # the benches are independent of each other and of the diagnoses: generated in the pool first
-    # (each generator run is serial), then diagnosed one by one (each diagnosis uses the pool)
-    generated = map_warm(_case_job, jobs, settings.diagnosis.workers if len(jobs) > 1 else 0,
-                         on_outcome=lambda o: log(f"bench {o.index:2d} generated" if o.ok and o.value[0] is not None
-                                                  else f"bench {o.index:2d}: the generator failed"))
-    for k, (job, got) in enumerate(zip(jobs, generated)):
+    # (each generator run is serial), then diagnosed one by one (each diagnosis uses the pool); with
+    # reuse_benches a bench the same job wrote before (its key matches) is diagnosed again as it is
+    kept = {k: doc for k, job in enumerate(jobs) if settings.reuse_benches and (doc := _reusable(job)) is not None}
+    if kept:
+        log(f"{len(kept)} benches reused from {out / 'datasets'} (the same draws and generator)")
+    todo = [k for k in range(len(jobs)) if k not in kept]
+    outcomes = map_warm(_case_job, [jobs[k] for k in todo], settings.diagnosis.workers if len(todo) > 1 else 0,
+                        on_outcome=lambda o: log(f"bench {todo[o.index]:2d} generated" if o.ok and o.value[0] is not None
+                                                 else f"bench {todo[o.index]:2d}: the generator failed"))
+    made = dict(zip(todo, outcomes))
+    for k, job in enumerate(jobs):
         folder, truth_path = job[0], job[1]
-        truth_doc, msgs = got.value if got.ok else (None, [f"generator process: {got.error or 'died'}"])
+        if k in kept:
+            truth_doc, msgs = kept[k], []
+        else:
+            got = made[k]
+            truth_doc, msgs = got.value if got.ok else (None, [f"generator process: {got.error or 'died'}"])
+            if truth_doc is not None:
+                truth_path.with_suffix(".key").write_text(_job_key(job), encoding="utf-8")
         for msg in msgs:
             log(f"case {k}: generator failed ({msg[:120]}); redrawing")
         if truth_doc is None:
@@ -557,7 +594,7 @@ def selfcheck(out_dir: str | Path, settings: SelfCheckSettings = SelfCheckSettin
         "calibration_by_scale": _calibration_by_scale(rows),
         "mismatch": settings.mismatch,
         "wall_s": time.perf_counter() - t0,
-        "effect_cases": len(eff), "control_cases": len(ctl),
+        "effect_cases": len(eff), "control_cases": len(ctl), "benches_reused": len(kept),
         "signature_size": sizes,
         "not_drawn": sorted(e.name for e in effects if e not in hideable),
         "per_case": rows,
