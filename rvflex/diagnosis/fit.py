@@ -364,6 +364,26 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
     starts += [_calibrate(prob, f0, sens, cal, n, n_nuis, fix=f) for f in _law_starts(cal)]
     cal_ref = refine(starts, prob, runner, sens, f0, resp0, settings, failed, n_nuis)
     calib = min(cal_ref, key=lambda c: c.rss) if cal_ref else starts[0]
+    # the calibration goes on while a step of the nominal parameters, linearised about it (its model run and
+    # Broyden Jacobian), still pays with the model in the loop. Stopped short, every candidate's joint fit took
+    # that step too and was credited with it (measured: a far-mismatch control in which each single effect, at
+    # zero size, "removed" 41 % of what calibration left, and a 15 µm main-bearing clearance was accepted)
+    for _ in range(CALIBRATION_CONTINUATIONS):
+        if not cal_ref or calib.jacobian is None or not calib.jacobian.shape[1]:
+            break
+        lo_c, hi_c = bounds(cal)
+        x_s, nu_s, d_s, rss_s, A_s = lin_fit(prob, calib.model_features, calib.jacobian, calib.x, lo_c, hi_c,
+                                             prior=prior_of(cal))
+        if rss_s >= (1.0 - settings.refine_min_gain) * calib.rss:
+            break
+        step = make_candidate(cal, x_s, nu_s, d_s, rss_s, A_s, n, n_nuis,
+                              calib.model_features + calib.jacobian @ (x_s - calib.x), refined=False,
+                              note="calibration", jacobian=calib.jacobian, box=(lo_c, hi_c),
+                              base=(calib.x, calib.model_features))
+        more = refine([step], prob, runner, sens, f0, resp0, settings, {}, n_nuis)
+        if not more or more[0].rss >= (1.0 - settings.refine_min_gain) * calib.rss:
+            break
+        calib = more[0]
     x_cal = calib.x
     f_cal = calib.model_features
     J_cal = calib.jacobian
@@ -536,6 +556,11 @@ def _baseline(runner: ModelRunner) -> tuple[np.ndarray, Response]:
     if out[0] is None:
         raise EvaluationFailed(f"the baseline model does not converge under the bench conditions: {out[2]}")
     return out[0], out[1]
+
+
+CALIBRATION_CONTINUATIONS = 2
+"""Most further refinements of the calibration from a linearised step about it (each while the step pays
+by ``refine_min_gain`` with the model in the loop)."""
 
 
 LAW_STARTS = {"contact_law_form": (1.0,)}
