@@ -497,9 +497,7 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
     final = []
     blocked = None  # a candidate that fits better (linearised) but whose model evaluation failed
     for c in out:
-        ok = (c.refined and is_significant(c, settings) and not undetermined_effect(c)
-              and withheld_confirms(c.withheld, settings))
-        if ok and chosen is None and blocked is None:
+        if c.refined and acceptable(c) and chosen is None and blocked is None:
             chosen = dc.replace(c, accepted=True)
             final.append(chosen)
             continue

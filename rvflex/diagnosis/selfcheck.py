@@ -543,9 +543,17 @@ def selfcheck(out_dir: str | Path, settings: SelfCheckSettings = SelfCheckSettin
     if kept:
         log(f"{len(kept)} benches reused from {out / 'datasets'} (the same draws and generator)")
     todo = [k for k in range(len(jobs)) if k not in kept]
+
+    def generated(o) -> None:  # each bench's key as soon as it is written: an interrupted run keeps those done
+        job = jobs[todo[o.index]]
+        if o.ok and o.value[0] is not None:
+            Path(job[1]).with_suffix(".key").write_text(_job_key(job), encoding="utf-8")
+            log(f"bench {todo[o.index]:2d} generated")
+        else:
+            log(f"bench {todo[o.index]:2d}: the generator failed")
+
     outcomes = map_warm(_case_job, [jobs[k] for k in todo], settings.diagnosis.workers if len(todo) > 1 else 0,
-                        on_outcome=lambda o: log(f"bench {todo[o.index]:2d} generated" if o.ok and o.value[0] is not None
-                                                 else f"bench {todo[o.index]:2d}: the generator failed"))
+                        on_outcome=generated)
     made = dict(zip(todo, outcomes))
     for k, job in enumerate(jobs):
         folder, truth_path = job[0], job[1]
@@ -554,8 +562,6 @@ def selfcheck(out_dir: str | Path, settings: SelfCheckSettings = SelfCheckSettin
         else:
             got = made[k]
             truth_doc, msgs = got.value if got.ok else (None, [f"generator process: {got.error or 'died'}"])
-            if truth_doc is not None:
-                truth_path.with_suffix(".key").write_text(_job_key(job), encoding="utf-8")
         for msg in msgs:
             log(f"case {k}: generator failed ({msg[:120]}); redrawing")
         if truth_doc is None:
