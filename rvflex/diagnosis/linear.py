@@ -301,6 +301,7 @@ class Sensitivities:
     minus: dict
     responses: dict = field(default_factory=dict)  # fidelity effects: the response at their step
     coupling: dict = field(default_factory=dict)  # coupled effects: (fidelity effect, n × k change per unit share·x)
+    base: dict = field(default_factory=dict)  # the point (name → x) the fidelity effects were measured about; none: nominal
 
     def __contains__(self, name: str) -> bool:
         return name in self.plus

@@ -74,8 +74,8 @@ def evaluate_sets(runner, sens: Sensitivities, resp0: Response, actives: list[tu
                     if r is not None and e.name in sens.responses:
                         r = _blend(r, resp0, sens.responses[e.name], float(x[0]) / e.params[0].step)
                 elif e.name in sens.coupling:  # its change on the fidelity model, by that model's share
-                    fid, c = sens.coupling[e.name]
-                    f = f + shares.get(fid, 0.0) * (c @ np.asarray(x, float))
+                    fid, c = sens.coupling[e.name]  # about the point the fidelity effects were measured at
+                    f = f + shares.get(fid, 0.0) * (c @ (np.asarray(x, float) - sens.base.get(e.name, 0.0)))
         out.append((f, r, msg))
     return out
 
