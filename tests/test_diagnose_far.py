@@ -391,3 +391,20 @@ def test_the_fidelity_difference_measured_about_the_calibration_is_the_model_run
     assert error(sens, slice(None)) > 0.3 and error(sens, te) > 0.6
     # the model's numerical noise cleared (denoise_orders), nothing else
     assert error(rebased, slice(None)) < 0.02 and error(rebased, te) < 0.02
+
+
+def test_the_contact_stiffness_range_keeps_the_anchored_moduli_within_the_spec_rule():
+    """The contact stiffness scales the disc and pin moduli; anchored ×1.68 (the foreign bench's H02), its
+    ×3.3 component bound would put them at 1160 GPa, which a spec refuses (so the model cannot be run there):
+    the range stops at 1000 GPa. At the catalogue stiffness the stated range stays."""
+    from rvflex.diagnosis.nominal import MODULUS_MAX_PA, NOMINAL, stiffness_scale, within_spec_rules
+
+    cal = (NOMINAL["contact_stiffness"], NOMINAL["needle_bearing_stiffness"])
+    assert within_spec_rules(cal, SPEC) == cal
+    anchored = scale_stiffness(SPEC, 1.68)
+    cut = within_spec_rules(cal, anchored)
+    assert cut[1] == cal[1]
+    e_max = max(anchored.materials.gears_cranks_discs.youngs_modulus_Pa, anchored.materials.pins.youngs_modulus_Pa)
+    assert e_max * stiffness_scale(cal[0].params[0].low) > MODULUS_MAX_PA  # the stated bound breaks the rule
+    assert MODULUS_MAX_PA * 0.99 < e_max * stiffness_scale(cut[0].params[0].low) <= MODULUS_MAX_PA
+    scale_stiffness(anchored, stiffness_scale(cut[0].params[0].low))  # a spec the rule accepts

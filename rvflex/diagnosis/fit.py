@@ -65,7 +65,7 @@ from rvflex.diagnosis.linear import (
     split_params,
     weights,
 )
-from rvflex.diagnosis.nominal import NOMINAL, REPLACES, nominal_parameters
+from rvflex.diagnosis.nominal import NOMINAL, REPLACES, nominal_parameters, within_spec_rules
 from rvflex.diagnosis.plan import Layout, PlanRun, plan_from_dataset
 from rvflex.diagnosis.refine import evaluate_sets, refine
 from rvflex.diagnosis.replay import EvaluationFailed, Response
@@ -339,6 +339,7 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
         runner = ModelRunner(spec, errors, plan, settings, law, cache, progress)
         runner.model_runs = runs_before
         f0, resp0 = _baseline(runner)
+    cal = within_spec_rules(cal, spec)
     w = weights(f0, y, lay, settings, spec.cycloid.pin_count)
     nuis = nuisance_columns(lay)
     prob = Problem.build(y, lay, w, nuis)

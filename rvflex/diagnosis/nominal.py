@@ -34,7 +34,7 @@ from rvflex.spec import ErrorSpec, ReducerSpec
 from rvflex.units import UM
 
 __all__ = ["NOMINAL", "REPLACES", "SAME_QUANTITY", "describe_calibration", "max_pin_force", "nominal_parameters", "point_contact_law",
-           "power_law_equivalent", "stiffness_scale"]
+           "power_law_equivalent", "stiffness_scale", "within_spec_rules"]
 
 COMPLIANCE_PRIOR = 0.35  # σ of the compliance change: a stiffness known to about ±30 %
 COMPLIANCE_LOW, COMPLIANCE_HIGH = -0.7, 1.5  # component scale 3.3 … 0.4 around the data anchor (diagnose.anchor): a
@@ -46,6 +46,27 @@ COMPLIANCE_LOW, COMPLIANCE_HIGH = -0.7, 1.5  # component scale 3.3 … 0.4 aroun
 # clearance as an effect; 0 … 10 µm reads a hidden 10 µm clearance on a 0 µm nominal as 9.8 µm nominal (the total is
 # right; tests/test_diagnose.py).
 CLEARANCE_HIGH = 10 * UM
+
+
+MODULUS_MAX_PA = 1e12  # a spec's rule for a Young's modulus (rvflex.spec_types), which the contact stiffness scales
+
+
+def within_spec_rules(cal: tuple[Effect, ...], spec: ReducerSpec) -> tuple[Effect, ...]:
+    """``cal`` with the contact stiffness's range cut where its scale of the disc and pin moduli of ``spec`` (the
+    anchored model's) would break the spec's rule of at most ``MODULUS_MAX_PA``: a model the spec refuses cannot
+    be evaluated (measured: on the foreign bench's H02, anchored ×1.68, the pin-ring runout's fit took the contact
+    ×2.9 around the anchor, 1081 GPa, and its model evaluation failed, so no effect was accepted)."""
+    out = []
+    for e in cal:
+        if e.name == "contact_stiffness":
+            m = spec.materials
+            s_max = 0.999 * MODULUS_MAX_PA / max(m.gears_cranks_discs.youngs_modulus_Pa, m.pins.youngs_modulus_Pa)
+            p = e.params[0]
+            low = 1.0 / s_max - 1.0
+            if low > p.low:
+                e = dc.replace(e, params=(dc.replace(p, low=low),))
+        out.append(e)
+    return tuple(out)
 
 
 def stiffness_scale(u: float) -> float:
