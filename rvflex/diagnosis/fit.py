@@ -590,9 +590,10 @@ error found, 54 % of the gap)."""
 CLEARANCE_STARTS = (1 / 3, 2 / 3)
 """Further starts of the calibration's crank-bearing clearance, as shares of its range, each with every
 law start: free play and compliance trade against each other too (a clearance softens the start of the
-wind-up as a softer contact does), and from no clearance the refinement stays in the stiff-contact basin
-(measured, far self-check seed 3, control case 7, drawn clearance 5.6 µm: the calibration stopped at a
-real RSS of 8319 with no clearance and the contact ×1.3 too stiff, where the drawn parameters give 4045)."""
+wind-up as a softer contact does), and the refinement from one start can stay in the other's basin
+(measured, far self-check seed 3, control case 7, drawn clearance 5.6 µm: refined from the line and the
+point contact with the clearance free it stopped at a real RSS of 8535 and 8319, from the clearance starts
+at 2397 … 2666)."""
 
 
 def _law_starts(cal) -> list[dict]:

@@ -184,13 +184,15 @@ def rebase_fidelity(runner, sens: Sensitivities, effects, base: tuple, f_base: n
             continue
         plus[e.name] = denoise_orders((fj - f_base) / e.params[0].step, lay)[:, None]
         if rj is not None and resp_base is not None and resp0 is not None:  # resp0 plus the difference at base
-            def moved(a, b, a0):
-                return tuple(None if x is None or y is None or z is None else z + (x - y) for x, y, z in zip(a, b, a0))
-
-            responses[e.name] = Response(moved(rj.te, resp_base.te, resp0.te), resp0.torque,
-                                         moved(rj.theta, resp_base.theta, resp0.theta))
+            responses[e.name] = Response(_moved(rj.te, resp_base.te, resp0.te), resp0.torque,
+                                         _moved(rj.theta, resp_base.theta, resp0.theta))
     at = {e.name: np.asarray(x, float) for e, x in base if e.name in sens.coupling}
     return dc.replace(sens, plus=plus, responses=responses, base=at), failed
+
+
+def _moved(a: tuple, b: tuple, a0: tuple) -> tuple:
+    """Per run, ``a0`` plus the difference ``a`` − ``b`` (None where any of them is None)."""
+    return tuple(None if x is None or y is None or z is None else z + (x - y) for x, y, z in zip(a, b, a0))
 
 
 def signature_sizes(spec: ReducerSpec, plan, settings: DiagnosisSettings, effects: tuple[str, ...] | None = None,
