@@ -395,7 +395,7 @@ def test_the_fidelity_difference_measured_about_the_calibration_is_the_model_run
 
 def test_the_contact_stiffness_range_keeps_the_anchored_moduli_within_the_spec_rule():
     """The contact stiffness scales the disc and pin moduli; anchored ×1.68 (the foreign bench's H02), its
-    ×3.3 component bound would put them at 1160 GPa, which a spec refuses (so the model cannot be run there):
+    ×3.3 component bound would put the 219 GPa pins at 1230 GPa, which a spec refuses (so the model cannot be run there):
     the range stops at 1000 GPa. At the catalogue stiffness the stated range stays."""
     from rvflex.diagnosis.nominal import MODULUS_MAX_PA, NOMINAL, stiffness_scale, within_spec_rules
 
