@@ -376,6 +376,9 @@ def test_the_fidelity_difference_measured_about_the_calibration_is_the_model_run
     point = base + ((law_form, np.array([1.0])),)
     exact = runner.run([point])[0][0]
     fb, rb, _ = runner.run([base])[0]
+    runs = runner.model_runs
+    again = runner.run([base])[0][0]  # the same point again, no disk cache: not run again, a copy of the run
+    assert runner.model_runs == runs and np.array_equal(again, fb) and again is not fb
     rebased, failed = rebase_fidelity(runner, sens, (stiff, clr, law_form), base, fb, rb, resp0, lay)
     assert not failed and rebased.base == {}  # no effect coupled to a fidelity model: nothing to offset
     te = np.zeros(lay.n, bool)
@@ -408,3 +411,24 @@ def test_the_contact_stiffness_range_keeps_the_anchored_moduli_within_the_spec_r
     assert e_max * stiffness_scale(cal[0].params[0].low) > MODULUS_MAX_PA  # the stated bound breaks the rule
     assert MODULUS_MAX_PA * 0.99 < e_max * stiffness_scale(cut[0].params[0].low) <= MODULUS_MAX_PA
     scale_stiffness(anchored, stiffness_scale(cut[0].params[0].low))  # a spec the rule accepts
+
+
+def test_a_calibration_at_the_cut_contact_stiffness_bound_is_flagged_at_its_bound():
+    """The calibration table flags a value at the range it was calibrated in: the contact stiffness cut by the
+    modulus rule (anchored ×1.68) and held at that cut bound is at its bound, though the stated range goes on;
+    the row names both ranges."""
+    from types import SimpleNamespace
+
+    from rvflex.diagnosis.nominal import NOMINAL, describe_calibration, within_spec_rules
+
+    stated = NOMINAL["contact_stiffness"]
+    cut = within_spec_rules((stated,), scale_stiffness(SPEC, 1.68))[0]
+    lo = cut.params[0].low
+    assert lo > stated.params[0].low + 0.01 * (stated.params[0].high - stated.params[0].low)  # inside the stated range
+    at_cut = SimpleNamespace(calibrated=[(cut, np.array([lo]), np.array([[lo, lo + 0.1]]))])
+    row, = describe_calibration(at_cut, anchor_scale=1.68)
+    assert row["at_prior_bound"]
+    assert row["prior_range"] == [lo, cut.params[0].high]
+    assert row["stated_range"] == [stated.params[0].low, stated.params[0].high]
+    inside = SimpleNamespace(calibrated=[(cut, np.array([0.5 * (lo + cut.params[0].high)]), np.array([[lo, 0.0]]))])
+    assert not describe_calibration(inside, anchor_scale=1.68)[0]["at_prior_bound"]

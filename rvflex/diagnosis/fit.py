@@ -61,13 +61,12 @@ from rvflex.diagnosis.linear import (
     make_candidate,
     nuisance_columns,
     prior_of,
-    prior_penalty,
     split_params,
     weights,
 )
 from rvflex.diagnosis.nominal import NOMINAL, REPLACES, nominal_parameters, within_spec_rules
 from rvflex.diagnosis.plan import Layout, PlanRun, plan_from_dataset
-from rvflex.diagnosis.refine import evaluate_sets, refine
+from rvflex.diagnosis.refine import evaluate_sets, evaluated_candidate, refine
 from rvflex.diagnosis.replay import EvaluationFailed, Response
 from rvflex.diagnosis.runs import ModelRunner
 from rvflex.diagnosis.sensitivity import (
@@ -378,7 +377,7 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
             if sens_b is sens:
                 break
             sens = sens_b
-            at = _evaluated(prob, runner, sens, cal, calib, f0, resp0, n, n_nuis)
+            at = _evaluated(prob, runner, sens, cal, calib, f0, resp0, n_nuis)
             if at is None:
                 break
             calib = at
@@ -408,12 +407,9 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
     # stage 2 keeps the stated priors: an effect competes with the nominal parameters on equal terms (narrowing
     # them to the calibrated values let calibration keep what an effect explains: measured, a hidden thermal
     # mismatch was absorbed by the stiffnesses and the clearance)
-    x, nu, d, rss, A = lin_fit(prob, f_cal, np.zeros((n, 0)), np.zeros(0), np.zeros(0), np.zeros(0))
-    rss += prior_penalty(cal, x_cal)  # as every candidate's RSS, which fits the same nominal parameters
-    cols = prob.nuis[:, np.abs(prob.nuis).sum(0) > 0]
-    A_cal = np.column_stack([J_cal * prob.w[:, None], cols * prob.w[:, None]])
-    none = make_candidate(cal, x_cal, nu, d, rss, A_cal, n, n_nuis, f_cal, refined=calib.refined,
-                          response=calib.response or resp0, note="calibrated nominal model", jacobian=J_cal)
+    # (its RSS with the prior penalty, as every candidate's, which fits the same nominal parameters)
+    none = evaluated_candidate(prob, cal, x_cal, f_cal, calib.response or resp0, J_cal, n_nuis,
+                               refined=calib.refined, note="calibrated nominal model")
 
     # --- stage 2, attribution: each candidate effect (and pair) with the nominal parameters, linearised
     # about the calibrated model (its model run and Broyden Jacobian), on all features
@@ -648,7 +644,7 @@ def _rebased(runner, sens, cal, calib: Candidate, resp0, lay):
     return rebase_fidelity(runner, sens, cal, base, fb, rb, resp0, lay)
 
 
-def _evaluated(prob: Problem, runner, sens, cal, calib: Candidate, f0, resp0, n: int, n_nuis: int) -> Candidate | None:
+def _evaluated(prob: Problem, runner, sens, cal, calib: Candidate, f0, resp0, n_nuis: int) -> Candidate | None:
     """``calib`` evaluated again with ``sens`` (its model run, the fidelity effects' new columns in its
     Jacobian); None when the run fails."""
     f, r, _ = evaluate_sets(runner, sens, resp0, [tuple(split_params(cal, calib.x))], f0, prob.lay)[0]
@@ -660,11 +656,7 @@ def _evaluated(prob: Problem, runner, sens, cal, calib: Candidate, f0, resp0, n:
         if e.kind == "fidelity":
             J[:, i:i + e.n] = sens.plus[e.name]
         i += e.n
-    _, nu, d, rss, _ = lin_fit(prob, f, np.zeros((n, 0)), np.zeros(0), np.zeros(0), np.zeros(0))
-    cols = prob.nuis[:, np.abs(prob.nuis).sum(0) > 0]
-    A = np.column_stack([J * prob.w[:, None], cols * prob.w[:, None]])
-    return make_candidate(cal, calib.x, nu, d, rss + prior_penalty(cal, calib.x), A, n, n_nuis, f, refined=True,
-                          response=r, note="model in the loop", jacobian=J)
+    return evaluated_candidate(prob, cal, calib.x, f, r, J, n_nuis)
 
 
 def _shrink(rss: float, ref: float) -> float:

@@ -202,7 +202,8 @@ def describe_calibration(c, held: dict | None = None, anchor_scale: float = 1.0)
     component scale around the data anchor (:mod:`rvflex.diagnosis.anchor`), with its interval
     (``determined``: True). The
     parameters in ``held`` (name → why; the runs do not determine them) follow at their nominal
-    value with the prior's 95 % interval (``determined``: False, ``why``)."""
+    value with the prior's 95 % interval (``determined``: False, ``why``). ``prior_range`` is the range it was
+    calibrated in (``at_prior_bound`` against it), ``stated_range`` the stated one before the unit's cuts."""
     out = []
     values = [(e, x, iv, True) for e, x, iv in c.calibrated]
     for name in held or {}:
@@ -211,12 +212,15 @@ def describe_calibration(c, held: dict | None = None, anchor_scale: float = 1.0)
                               np.minimum(e.center + Z95 * np.asarray(e.prior_sigma), e.upper)])
         values.append((e, e.center, iv, False))
     for e, x, iv, determined in values:
-        e = NOMINAL.get(e.name, e)  # the stated prior, not the one the attribution stage was given
+        # the range it was calibrated in: the stated one cut by the unit's clearance class and the spec's modulus
+        # rule (nominal_parameters, within_spec_rules), so a value at a cut bound is flagged too
+        stated = NOMINAL.get(e.name, e)
         for j, prm in enumerate(e.params):
             row = {"name": e.name, "param": prm.name, "unit": prm.unit, "value": float(x[j]),
                    "interval": [float(iv[j][0]), float(iv[j][1])], "nominal": float(e.center[j]),
                    "shift": float(x[j] - e.center[j]), "prior_sigma": float(e.prior_sigma[j]),
-                   "prior_range": [prm.low, prm.high], "determined": determined,
+                   "prior_range": [prm.low, prm.high], "stated_range": [stated.params[j].low, stated.params[j].high],
+                   "determined": determined,
                    "at_prior_bound": bool(determined and min(x[j] - prm.low, prm.high - x[j]) < 1e-3 * (prm.high - prm.low)
                                           and not (prm.low == e.center[j] == 0.0 and x[j] - prm.low < 1e-12))}
             if prm.name == "compliance_change":

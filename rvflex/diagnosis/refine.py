@@ -29,7 +29,7 @@ from rvflex.diagnosis.linear import (
 from rvflex.diagnosis.replay import Response
 from rvflex.diagnosis.settings import DiagnosisSettings
 
-__all__ = ["REFINE_RETRY_STEPS", "RefineState", "evaluate_sets", "refine"]
+__all__ = ["REFINE_RETRY_STEPS", "RefineState", "evaluate_sets", "evaluated_candidate", "refine"]
 
 REFINE_RETRY_STEPS = (0.9, 0.7)  # a failed refinement point is tried again these shares of the way from the last one
 REFINE_BACKTRACK_STEPS = (0.5, 0.25)  # a first step that makes the real residual worse is cut back to these shares
@@ -80,11 +80,29 @@ def evaluate_sets(runner, sens: Sensitivities, resp0: Response, actives: list[tu
     return out
 
 
+def _model_fit(prob: Problem, f: np.ndarray, effects, x: np.ndarray) -> tuple[np.ndarray, float, float]:
+    """Offsets ``nu``, origin ``d`` and weighted RSS of model features ``f`` (offsets and origin fitted), the RSS
+    plus the prior penalty of ``effects`` at ``x``."""
+    n = prob.lay.n
+    _, nu, d, rss, _ = lin_fit(prob, f, np.zeros((n, 0)), np.zeros(0), np.zeros(0), np.zeros(0))
+    return nu, d, rss + prior_penalty(effects, x)
+
+
 def _real_rss(prob: Problem, f: np.ndarray, cand: Candidate, x: np.ndarray) -> float:
     """Weighted RSS of model features ``f`` (offsets and origin fitted) plus the prior penalty at ``x``."""
-    n = prob.lay.n
-    _, _, _, rss, _ = lin_fit(prob, f, np.zeros((n, 0)), np.zeros(0), np.zeros(0), np.zeros(0))
-    return rss + prior_penalty(cand.effects, x)
+    return _model_fit(prob, f, cand.effects, x)[2]
+
+
+def evaluated_candidate(prob: Problem, effects: tuple, x: np.ndarray, f: np.ndarray, response: Response | None,
+                        J: np.ndarray, n_nuis: int, *, refined: bool = True,
+                        note: str = "model in the loop") -> Candidate:
+    """The candidate of ``effects`` at ``x`` whose model run gave features ``f`` and ``response``, linearised by
+    the Jacobian ``J`` about it: its RSS is the model run's (offsets and origin fitted) plus the prior penalty."""
+    nu, d, rss = _model_fit(prob, f, effects, x)
+    cols = prob.nuis[:, np.abs(prob.nuis).sum(0) > 0]
+    A = np.column_stack([J * prob.w[:, None], cols * prob.w[:, None]])
+    return make_candidate(effects, x, nu, d, rss, A, prob.lay.n, n_nuis, f, refined=refined, response=response,
+                          note=note, jacobian=J)
 
 
 def refine(cands: list[Candidate], prob: Problem, runner, sens: Sensitivities, f0: np.ndarray, resp0: Response,
@@ -93,7 +111,6 @@ def refine(cands: list[Candidate], prob: Problem, runner, sens: Sensitivities, f
     model unless the candidate says otherwise); returns the refined candidates (those with at least
     one successful evaluation). A candidate whose first evaluation fails is entered in ``failed`` (by
     name)."""
-    n = prob.lay.n
     st = {id(c): RefineState(c, c.jacobian.copy(), np.zeros(len(c.x)) if c.base_x is None else c.base_x.copy(),
                              f0 if c.base_features is None else c.base_features, c.x.copy()) for c in cands}
     known_failed = set(failed)  # effects whose sensitivities failed: not refined
@@ -166,14 +183,5 @@ def refine(cands: list[Candidate], prob: Problem, runner, sens: Sensitivities, f
     for k, msg in lost.items():
         if all(j in lost for j, o in st.items() if o.cand.name == st[k].cand.name):
             failed[st[k].cand.name] = f"model evaluation failed at the fitted values: {msg}"
-    refined = []
-    for s in st.values():
-        if s.best is None:
-            continue
-        rss, x_r, fx, rx, J = s.best
-        _, nu, d, _, _ = lin_fit(prob, fx, np.zeros((n, 0)), np.zeros(0), np.zeros(0), np.zeros(0))
-        cols = prob.nuis[:, np.abs(prob.nuis).sum(0) > 0]
-        A_full = np.column_stack([J * prob.w[:, None], cols * prob.w[:, None]])
-        refined.append(make_candidate(s.cand.effects, x_r, nu, d, rss, A_full, n, n_nuis, fx, refined=True,
-                                      response=rx, note="model in the loop", jacobian=J))
-    return refined
+    return [evaluated_candidate(prob, s.cand.effects, s.best[1], s.best[2], s.best[3], s.best[4], n_nuis)
+            for s in st.values() if s.best is not None]

@@ -45,7 +45,8 @@ def _eval_job(spec, errors, plan, settings, law, active):
 
 
 class ModelRunner:
-    """Evaluates model runs (serially or in a process pool), with an on-disk cache by content hash."""
+    """Evaluates model runs (serially or in a process pool), each once per runner (in memory) and with an
+    on-disk cache by content hash."""
 
     def __init__(self, spec, errors, plan, settings, law, cache_dir: Path | None, progress=None):
         self.spec, self.errors, self.plan, self.settings, self.law = spec, errors, plan, settings, law
@@ -54,6 +55,10 @@ class ModelRunner:
         self.done = 0
         self.total = 0
         self.model_runs = 0
+        # the runs made here, pickled (a caller gets its own copy, as from the disk): a model point asked for again
+        # (the calibration's rigid run by the refinement, the fidelity re-measurement and the re-evaluation) is
+        # not run again when there is no disk cache either
+        self._memo: dict[str, bytes] = {}
         from rvflex.spec import dumps_errors, dumps_spec
 
         # the plan as plain tuples: a pickled PlanRun carries its module path, and moving the class would void
@@ -71,6 +76,8 @@ class ModelRunner:
         return hashlib.sha256((self._base + repr(desc)).encode()).hexdigest()[:24]
 
     def _load(self, key):
+        if key in self._memo:
+            return pickle.loads(self._memo[key])
         if self.cache_dir is None:
             return None
         p = self.cache_dir / f"{key}.pkl"
@@ -82,11 +89,13 @@ class ModelRunner:
         return None
 
     def _store(self, key, value) -> None:
+        data = pickle.dumps(value)
+        self._memo[key] = data
         if self.cache_dir is None:
             return
         self.cache_dir.mkdir(parents=True, exist_ok=True)
         tmp = self.cache_dir / f".{key}.{id(value)}.tmp"
-        tmp.write_bytes(pickle.dumps(value))
+        tmp.write_bytes(data)
         tmp.replace(self.cache_dir / f"{key}.pkl")
 
     def run(self, actives: list[tuple]) -> list[tuple]:
