@@ -379,6 +379,8 @@ def test_the_fidelity_difference_measured_about_the_calibration_is_the_model_run
     runs = runner.model_runs
     again = runner.run([base])[0][0]  # the same point again, no disk cache: not run again, a copy of the run
     assert runner.model_runs == runs and np.array_equal(again, fb) and again is not fb
+    twice = runner.run([((clr, np.array([3e-6])),)] * 2)  # one batch asking twice: run once, two copies
+    assert runner.model_runs == runs + 1 and np.array_equal(twice[0][0], twice[1][0]) and twice[0][0] is not twice[1][0]
     rebased, failed = rebase_fidelity(runner, sens, (stiff, clr, law_form), base, fb, rb, resp0, lay)
     assert not failed and rebased.base == {}  # no effect coupled to a fidelity model: nothing to offset
     te = np.zeros(lay.n, bool)

@@ -102,9 +102,13 @@ class ModelRunner:
         """Evaluate each active set; returns (features | None, response | None, message) per set."""
         keys = [self.key(a) for a in actives]
         out: list = [self._load(k) for k in keys]
-        todo = [i for i, o in enumerate(out) if o is None]
-        self.total += len(actives)
-        self.done += len(actives) - len(todo)
+        first = {}  # a point asked for twice in one batch is run once
+        for i, o in enumerate(out):
+            if o is None:
+                first.setdefault(keys[i], i)
+        todo = sorted(first.values())
+        self.total += len(first) + sum(o is not None for o in out)
+        self.done += sum(o is not None for o in out)
         if self.progress:
             self.progress(self.done, self.total)
         args = (self.spec, self.errors, self.plan, self.settings, self.law)
@@ -119,7 +123,7 @@ class ModelRunner:
         if workers:
             self._warm_fe([actives[i] for i in todo])
         map_warm(_eval_item, [(*args, actives[i]) for i in todo], workers, on_outcome=done)
-        return out
+        return [o if o is not None else self._load(k) for o, k in zip(out, keys)]
 
     def _warm_fe(self, actives: list[tuple]) -> None:
         """Build here, before the pool forks, every disc reduction the pool's runs need (from the
