@@ -62,13 +62,16 @@ def calibration_sentence(none: Candidate, nominal_model: Candidate, chosen, sett
     if not rows:
         return "No nominal parameter calibrated." + kept
     moved = [r for r in rows if abs(r["shift"]) > 0.5 * r["prior_sigma"]]
-    bound = [r["name"] + (f" (its range is what {_CUT_BY.get(r['name'], 'the unit leaves')})"
-                          if r["prior_range"] != r["stated_range"] else "") for r in rows if r["at_prior_bound"]]
+    bound = [r["name"] for r in rows if r["at_prior_bound"] and r["prior_range"] == r["stated_range"]]
+    cut = [r["name"] for r in rows if r["at_prior_bound"] and r["prior_range"] != r["stated_range"]]
     shrink = none.gap_shrink_pct
     s = (f"Calibration ({', '.join(_fmt_cal(r) for r in rows)}) closes {max(shrink, 0):.0f} % of the nominal "
          f"model's weighted gap.")
     if bound:
         s += f" {', '.join(bound)} ran into the bound of its prior range: the nominal parameter is off by more than assumed."
+    for name in cut:
+        s += (f" {name} ran into the bound {_CUT_BY.get(name, 'the unit leaves')}: the unit calls for a value this spec "
+              "does not allow.")
     if chosen is None and not open_effect and moved and shrink >= settings.min_shrink_pct:
         s += " Nominal parameters off; no unmodelled effect."
     return s + kept
