@@ -533,6 +533,58 @@ def test_a_cycle_step_on_a_contact_onset_is_left_out_and_interpolated():
     assert np.all(np.isfinite(angles)) and np.all(np.diff(angles[:12]) > 0)  # the output turns with the torque
 
 
+# measured in the far self-check (seed 1, case 18: a hidden 5.1 µm pin-ring runout, the clearance calibrated at
+# 7.2 µm): the refinement's fitted values, at which the model failed; a failed model run blocks the candidate that
+# fits best (score 950, withheld +48 %), so the verdict could accept nothing
+WIDE_FREE_PLAY_LOADING = ((("contact_stiffness", [-0.09204593091786119]), ("needle_bearing_stiffness", [0.2582913302784014]),
+                           ("crank_bearing_clearance", [7.4201290169999196e-06]),
+                           ("pin_ring_runout", [-5.262253964774403e-07, 3.4350020714972386e-06])), ErrorSpec())
+WIDE_FREE_PLAY_CYCLE = ((("contact_stiffness", [-0.07293186366060032]), ("needle_bearing_stiffness", [0.24285609976698735]),
+                         ("crank_bearing_clearance", [7.519964805946424e-06]),
+                         ("pin_ring_runout", [-7.517505663963433e-07, 4.907145816424627e-06])), ErrorSpec())
+
+
+def test_a_loading_step_that_fails_is_left_out_without_changing_the_loaded_state():
+    """The fallback loading of a TE run (see the test above) steps the torque up along LOADING_FRACTIONS;
+    with a 7.4 µm clearance and a 3.5 µm runout its 1 % step (4.1 N·m) fails however it is started (seed-1
+    case 18's reverse rated run failed so). Without friction the loaded state does not depend on the path:
+    the step is left out, and the state is the one reached along the path without it."""
+    from rvflex.model import build_reducer
+    from rvflex.solve import LOADING_FRACTIONS, _loaded_by_torque_stepping, torque_stepping
+    from rvflex.units import ARCSEC
+
+    run = PlanRun("te", "rev", -1, 412.0)
+    model = build_reducer(*_variant(WIDE_FREE_PLAY_LOADING, run))
+    stepped = _loaded_by_torque_stepping(model, 412.0)[model.output_index]
+    fractions = [f for f in LOADING_FRACTIONS if f != 0.01]
+    other = torque_stepping(build_reducer(*_variant(WIDE_FREE_PLAY_LOADING, run)), 412.0 * np.asarray(fractions))
+    assert abs(stepped - other.theta_out[-1]) / ARCSEC < 1e-3
+    assert 100.0 < stepped / ARCSEC < 1000.0  # a wind-up of a few arcminutes at rated torque, not a jump
+
+
+def test_a_cycle_step_that_fails_is_solved_from_the_state_its_first_leg_converged_at_that_torque():
+    """On the unloading leg of a cycle with 7.5 µm clearance and a 4.9 µm runout the 4 % and 3 % steps
+    (16.5, 12.4 N·m) both fail from the last state and from the unloaded one, and two failed steps in a row
+    failed the run (seed-1 case 18). The loading leg converged at both torques; without friction the
+    equilibrium there is the same, and from that state it converges. The frictionless model's two legs then
+    agree at every torque both reached (1e-4″: the solver's tolerance)."""
+    from rvflex.model import build_reducer
+    from rvflex.solve import hysteresis_cycle, torque_stepping
+    from rvflex.units import ARCSEC
+
+    path = hysteresis_cycle(SPEC.rated_torque_Nm, 40)
+    run = PlanRun("hysteresis", "cycle", torque_max_Nm=SPEC.rated_torque_Nm, torque_path_Nm=tuple(path))
+    theta = torque_stepping(build_reducer(*_variant(WIDE_FREE_PLAY_CYCLE, run)), path, skip_unsolved=True).theta_out
+    bad = np.isnan(theta)
+    assert not bad[0] and not bad[-1] and not np.any(bad[1:] & bad[:-1])
+    top = int(np.argmax(path))
+    for j in range(1, top):  # the loading leg, against the unloading leg at the same torque
+        k = top + int(np.flatnonzero(np.isclose(path[top:], path[j]))[0])
+        if not (bad[j] or bad[k]):
+            assert abs(theta[j] - theta[k]) / ARCSEC < 1e-4, (path[j], theta[j] / ARCSEC, theta[k] / ARCSEC)
+    assert not bad[top + int(np.flatnonzero(np.isclose(path[top:], 16.48))[0])]  # the failed step is solved
+
+
 # ----------------------------------------------------------------------------- calibrate, then attribute
 
 CAL = ("contact_stiffness", "contact_law_form", "needle_bearing_stiffness", "mesh_stiffness", "crank_bearing_clearance")

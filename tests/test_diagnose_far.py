@@ -456,3 +456,33 @@ def test_the_runs_of_one_variant_share_one_model_build(monkeypatch):
         a, b = (alone.te[0], shared.te[r]) if p.kind == "te" else (alone.theta[0], shared.theta[r])
         assert np.max(np.abs(a - b)) * 206264.8 < 1e-6
     assert len(builds) == 1 + len(plan)
+
+
+def test_a_failed_run_is_remembered_per_solver_revision_and_a_converged_one_for_good(tmp_path):
+    """The disk cache keeps a failed model run under the solver revision that failed it: a solver that has
+    since learnt to take the step runs the point again (measured: far seed 1, case 18, whose fitted values
+    failed until a loading step that fails was left out), while a converged run stays valid."""
+    import pickle
+
+    from rvflex.diagnosis.nominal import NOMINAL
+    from rvflex.diagnosis.runs import FAILURE_REVISION, ModelRunner
+
+    plan = (PlanRun("te", "f", 1, 0.25 * TR),)
+    s = DiagnosisSettings().for_spec(SPEC)
+    broken = ((NOMINAL["crank_bearing_clearance"], np.array([-1e-3])),)  # breaks a spec rule: fails at once
+
+    def runner():
+        return ModelRunner(SPEC, ErrorSpec(), plan, s, None, tmp_path)
+
+    first = runner()
+    assert first.run([broken])[0][0] is None and first.model_runs == 1
+    assert [p.name for p in tmp_path.iterdir()] == [f"{first.key(broken)}.failed-{FAILURE_REVISION}.pkl"]
+    again = runner()
+    assert again.run([broken])[0][2].startswith("effect value breaks a spec rule") and again.model_runs == 0
+    # a failure an older solver wrote under the plain key is not believed: the point is run again
+    (tmp_path / f"{first.key(())}.pkl").write_bytes(pickle.dumps((None, None, "an older solver failed")))
+    newer = runner()
+    f, _, msg = newer.run([()])[0]
+    assert f is not None and msg == "" and newer.model_runs == 1
+    last = runner()
+    assert last.run([()])[0][0] is not None and last.model_runs == 0  # the converged run is read back

@@ -17,6 +17,9 @@ from rvflex.parallel import Outcome, map_warm
 
 __all__ = ["CACHE_VERSION", "ModelRunner"]
 
+FAILURE_REVISION = "f1"  # failed runs are remembered per solver revision (f1: a loading step or a cycle step that
+# fails is solved again from the state converged at that torque, or left out): a solver that learns to take a
+# step runs the point again, while every run that converged stays valid
 CACHE_VERSION = "diag-12"  # 12: the plan in the key as plain tuples (no module path); 11: a rigid TE run goes on by the chord Newton once Exudyn's solver bisects; 10: the chord Newton re-initialised after Exudyn's solver ran
 
 
@@ -80,13 +83,18 @@ class ModelRunner:
             return pickle.loads(self._memo[key])
         if self.cache_dir is None:
             return None
-        p = self.cache_dir / f"{key}.pkl"
-        if p.is_file():
-            try:
-                return pickle.loads(p.read_bytes())
-            except (OSError, pickle.UnpicklingError, EOFError, AttributeError):  # a damaged entry is recomputed
-                return None
+        for p in (self.cache_dir / f"{key}.pkl", self._failed_path(key)):
+            if p.is_file():
+                try:
+                    value = pickle.loads(p.read_bytes())
+                except (OSError, pickle.UnpicklingError, EOFError, AttributeError):  # a damaged entry is recomputed
+                    return None
+                if value[0] is not None or p.name != f"{key}.pkl":
+                    return value  # (a failure kept under the plain key was written by an older solver)
         return None
+
+    def _failed_path(self, key) -> Path:
+        return self.cache_dir / f"{key}.failed-{FAILURE_REVISION}.pkl"
 
     def _store(self, key, value) -> None:
         data = pickle.dumps(value)
@@ -96,7 +104,7 @@ class ModelRunner:
         self.cache_dir.mkdir(parents=True, exist_ok=True)
         tmp = self.cache_dir / f".{key}.{id(value)}.tmp"
         tmp.write_bytes(data)
-        tmp.replace(self.cache_dir / f"{key}.pkl")
+        tmp.replace(self.cache_dir / f"{key}.pkl" if value[0] is not None else self._failed_path(key))
 
     def run(self, actives: list[tuple]) -> list[tuple]:
         """Evaluate each active set; returns (features | None, response | None, message) per set."""
