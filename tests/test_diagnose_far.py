@@ -432,6 +432,9 @@ def test_a_calibration_at_the_cut_contact_stiffness_bound_is_flagged_at_its_boun
     assert row["at_prior_bound"]
     assert row["prior_range"] == [lo, cut.params[0].high]
     assert row["stated_range"] == [stated.params[0].low, stated.params[0].high]
+    assert "1000 GPa modulus rule" in row["cut_by"]
+    assert describe_calibration(SimpleNamespace(calibrated=[(stated, np.array([0.0]), np.array([[-0.1, 0.1]]))]))[0][
+        "cut_by"] is None  # the stated range, uncut
     inside = SimpleNamespace(calibrated=[(cut, np.array([0.5 * (lo + cut.params[0].high)]), np.array([[lo, 0.0]]))])
     assert not describe_calibration(inside, anchor_scale=1.68)[0]["at_prior_bound"]
 

@@ -9,7 +9,7 @@ import numpy as np
 from scipy.optimize import lsq_linear
 
 from rvflex.diagnosis.linear import Candidate, Sensitivities
-from rvflex.diagnosis.nominal import MODULUS_MAX_PA, SAME_QUANTITY, describe_calibration
+from rvflex.diagnosis.nominal import SAME_QUANTITY, describe_calibration
 from rvflex.diagnosis.verdict import SIGNATURE_TIE
 
 __all__ = ["CALIBRATION_PREFERRED", "UNDETERMINED_INFO", "calibration_lookalikes", "calibration_sentence", "lookalike_sentence", "calibration_ties", "undetermined"]
@@ -62,25 +62,18 @@ def calibration_sentence(none: Candidate, nominal_model: Candidate, chosen, sett
     if not rows:
         return "No nominal parameter calibrated." + kept
     moved = [r for r in rows if abs(r["shift"]) > 0.5 * r["prior_sigma"]]
-    bound = [r["name"] for r in rows if r["at_prior_bound"] and r["prior_range"] == r["stated_range"]]
-    cut = [r["name"] for r in rows if r["at_prior_bound"] and r["prior_range"] != r["stated_range"]]
+    bound = [r["name"] for r in rows if r["at_prior_bound"] and r["cut_by"] is None]
+    cut = [r for r in rows if r["at_prior_bound"] and r["cut_by"] is not None]
     shrink = none.gap_shrink_pct
     s = (f"Calibration ({', '.join(_fmt_cal(r) for r in rows)}) closes {max(shrink, 0):.0f} % of the nominal "
          f"model's weighted gap.")
     if bound:
         s += f" {', '.join(bound)} ran into the bound of its prior range: the nominal parameter is off by more than assumed."
-    for name in cut:
-        s += (f" {name} ran into the bound {_CUT_BY.get(name, 'the unit leaves')}: the unit calls for a value this spec "
-              "does not allow.")
+    for r in cut:
+        s += f" {r['name']} ran into the bound {r['cut_by']}: the unit calls for a value this spec does not allow."
     if chosen is None and not open_effect and moved and shrink >= settings.min_shrink_pct:
         s += " Nominal parameters off; no unmodelled effect."
     return s + kept
-
-
-_CUT_BY = {"contact_stiffness": f"the spec's {MODULUS_MAX_PA / 1e9:.0f} GPa modulus rule leaves",
-           "crank_bearing_clearance": "the clearance class leaves above the spec's clearance"}
-"""Why a nominal parameter's range is narrower than stated (:func:`~rvflex.diagnosis.nominal.within_spec_rules`,
-:func:`~rvflex.diagnosis.nominal.nominal_parameters`)."""
 
 
 CALIBRATION_PREFERRED = 0.10  # nominal parameters reproducing an effect's change to within this: no effect needed

@@ -33,7 +33,7 @@ from rvflex.options import ModelOptions
 from rvflex.spec import ErrorSpec, ReducerSpec
 from rvflex.units import UM
 
-__all__ = ["NOMINAL", "REPLACES", "SAME_QUANTITY", "describe_calibration", "max_pin_force", "nominal_parameters", "point_contact_law",
+__all__ = ["CUT_BY", "NOMINAL", "REPLACES", "SAME_QUANTITY", "describe_calibration", "max_pin_force", "nominal_parameters", "point_contact_law",
            "power_law_equivalent", "stiffness_scale", "within_spec_rules"]
 
 COMPLIANCE_PRIOR = 0.35  # σ of the compliance change: a stiffness known to about ±30 %
@@ -49,6 +49,12 @@ CLEARANCE_HIGH = 10 * UM
 
 
 MODULUS_MAX_PA = 1e12  # a spec's rule for a Young's modulus (rvflex.spec_types), which the contact stiffness scales
+
+
+CUT_BY = {"contact_stiffness": f"the spec's {MODULUS_MAX_PA / 1e9:.0f} GPa modulus rule leaves",
+          "crank_bearing_clearance": "the clearance class leaves above the spec's clearance"}
+"""The rule that narrows a nominal parameter's stated range for a unit (:func:`within_spec_rules`,
+:func:`nominal_parameters`), in the words the verdict uses for a value at the cut bound."""
 
 
 def within_spec_rules(cal: tuple[Effect, ...], spec: ReducerSpec) -> tuple[Effect, ...]:
@@ -203,7 +209,8 @@ def describe_calibration(c, held: dict | None = None, anchor_scale: float = 1.0)
     (``determined``: True). The
     parameters in ``held`` (name → why; the runs do not determine them) follow at their nominal
     value with the prior's 95 % interval (``determined``: False, ``why``). ``prior_range`` is the range it was
-    calibrated in (``at_prior_bound`` against it), ``stated_range`` the stated one before the unit's cuts."""
+    calibrated in (``at_prior_bound`` against it), ``stated_range`` the stated one before the unit's cuts, and
+    ``cut_by`` the rule that cut it (:data:`CUT_BY`; None when uncut)."""
     out = []
     values = [(e, x, iv, True) for e, x, iv in c.calibrated]
     for name in held or {}:
@@ -220,6 +227,8 @@ def describe_calibration(c, held: dict | None = None, anchor_scale: float = 1.0)
                    "interval": [float(iv[j][0]), float(iv[j][1])], "nominal": float(e.center[j]),
                    "shift": float(x[j] - e.center[j]), "prior_sigma": float(e.prior_sigma[j]),
                    "prior_range": [prm.low, prm.high], "stated_range": [stated.params[j].low, stated.params[j].high],
+                   "cut_by": (CUT_BY.get(e.name, "the unit leaves")
+                              if (prm.low, prm.high) != (stated.params[j].low, stated.params[j].high) else None),
                    "determined": determined,
                    "at_prior_bound": bool(determined and min(x[j] - prm.low, prm.high - x[j]) < 1e-3 * (prm.high - prm.low)
                                           and not (prm.low == e.center[j] == 0.0 and x[j] - prm.low < 1e-12))}
