@@ -86,10 +86,12 @@ class ModelRunner:
         for p in (self.cache_dir / f"{key}.pkl", self._failed_path(key)):
             if p.is_file():
                 try:
-                    value = pickle.loads(p.read_bytes())
+                    data = p.read_bytes()
+                    value = pickle.loads(data)
                 except (OSError, pickle.UnpicklingError, EOFError, AttributeError):  # a damaged entry is recomputed
                     return None
                 if value[0] is not None or p.name != f"{key}.pkl":
+                    self._memo[key] = data  # asked for again, it is not read again
                     return value  # (a failure kept under the plain key was written by an older solver)
         return None
 
