@@ -205,6 +205,12 @@ def json_document(diag) -> dict:
             "withheld_improvement_pct": c.withheld.get("improvement_pct"),
             "withheld_evidence": c.withheld.get("evidence"),
             "withheld_fold_evidence": [f.get("evidence") for f in c.withheld.get("folds", ())],
+            **({"second_effect_withheld": {"against": c.withheld["against_single"]["single"],
+                                           "improvement_pct": c.withheld["against_single"]["improvement_pct"],
+                                           "evidence": c.withheld["against_single"].get("evidence"),
+                                           "fold_evidence": [f.get("evidence")
+                                                             for f in c.withheld["against_single"]["folds"]]}}
+               if "against_single" in c.withheld else {}),
         })
     ref = chosen or (diag.candidates[0] if diag.candidates else None)
     wh = dict(ref.withheld) if ref is not None else {}

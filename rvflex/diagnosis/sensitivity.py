@@ -43,13 +43,19 @@ def signature_size(e: Effect, sens: Sensitivities, w: np.ndarray) -> float:
     return math.sqrt(size2 / e.n)
 
 
-def second_effect_adds(pair: Candidate, singles: dict, settings: DiagnosisSettings) -> bool:
-    """Whether the pair's second effect earns its place: against the better of its two single
-    effects (by residual) the pair removes ≥ ``min_shrink_pct`` of the remaining weighted gap and
-    improves the BIC by ≥ ``bic_threshold``."""
+def second_effect_adds(pair: Candidate, singles: dict, settings: DiagnosisSettings, score=None) -> bool:
+    """Whether the pair's second effect earns its place against the better of its two single effects.
+
+    With the discrepancy model and ``score`` (a candidate's evidence against the calibrated model's
+    discrepancy): the pair's evidence exceeds the better single's by ≥ ``bic_threshold`` (the evidence of the
+    second effect given the first, against the same discrepancy). Otherwise: against the better single by
+    residual the pair removes ≥ ``min_shrink_pct`` of the remaining weighted gap and improves the BIC by
+    ≥ ``bic_threshold``."""
     subs = [singles[e.name] for e in pair.attributed if e.name in singles]
     if not subs:
         return False
+    if score is not None and settings.evidence_model != "bic":
+        return score(pair) - max(score(c) for c in subs) >= settings.bic_threshold
     sub = min(subs, key=lambda c: c.rss)
     if sub.rss <= 0:
         return False
