@@ -15,8 +15,9 @@
    calibrated model is the baseline of the attribution.
 4. Attribution: every candidate (each effect, and pairs) is fitted *together with* the nominal
    parameters (same regularisers), so an effect gets only what calibration cannot explain. A pair
-   is kept only when its second effect removes at least ``min_shrink_pct`` of the weighted gap the
-   better single leaves (and improves the BIC by ``bic_threshold``).
+   is kept only when its second effect has evidence ≥ ``bic_threshold`` given the better single
+   (``evidence_model="bic"``: removes ``min_shrink_pct`` of the weighted gap that single leaves),
+   and is accepted only when the withheld folds confirm it against that single by replication.
 5. The best ``refine_top`` candidates by their score (step 6, from the linearised fits) and the
    best single by the linearised BIC are refined with the model in the loop
    (:mod:`rvflex.diagnosis.refine`); their score uses the real model's residual. A linearised
@@ -440,7 +441,7 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
     singles = sorted((lin((e,)) for e in usable), key=lambda c: c.bic)
     # pairs: every pair of effects (or those with one of the best pair_top singles) — a weak second
     # effect need not rank high alone while a strong one dominates the gap, and two effects can act
-    # only together; kept only when the second effect removes enough of what the better single leaves
+    # only together; kept only when the second effect has evidence given the better single
     lead = {c.attributed[0].name for c in singles[: settings.pair_top]} if settings.pair_top else None
     by_name = {c.name: c for c in singles}
     pairs = []

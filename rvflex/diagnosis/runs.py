@@ -15,7 +15,7 @@ from rvflex.diagnosis.features import features
 from rvflex.diagnosis.replay import EvaluationFailed, evaluate
 from rvflex.parallel import Outcome, map_warm
 
-__all__ = ["CACHE_VERSION", "ModelRunner"]
+__all__ = ["CACHE_VERSION", "FAILURE_REVISION", "ModelRunner"]
 
 FAILURE_REVISION = "f1"  # failed runs are remembered per solver revision (f1: a loading step or a cycle step that
 # fails is solved again from the state converged at that torque, or left out): a solver that learns to take a

@@ -15,8 +15,8 @@ from rvflex.diagnosis.nominal import NOMINAL
 from rvflex.diagnosis.plan import part_label
 
 __all__ = ["SIGNATURE_TIE", "TIE_RSS_RATIO", "acceptable", "equivalent", "fmt_mag", "fmt_pct", "is_significant",
-           "not_evaluated_sentence", "reason_line", "undetermined_effect", "verdict",
-           "withheld_check"]
+           "not_evaluated_sentence", "reason_line", "undetermined_effect", "verdict", "withheld_check",
+           "withheld_confirms"]
 
 def _linearisation(c: Candidate, f0: np.ndarray):
     """(base features, Jacobian, reference point, lower, upper, prior) a candidate is predicted with:
@@ -188,9 +188,10 @@ def verdict(cands, chosen, none, has_folds, settings, unavailable, failed, tied=
               and not withheld_confirms(best.withheld["against_single"], settings, replicated=True)):
             alone = best.withheld["against_single"]
             why.append(f"its second effect is not confirmed by the withheld runs: against {alone['single']} alone "
-                       f"fewer than {settings.confirming_folds} folds are each predicted better with evidence "
-                       f"≥ {settings.bic_threshold:g} (pooled {fmt_pct(alone['improvement_pct'])})")
-
+                       + (f"fewer than {settings.confirming_folds} folds are each predicted better with evidence "
+                          f"≥ {settings.bic_threshold:g} (pooled {fmt_pct(alone['improvement_pct'])})"
+                          if settings.confirming_folds else
+                          "it needs replicated folds, and confirming_folds is None"))
         return (f"No effect is confirmed: the best candidate, {best.name}, removes {best.gap_shrink_pct:.0f} % "
                 f"of the gap (score {best.score:.1f}), but {' and '.join(why or ['it was not accepted'])}; "
                 "what calibration leaves stays unexplained.")
