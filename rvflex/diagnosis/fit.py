@@ -476,15 +476,17 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
     none = dc.replace(none, gap_shrink_pct=_shrink(none.rss, nominal_model.rss),
                       withheld=withheld_check(prob, plan, none, nominal_model, f0, folds))
 
+    def checked(c: Candidate, ref: Candidate) -> dict:  # the withheld check, each fold's evidence filled in
+        wh = withheld_check(prob, plan, c, ref, f0, folds, hold_nominal=True)
+        for f in (wh, *wh.get("folds", ())):
+            f["evidence"] = disc.predictive_evidence(f)
+        return wh
+
     def scored(c: Candidate) -> Candidate:
-        wh = withheld_check(prob, plan, c, none, f0, folds, hold_nominal=True)
+        wh = checked(c, none)
         if len(c.attributed) > 1:  # a pair: its second effect must predict the withheld runs too, against the better single
             sub = max((best_single[e.name] for e in c.attributed if e.name in best_single), key=score_of)
-            wh["against_single"] = withheld_check(prob, plan, c, sub, f0, folds, hold_nominal=True)
-            wh["against_single"]["single"] = sub.name
-        for f in (wh, *wh.get("folds", ()), *([wh["against_single"], *wh["against_single"]["folds"]]
-                                               if "against_single" in wh else ())):
-            f["evidence"] = disc.predictive_evidence(f)
+            wh["against_single"] = {**checked(c, sub), "single": sub.name}
         return dc.replace(c, score=score_of(c), bic_score=none.bic - c.bic, gap_shrink_pct=_shrink(c.rss, none.rss),
                           withheld=wh)
 

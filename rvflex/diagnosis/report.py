@@ -172,6 +172,17 @@ def _orders_of(diag, c: Candidate, keys) -> list[dict]:
     return out
 
 
+def _second_effect_withheld(wh: dict) -> dict:
+    """A pair's withheld check against its better single as the JSON's ``second_effect_withheld`` ({} for a
+    single effect)."""
+    alone = wh.get("against_single")
+    if alone is None:
+        return {}
+    return {"second_effect_withheld": {"against": alone["single"], "improvement_pct": alone["improvement_pct"],
+                                       "evidence": alone.get("evidence"),
+                                       "fold_evidence": [f.get("evidence") for f in alone["folds"]]}}
+
+
 def json_document(diag) -> dict:
     """The JSON document of ``rvflex diagnose`` (keys of issue 6)."""
     before = gap_table(diag, diag.nominal_model or diag.baseline)
@@ -205,12 +216,7 @@ def json_document(diag) -> dict:
             "withheld_improvement_pct": c.withheld.get("improvement_pct"),
             "withheld_evidence": c.withheld.get("evidence"),
             "withheld_fold_evidence": [f.get("evidence") for f in c.withheld.get("folds", ())],
-            **({"second_effect_withheld": {"against": c.withheld["against_single"]["single"],
-                                           "improvement_pct": c.withheld["against_single"]["improvement_pct"],
-                                           "evidence": c.withheld["against_single"].get("evidence"),
-                                           "fold_evidence": [f.get("evidence")
-                                                             for f in c.withheld["against_single"]["folds"]]}}
-               if "against_single" in c.withheld else {}),
+            **_second_effect_withheld(c.withheld),
         })
     ref = chosen or (diag.candidates[0] if diag.candidates else None)
     wh = dict(ref.withheld) if ref is not None else {}
