@@ -222,6 +222,53 @@ def test_cache_hit_returns_the_same_reduction(disc, spec, cache_dir):
     np.testing.assert_array_equal(again.interface("bore1").nodes, disc.interface("bore1").nodes)
 
 
+def test_the_same_disc_at_another_modulus_is_the_cached_one_scaled_not_a_new_mesh(disc, spec, cache_dir):
+    """Linear elasticity at a fixed Poisson ratio: K ∝ E while M and the Craig–Bampton basis do not depend
+    on E. The disc at 1.7 E is made from the cached one (nothing meshed, nothing written) and agrees with
+    one built afresh: frequencies and the flank response under the rated load case within 1e-6 (the
+    eigensolver's and the Cholesky's round-off; 1e-6 of a 1 µm flank displacement is 1e-12 m)."""
+    from rvflex.fe.reduce import disc_rated_load_case, reduce_part
+    from rvflex.geometry.profile import build_profile
+
+    m = spec.materials
+    stiffer = dataclasses.replace(spec, materials=dataclasses.replace(m, gears_cranks_discs=dataclasses.replace(
+        m.gears_cranks_discs, youngs_modulus_Pa=1.7 * m.gears_cranks_discs.youngs_modulus_Pa)))
+    files = sorted(p.name for p in cache_dir.iterdir() if p.suffix == ".rvfe")
+    scaled = reduce_part(stiffer, "disc", cache_dir=cache_dir, **COARSE)
+    assert scaled.meta["scaled_from"]["key"] == disc.key
+    assert scaled.meta["scaled_from"]["modulus_factor"] == pytest.approx(1.7, rel=1e-12)
+    assert sorted(p.name for p in cache_dir.iterdir() if p.suffix == ".rvfe") == files
+    fresh = reduce_part(stiffer, "disc", use_cache=False, **COARSE)
+    assert scaled.key == fresh.key != disc.key
+    np.testing.assert_allclose(scaled.freqs_hz, fresh.freqs_hz, rtol=1e-6)
+    np.testing.assert_allclose(scaled.mass_reduced, fresh.mass_reduced, rtol=1e-6, atol=1e-9)  # unit internal block
+    k_s, k_f = scaled.fem.GetStiffnessMatrix(sparse=True), fresh.fem.GetStiffnessMatrix(sparse=True)
+    assert abs(k_s - k_f).max() < 1e-6 * abs(k_f).max()
+    t, _pts, forces = disc_rated_load_case(spec, build_profile(spec.cycloid))
+    unit = forces / np.linalg.norm(forces, axis=1, keepdims=True)
+
+    def flank(rp):  # displacement along each pin load (the contact element's path; mode signs cancel)
+        R = rp.flank.rows_at(t)[:, :, rp.n_static:]
+        q = np.linalg.solve(rp.stiffness_reduced[rp.n_static:, rp.n_static:], np.einsum("pim,pi->m", R, forces))
+        return np.einsum("pim,m,pi->p", R, q, unit)
+
+    np.testing.assert_allclose(flank(scaled), flank(fresh), rtol=1e-6, atol=1e-6 * np.abs(flank(fresh)).max())
+    np.testing.assert_allclose(flank(scaled), flank(disc) / 1.7, rtol=1e-9, atol=1e-9 * np.abs(flank(disc)).max())
+
+
+def test_a_modulus_note_whose_reduction_is_gone_is_dropped(spec, tmp_path):
+    """A note naming a reduction no longer in the cache scales nothing and is removed, so the next
+    reduction built becomes the reference."""
+    from rvflex.fe import cache
+    from rvflex.fe.reduce import CODE_VERSION, settings_for
+
+    free = cache.modulus_free_key(spec, "disc", settings_for("disc", **COARSE), CODE_VERSION)
+    cache.note_modulus(free, "0" * 24, 2.0e11, tmp_path)
+    assert [p.name for p in tmp_path.iterdir()] == [f"fe-E-{free}.json"]
+    assert cache.load_at_modulus(free, "1" * 24, 3.0e11, "disc", tmp_path) is None
+    assert not any(tmp_path.iterdir())
+
+
 def test_key_depends_on_geometry_material_settings_only(spec):
     from rvflex.fe import cache
     from rvflex.fe.reduce import CODE_VERSION, settings_for

@@ -75,6 +75,7 @@ from rvflex.diagnosis.sensitivity import (
     rebase_fidelity,
     second_effect_adds,
     sensitivities,
+    sensitivity_runs,
     signature_size,
     signature_sizes,
 )
@@ -323,22 +324,22 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
     cands = tuple(e for e in cands if e.name not in replaced)
     cache = Path(cache_dir) if cache_dir else None
     runner = ModelRunner(spec, errors, plan, settings, law, cache, progress)
-    f0, resp0 = _baseline(runner)
 
     # --- the data anchor: the unit's torsional stiffness against the nominal model's (rigid plus the elastic
     # discs, the calibration's nominal point); far off, every stiffness is scaled and calibration starts there
-    f_nom = f0
-    if "disc_flexibility" in {c.name for c in cal}:
-        flex = runner.run([((NOMINAL["disc_flexibility"], np.array([1.0])),)])[0][0]
-        f_nom = f0 if flex is None else flex
+    flexed = [((NOMINAL["disc_flexibility"], np.array([1.0])),)] if "disc_flexibility" in {c.name for c in cal} else []
+    flex = runner.run([()] + flexed)[-1][0] if flexed else None  # the baseline's run alongside
+    f0, resp0 = _baseline(runner)
+    f_nom = f0 if flex is None else flex
     anc = anchor(y, f_nom, lay, plan)
     f_spec, resp_spec, runs_before = f0, resp0, runner.model_runs  # the model as specified (the gap before)
     if anc.applied:
         spec = scale_stiffness(spec, anc.scale)
         runner = ModelRunner(spec, errors, plan, settings, law, cache, progress)
         runner.model_runs = runs_before
-        f0, resp0 = _baseline(runner)
     cal = within_spec_rules(cal, spec)
+    runner.run([()] + sensitivity_runs(cands + cal))  # the baseline alongside the sensitivities' runs
+    f0, resp0 = _baseline(runner)
     w = weights(f0, y, lay, settings, spec.cycloid.pin_count)
     nuis = nuisance_columns(lay)
     prob = Problem.build(y, lay, w, nuis)

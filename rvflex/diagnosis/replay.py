@@ -15,7 +15,8 @@ from rvflex.diagnosis.settings import DiagnosisSettings
 from rvflex.options import ModelOptions
 from rvflex.spec import ErrorSpec, ReducerSpec
 
-__all__ = ["FIDELITY_TIME_FACTOR", "EvaluationFailed", "Response", "evaluate", "recorded"]
+__all__ = ["FIDELITY_TIME_FACTOR", "Evaluation", "EvaluationFailed", "ModelRun", "Response", "combine", "evaluate",
+           "plan_evaluation", "recorded", "run_model"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -110,17 +111,75 @@ def _over_skipped(torque: np.ndarray, theta: np.ndarray) -> np.ndarray:
     return a
 
 
-def evaluate(spec: ReducerSpec, errors: ErrorSpec, plan: tuple[PlanRun, ...], settings: DiagnosisSettings,
-             active: tuple = (), *, law=None, options: ModelOptions | None = None) -> Response:
-    """Run the model under ``plan`` with the effects ``active`` ((Effect, x) pairs) switched on.
+@dataclass(frozen=True, eq=False)
+class ModelRun:
+    """One model run of an evaluation: the model built with ``options`` (and ``alt_law`` for the
+    diagnosing model's contact law when given) with the evaluation's model and condition effects
+    ``active`` ((Effect, x) pairs, in the evaluation's order) applied, run under the plan.
+    Evaluations that share a run (the elastic discs' model, as a contact-law form's reference and
+    as the disc-flexibility share's alternative) need it once."""
 
-    Model effects change the spec/ErrorSpec the model is built with (``per_run`` ones per run,
-    e.g. thermal expansion at each run's ``temperature_C``); condition effects change the plan;
-    measurement effects transform the recorded TE; a fidelity effect blends in the model with its
-    own ``options`` by its share, or with ``alt_law`` the difference that contact-law form makes to
-    the model of its ``options`` (the diagnosing model's when None).
-    ``law``: a ContactLaw, or a callable spec → ContactLaw (per run variant); None: the model's.
-    ``options``: the model's :class:`~rvflex.options.ModelOptions` (None: rigid).
+    active: tuple
+    options: ModelOptions
+    alt_law: object = None
+
+    @property
+    def plain(self) -> bool:
+        """True for the diagnosing model itself (rigid, its own law): the run is then the
+        evaluation of ``active`` alone."""
+        return self.options == ModelOptions.rigid() and self.alt_law is None
+
+    def key(self) -> tuple:
+        """What identifies the run (effects and values, options, law)."""
+        return (tuple((e.name, tuple(np.round(np.asarray(x, float), 15))) for e, x in self.active),
+                repr(self.options), getattr(self.alt_law, "__qualname__", None))
+
+
+@dataclass(frozen=True, eq=False)
+class Evaluation:
+    """An evaluation (:func:`evaluate`) as the model runs it needs and how they combine:
+    ``runs[0]`` is the model with the effects applied; each blend ``(w, alt, ref)`` adds ``w``
+    times the difference of run ``alt`` from run ``ref`` (indices into ``runs``, each run once);
+    ``measurement`` transforms what the bench records ((Effect, x) pairs)."""
+
+    runs: tuple
+    blends: tuple
+    measurement: tuple
+
+
+def plan_evaluation(active: tuple = (), options: ModelOptions | None = None) -> Evaluation:
+    """The model runs an evaluation of ``active`` on the model of ``options`` (None: rigid)
+    needs, and how they combine (see :func:`evaluate`)."""
+    options = options or ModelOptions.rigid()
+    applied = tuple((e, np.asarray(x, float)) for e, x in active if e.kind in ("model", "conditions"))
+    runs = [ModelRun(applied, options)]
+    index = {runs[0].key(): 0}
+
+    def at(run: ModelRun) -> int:  # its index, each run once
+        k = run.key()
+        if k not in index:
+            index[k] = len(runs)
+            runs.append(run)
+        return index[k]
+
+    blends = []
+    for eff, x in active:  # another fidelity or contact-law form, blended in by its share w
+        w = float(np.asarray(x, float)[0]) if eff.kind == "fidelity" else 0.0
+        if w == 0.0:
+            continue
+        opts = eff.options or options
+        alt = at(ModelRun(applied, opts, eff.alt_law))
+        # a contact-law form on a model of other options: the difference the law makes to that model
+        ref = 0 if eff.alt_law is None or opts == options else at(ModelRun(applied, opts))
+        blends.append((w, alt, ref))
+    meas = tuple((e, np.asarray(x, float)) for e, x in active if e.kind == "measurement")
+    return Evaluation(tuple(runs), tuple(blends), meas)
+
+
+def run_model(spec: ReducerSpec, errors: ErrorSpec, plan: tuple[PlanRun, ...], settings: DiagnosisSettings,
+              run: ModelRun, *, law=None) -> Response:
+    """The response of one model run (``law``: the diagnosing model's contact law, a ContactLaw or a
+    callable spec → ContactLaw; None: the model's), before the measurement effects.
 
     Raises
     ------
@@ -133,10 +192,8 @@ def evaluate(spec: ReducerSpec, errors: ErrorSpec, plan: tuple[PlanRun, ...], se
         settings = settings.for_spec(spec)
     variants = [(spec, errors)] * len(plan)
     plan_c = plan
-    blends = []
     try:
-        for eff, x in active:
-            x = np.asarray(x, float)
+        for eff, x in run.active:
             if eff.kind == "model":
                 for fld in eff.run_fields:
                     bad = [p.label for p in plan if not math.isfinite(float(getattr(p, fld, math.nan)))]
@@ -145,27 +202,50 @@ def evaluate(spec: ReducerSpec, errors: ErrorSpec, plan: tuple[PlanRun, ...], se
                 variants = [eff.apply_to(s, e, x, p) for (s, e), p in zip(variants, plan)]
             elif eff.kind == "conditions":
                 plan_c = tuple(eff.conditions(p, x, variants[0][0]) for p in plan_c)
-            elif eff.kind == "fidelity":
-                blends.append((eff, float(x[0])))
     except SpecError as err:
         raise EvaluationFailed(f"effect value breaks a spec rule: {err}") from None
-    options = options or ModelOptions.rigid()
-    applied = plan  # the bench's torques, before a condition effect changes what the mesh sees
-    plan = tuple(plan_c)
-    resp = base = _run_model(variants, plan, settings, options, law)
-    for eff, w in blends:  # another fidelity or contact-law form, blended in by its share w
-        if w == 0.0:
-            continue
-        opts = eff.options or options
-        alt = _run_model(variants, plan, settings, opts, eff.alt_law or law)
-        # a contact-law form on a model of other options: the difference the law makes to that model
-        ref = base if eff.alt_law is None or opts == options else _run_model(variants, plan, settings, opts, law)
-        resp = Response(tuple(None if a is None else a + w * (b - a0) for a, a0, b in zip(resp.te, ref.te, alt.te)),
+    return _run_model(variants, tuple(plan_c), settings, run.options, run.alt_law or law)
+
+
+def combine(ev: Evaluation, responses: list[Response], plan: tuple[PlanRun, ...], settings: DiagnosisSettings,
+            spec: ReducerSpec) -> Response:
+    """The evaluation ``ev`` from the responses of its runs (``responses[i]`` of ``ev.runs[i]``), as the
+    bench records it under ``plan`` (the bench's torques, before a condition effect changes what the
+    mesh sees)."""
+    if settings.positions_per_rev is None:
+        settings = settings.for_spec(spec)
+    resp = responses[0]
+    for w, a, r in ev.blends:
+        alt, ref = responses[a], responses[r]
+        resp = Response(tuple(None if x is None else x + w * (b - x0) for x, x0, b in zip(resp.te, ref.te, alt.te)),
                         resp.torque,
-                        tuple(None if a is None else a + w * (b - a0)
-                              for a, a0, b in zip(resp.theta, ref.theta, alt.theta)))
-    meas = [(eff, np.asarray(x, float)) for eff, x in active if eff.kind == "measurement"]
-    return recorded(resp, applied, settings, meas, spec)
+                        tuple(None if x is None else x + w * (b - x0)
+                              for x, x0, b in zip(resp.theta, ref.theta, alt.theta)))
+    return recorded(resp, plan, settings, list(ev.measurement), spec)
+
+
+def evaluate(spec: ReducerSpec, errors: ErrorSpec, plan: tuple[PlanRun, ...], settings: DiagnosisSettings,
+             active: tuple = (), *, law=None, options: ModelOptions | None = None) -> Response:
+    """Run the model under ``plan`` with the effects ``active`` ((Effect, x) pairs) switched on.
+
+    Model effects change the spec/ErrorSpec the model is built with (``per_run`` ones per run,
+    e.g. thermal expansion at each run's ``temperature_C``); condition effects change the plan;
+    measurement effects transform the recorded TE; a fidelity effect blends in the model with its
+    own ``options`` by its share, or with ``alt_law`` the difference that contact-law form makes to
+    the model of its ``options`` (the diagnosing model's when None). The model runs this takes are
+    :func:`plan_evaluation`'s, each made once (:func:`run_model`), combined by :func:`combine`.
+    ``law``: a ContactLaw, or a callable spec → ContactLaw (per run variant); None: the model's.
+    ``options``: the model's :class:`~rvflex.options.ModelOptions` (None: rigid).
+
+    Raises
+    ------
+    EvaluationFailed
+        The model did not converge (or an effect value broke a spec rule) for some run.
+    """
+    if settings.positions_per_rev is None:
+        settings = settings.for_spec(spec)
+    ev = plan_evaluation(active, options)
+    return combine(ev, [run_model(spec, errors, plan, settings, r, law=law) for r in ev.runs], plan, settings, spec)
 
 
 def recorded(resp: Response, plan: tuple[PlanRun, ...], settings: DiagnosisSettings, meas, spec: ReducerSpec) -> Response:

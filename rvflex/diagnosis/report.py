@@ -415,7 +415,7 @@ def markdown(diag, doc: dict, pngs: list[str]) -> str:
     lines = [f"# Sim-to-real gap diagnosis — {ds.reducer.name}", "",
              (f"Dataset `{ds.path}`: {len(ds.runs)} runs ({', '.join(r.label for r in ds.runs)}). Model: rigid, "
              f"quasi-static replay at {diag.settings.positions_per_rev} positions per output revolution, orders "
-             f"1…{diag.settings.max_order}; {diag.model_runs} model evaluations (cached ones not counted) in {diag.wall_s:.0f} s."), "",
+             f"1…{diag.settings.max_order}; {diag.model_runs} model runs (each run of the model under the plan; cached ones not counted) in {diag.wall_s:.0f} s."), "",
              f"**Verdict.** {diag.verdict}", "", "## Analysed data", "",
              "| run | form | samples (window / run) | revolutions | coverage | TE pp measured (″) | Fourier fit pp (″) | fit rms (″) |",
              "|---|---|---:|---:|---:|---:|---:|---:|"]

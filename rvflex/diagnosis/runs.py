@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from rvflex.diagnosis.features import features
-from rvflex.diagnosis.replay import EvaluationFailed, evaluate
+from rvflex.diagnosis.replay import EvaluationFailed, ModelRun, combine, plan_evaluation, run_model
 from rvflex.parallel import Outcome, map_warm
 
 __all__ = ["CACHE_VERSION", "FAILURE_REVISION", "ModelRunner"]
@@ -25,26 +25,20 @@ CACHE_VERSION = "diag-12"  # 12: the plan in the key as plain tuples (no module 
 
 # ----------------------------------------------------------------------------- workers (module level: picklable)
 
-def _eval_item(item):
-    return _eval_job(*item)
-
-
-def _eval_job(spec, errors, plan, settings, law, active):
-    """Features and response of one model evaluation, or the failure message. Exudyn's console
-    banners of retried static steps are silenced meanwhile (the retries are expected)."""
+def _run_item(item):
+    """The response of one model run, or the failure message. Exudyn's console banners of retried
+    static steps are silenced meanwhile (the retries are expected)."""
     import exudyn as exu
 
+    spec, errors, plan, settings, law, run = item
     before = exu.config.printToConsole
     exu.config.printToConsole = False
     try:
-        resp = evaluate(spec, errors, plan, settings, active, law=law)
+        return run_model(spec, errors, plan, settings, run, law=law), ""
     except EvaluationFailed as err:
-        return None, None, str(err)
+        return None, str(err)
     finally:
         exu.config.printToConsole = before
-    f, _ = features(resp, plan, settings)
-    return f, resp, ""
-
 
 
 class ModelRunner:
@@ -62,6 +56,7 @@ class ModelRunner:
         # (the calibration's rigid run by the refinement, the fidelity re-measurement and the re-evaluation) is
         # not run again when there is no disk cache either
         self._memo: dict[str, bytes] = {}
+        self._runs: dict[str, tuple] = {}  # the model runs other than the diagnosing model's, by key (in memory)
         from rvflex.spec import dumps_errors, dumps_spec
 
         # the plan as plain tuples: a pickled PlanRun carries its module path, and moving the class would void
@@ -109,10 +104,17 @@ class ModelRunner:
         tmp.replace(self.cache_dir / f"{key}.pkl" if value[0] is not None else self._failed_path(key))
 
     def run(self, actives: list[tuple]) -> list[tuple]:
-        """Evaluate each active set; returns (features | None, response | None, message) per set."""
+        """Evaluate each active set; returns (features | None, response | None, message) per set.
+
+        An evaluation is made of model runs (:func:`~rvflex.diagnosis.replay.plan_evaluation`): the model
+        with the effects applied, and for a fidelity effect the model it blends in. The pool runs each model
+        run the batch needs once (the elastic discs' model of a point serves the contact-law form and the
+        disc-flexibility share alike), the slow ones first, and an evaluation is combined here as soon as
+        its runs are in. A run of the diagnosing model itself is the evaluation of its effects alone, kept as
+        such (an evaluation's rigid run is not made again when that evaluation was made before)."""
         keys = [self.key(a) for a in actives]
         out: list = [self._load(k) for k in keys]
-        first = {}  # a point asked for twice in one batch is run once
+        first = {}  # a point asked for twice in one batch is evaluated once
         for i, o in enumerate(out):
             if o is None:
                 first.setdefault(keys[i], i)
@@ -121,21 +123,72 @@ class ModelRunner:
         self.done += sum(o is not None for o in out)
         if self.progress:
             self.progress(self.done, self.total)
+        evals = {i: plan_evaluation(actives[i]) for i in todo}
+        runs: dict[str, ModelRun] = {}
+        got: dict[str, tuple] = {}  # run key → (response | None, message)
+        for i in todo:
+            for r in evals[i].runs:
+                k = self._run_key(r)
+                if k not in runs:
+                    runs[k] = r
+                    v = self._load_run(k, r)
+                    if v is not None:
+                        got[k] = v
+        waiting = {i: [self._run_key(r) for r in evals[i].runs] for i in todo}
+        pending = {keys[i] for i in todo}
+
+        def combined() -> None:  # every evaluation whose runs are all in
+            for i in [i for i, ks in waiting.items() if all(k in got for k in ks)]:
+                out[i] = self._combined(evals[i], [got[k] for k in waiting.pop(i)])
+                self._finish(keys[i], out[i])
+
+        new = sorted((k for k in runs if k not in got), key=lambda k: runs[k].plain)  # the slow (elastic) runs first
+
+        def done(o: Outcome) -> None:  # a dying worker or an exception is a failed run, not a crash
+            k = new[o.index]
+            got[k] = o.value if o.ok else (None, "worker died" if o.died else f"{type(o.error).__name__}: {o.error}")
+            self.model_runs += 1
+            r = runs[k]
+            if not r.plain:
+                self._runs[k] = got[k]
+            elif (full := self.key(r.active)) not in pending:  # the evaluation of its effects alone
+                self._store(full, self._combined(plan_evaluation(r.active), [got[k]]))
+            combined()
+
+        combined()
         args = (self.spec, self.errors, self.plan, self.settings, self.law)
-        workers = min(self.settings.workers, len(todo)) if len(todo) > 1 and self.settings.workers > 1 else 0
-
-        def done(o: Outcome) -> None:  # a dying worker or an exception is a failed evaluation, not a crash
-            i = todo[o.index]
-            out[i] = o.value if o.ok else (None, None, "worker died" if o.died else
-                                           f"{type(o.error).__name__}: {o.error}")
-            self._finish(keys[i], out[i])
-
+        workers = min(self.settings.workers, len(new)) if len(new) > 1 and self.settings.workers > 1 else 0
         if workers:
-            self._warm_fe([actives[i] for i in todo])
-        map_warm(_eval_item, [(*args, actives[i]) for i in todo], workers, on_outcome=done)
+            self._warm_fe([runs[k] for k in new])
+        map_warm(_run_item, [(*args, runs[k]) for k in new], workers, on_outcome=done)
         return [o if o is not None else self._load(k) for o, k in zip(out, keys)]
 
-    def _warm_fe(self, actives: list[tuple]) -> None:
+    def _run_key(self, run: ModelRun) -> str:
+        if run.plain:
+            return self.key(run.active)
+        return hashlib.sha256((self._base + "run" + repr(run.key())).encode()).hexdigest()[:24]
+
+    def _load_run(self, key: str, run: ModelRun) -> tuple | None:
+        """A model run made before: a plain one as its evaluation (in memory or on disk), another from
+        memory."""
+        if not run.plain:
+            return self._runs.get(key)
+        v = self._load(key)
+        return None if v is None else (v[1], v[2])
+
+    def _combined(self, ev, values: list[tuple]) -> tuple:
+        """(features, response, "") of the evaluation ``ev`` from its runs' (response, message), or the
+        first failure's (None, None, message)."""
+        for resp, msg in values:
+            if resp is None:
+                return None, None, msg
+        try:
+            resp = combine(ev, [v[0] for v in values], self.plan, self.settings, self.spec)
+            return features(resp, self.plan, self.settings)[0], resp, ""
+        except (ValueError, ArithmeticError) as err:  # a response the features cannot read is a failed evaluation
+            return None, None, f"{type(err).__name__}: {err}"
+
+    def _warm_fe(self, runs: list[ModelRun]) -> None:
         """Build here, before the pool forks, every disc reduction the pool's runs need (from the
         disk cache, or meshed here), once, instead of in each worker that needs it. (A worker
         never meshes in its own process anyway: OpenCascade's thread pool, copied by the fork
@@ -146,25 +199,22 @@ class ModelRunner:
         from rvflex.fe.reduce import reduce_part
 
         seen = set()
-        for active in actives:
-            opts = [e.options for e, _ in active if e.options is not None and e.options.flexible_discs_on]
-            if not opts:
+        for run in runs:
+            if not run.options.flexible_discs_on:
                 continue
             spec = self.spec
-            for e, x in active:
+            for e, x in run.active:
                 if e.kind == "model" and not e.per_run:  # what can change the disc's geometry or material
                     spec, _ = e.apply_to(spec, self.errors, np.asarray(x, float), self.plan[0])
-            for o in opts:
-                key = (repr(spec), repr(o.discs))
-                if key not in seen:
-                    seen.add(key)
-                    try:
-                        reduce_part(spec, "disc", **dataclasses.asdict(o.discs))
-                    except Exception:  # noqa: BLE001 -- the run itself reports what fails
-                        pass
+            key = (repr(spec), repr(run.options.discs))
+            if key not in seen:
+                seen.add(key)
+                try:
+                    reduce_part(spec, "disc", **dataclasses.asdict(run.options.discs))
+                except Exception:  # noqa: BLE001 -- the run itself reports what fails
+                    pass
 
     def _finish(self, key, value) -> None:
-        self.model_runs += 1
         self._store(key, value)
         self.done += 1
         if self.progress:

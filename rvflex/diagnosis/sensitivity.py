@@ -18,8 +18,8 @@ from rvflex.diagnosis.runs import ModelRunner
 from rvflex.diagnosis.settings import DiagnosisSettings
 from rvflex.spec import ErrorSpec, ReducerSpec
 
-__all__ = ["available_candidates", "rebase_fidelity", "second_effect_adds", "sensitivities", "signature_size",
-           "signature_sizes"]
+__all__ = ["available_candidates", "rebase_fidelity", "second_effect_adds", "sensitivities", "sensitivity_runs",
+           "signature_size", "signature_sizes"]
 
 
 def available_candidates(effects, plan) -> tuple[tuple[Effect, ...], dict]:
@@ -74,12 +74,11 @@ def _side_step(e: Effect, prm, sign: float) -> float:
     return min(prm.step, room) if room > 0 else prm.step
 
 
-def sensitivities(runner, cands, f0, resp0, plan, settings, lay) -> tuple[Sensitivities, dict]:
-    """Secant sensitivities (features per unit parameter) of every candidate, and the failures."""
-    n = lay.n
-    # --- sensitivities: one run per parameter (measurement effects need no model run)
+def _jobs(cands) -> tuple[list[tuple], list[tuple]]:
+    """The model evaluations of the sensitivities (active sets) and what each is for (name, parameter
+    index, sign or "coupled")."""
     jobs, owners = [], []
-    for e in cands:
+    for e in cands:  # one run per parameter (measurement effects need no model run)
         if e.kind == "measurement":
             continue
         for j, prm in enumerate(e.params):
@@ -90,21 +89,37 @@ def sensitivities(runner, cands, f0, resp0, plan, settings, lay) -> tuple[Sensit
                 owners.append((e.name, j, sign))
     # coupled effects: the same step on the model of the fidelity effect they are coupled to (at its step)
     by_name = {c.name: c for c in cands}
-    coupled = {e.name: by_name[e.coupled_to] for e in cands
-               if e.coupled_to in by_name and by_name[e.coupled_to].kind == "fidelity"}
-    for name, fid in coupled.items():
+    for name, fid in _coupled(cands).items():
         e = by_name[name]
         for j, prm in enumerate(e.params):
             x = np.zeros(e.n)
             x[j] = prm.step
             jobs.append(((e, x), (fid, np.array([fid.params[0].step]))))
             owners.append((name, j, "coupled"))
-    # other-fidelity (slow) jobs first, so that they run alongside the rigid ones
-    order = sorted(range(len(jobs)), key=lambda i: not (owners[i][2] == "coupled"
-                                                        or by_name[owners[i][0]].kind == "fidelity"))
-    outs: list = [None] * len(jobs)
-    for i, o in zip(order, runner.run([jobs[i] for i in order])):
-        outs[i] = o
+    return jobs, owners
+
+
+def _coupled(cands) -> dict:
+    """The effects coupled to a fidelity effect among ``cands``: name → that fidelity effect."""
+    by_name = {c.name: c for c in cands}
+    return {e.name: by_name[e.coupled_to] for e in cands
+            if e.coupled_to in by_name and by_name[e.coupled_to].kind == "fidelity"}
+
+
+def sensitivity_runs(cands) -> list[tuple]:
+    """The model evaluations (active sets) :func:`sensitivities` of ``cands`` asks for (to run them
+    alongside others in one batch)."""
+    return _jobs(cands)[0]
+
+
+def sensitivities(runner, cands, f0, resp0, plan, settings, lay) -> tuple[Sensitivities, dict]:
+    """Secant sensitivities (features per unit parameter) of every candidate, and the failures."""
+    n = lay.n
+    jobs, owners = _jobs(cands)
+    by_name = {c.name: c for c in cands}
+    coupled = _coupled(cands)
+    # (the runner runs the slow runs of a batch, the elastic discs' models, first)
+    outs = runner.run(jobs)
     sens: dict[str, np.ndarray] = {}
     minus: dict[str, np.ndarray] = {}
     failed: dict[str, str] = {}

@@ -15,6 +15,7 @@ import dataclasses
 import hashlib
 import io
 import json
+import math
 import os
 from pathlib import Path
 
@@ -27,7 +28,8 @@ from rvflex.fe.types import FlankRows, Interface, PartSettings, ReducedPart, Sta
 from rvflex.io import write_atomic
 from rvflex.spec import ReducerSpec
 
-__all__ = ["FORMAT", "cache_root", "key_for", "load", "path_for", "store"]
+__all__ = ["FORMAT", "cache_root", "key_for", "load", "load_at_modulus", "modulus", "modulus_free_key", "note_modulus",
+           "path_for", "store"]
 
 FORMAT = "rvflex-fe-cache-1"
 
@@ -60,18 +62,94 @@ def _inputs(spec: ReducerSpec, part: FEPart) -> dict:
             "material": dataclasses.asdict(spec.materials.carriers)}
 
 
-def key_for(spec: ReducerSpec, part: FEPart, settings, code_version: str) -> str:
-    """Content hash (hex, 24 chars) of geometry, material, mesh/reduction settings and code version."""
+def _doc(spec: ReducerSpec, part: FEPart, settings, code_version: str) -> dict:
     # versions from the metadata: importing exudyn/ngsolve here would slow every warm load
     from importlib.metadata import version
 
     sett = dataclasses.asdict(settings)
     if part != "carrier":
         sett.pop("seat_coupling", None)  # a carrier setting: disc keys stay what they were
-    doc = {"part": part, "inputs": _inputs(spec, part), "settings": sett,
-           "code": code_version, "samples_per_tooth": geometry.SAMPLES_PER_TOOTH, "axial_gap": geometry.AXIAL_GAP_M,
-           "exudyn": version("exudyn"), "ngsolve": version("ngsolve")}
+    return {"part": part, "inputs": _inputs(spec, part), "settings": sett,
+            "code": code_version, "samples_per_tooth": geometry.SAMPLES_PER_TOOTH, "axial_gap": geometry.AXIAL_GAP_M,
+            "exudyn": version("exudyn"), "ngsolve": version("ngsolve")}
+
+
+def _hash(doc: dict) -> str:
     return hashlib.sha256(json.dumps(doc, sort_keys=True, default=float).encode()).hexdigest()[:24]
+
+
+def key_for(spec: ReducerSpec, part: FEPart, settings, code_version: str) -> str:
+    """Content hash (hex, 24 chars) of geometry, material, mesh/reduction settings and code version."""
+    return _hash(_doc(spec, part, settings, code_version))
+
+
+# --------------------------------------------------------------------------- the same part at another modulus
+# Linear elasticity at a fixed Poisson ratio: the stiffness matrix is proportional to Young's modulus E and the
+# mass matrix does not depend on it, so the Craig–Bampton basis (constraint modes K_ii⁻¹K_ib, the fixed-interface
+# eigenvectors, the attachment modes' span and the Ritz step) is the same at every E, and the reduced stiffness,
+# the eigenvalues ω² and the full stiffness scale by E/E₀ (frequencies by its square root, the static check's
+# displacements by its inverse). A diagnosis calibrates the contact stiffness through the moduli, so each
+# calibrated value would otherwise be a new mesh and reduction (about 17 s and 50-120 MB for the RV-40E disc).
+
+
+def modulus(spec: ReducerSpec, part: FEPart) -> float:
+    """Young's modulus (Pa) of the material ``part`` is made of."""
+    return float(_inputs(spec, part)["material"]["youngs_modulus_Pa"])
+
+
+def modulus_free_key(spec: ReducerSpec, part: FEPart, settings, code_version: str) -> str:
+    """:func:`key_for` of everything but Young's modulus (the parts that differ only in it share it)."""
+    doc = _doc(spec, part, settings, code_version)
+    doc["inputs"]["material"].pop("youngs_modulus_Pa")
+    return _hash(doc)
+
+
+def _sibling_path(free_key: str, cache_dir) -> Path:
+    return cache_root(cache_dir) / f"fe-E-{free_key}.json"
+
+
+def note_modulus(free_key: str, key: str, youngs_modulus_Pa: float, cache_dir=None) -> None:
+    """Record that the cached reduction ``key`` is the part of ``free_key`` at ``youngs_modulus_Pa``
+    (one small JSON file; the first reduction recorded stays the reference)."""
+    path = _sibling_path(free_key, cache_dir)
+    if not path.exists():
+        write_atomic(path, json.dumps({"key": key, "youngs_modulus_Pa": youngs_modulus_Pa}).encode())
+
+
+def load_at_modulus(free_key: str, key: str, youngs_modulus_Pa: float, part: FEPart, cache_dir=None):
+    """The cached reduction of the same part at another modulus (:func:`note_modulus`), scaled to
+    ``youngs_modulus_Pa`` and named ``key`` (not written: it is made again from the reference in a
+    fraction of a second); None when there is none."""
+    note = _sibling_path(free_key, cache_dir)
+    try:
+        ref = json.loads(note.read_text())
+        payload = _read_valid(path_for(ref["key"], cache_dir), ref["key"])
+        e0 = float(ref["youngs_modulus_Pa"])
+    except FileNotFoundError:
+        return None
+    except (OSError, ValueError, KeyError, TypeError):
+        payload, e0 = None, 0.0
+    if payload is None or not e0 > 0:  # a note whose reduction is gone or damaged: the next one built is noted
+        note.unlink(missing_ok=True)
+        return None
+    f = youngs_modulus_Pa / e0
+    with np.load(io.BytesIO(payload), allow_pickle=False) as z:
+        a = {k: z[k] for k in z.files}
+    for name in ("K_data", "eigenvalues", "stiffness_reduced"):
+        a[name] = a[name] * f
+    a["freqs_hz"] = a["freqs_hz"] * math.sqrt(f)
+    meta = json.loads(bytes(a["meta_json"]).decode())
+    meta["key"] = key
+    chk = meta["check"]
+    chk["flank_full_m"] = chk["flank_full_m"] / f
+    chk["flank_full_by_angle_m"] = [v / f for v in chk.get("flank_full_by_angle_m", ())]
+    if part != "disc":  # a seat displacement (m); the disc's is a bore reaction (N), set by the load
+        chk["interface_full"] = chk["interface_full"] / f
+    if "ritz_freqs_hz" in meta["meta"]:
+        meta["meta"]["ritz_freqs_hz"] = [v * math.sqrt(f) for v in meta["meta"]["ritz_freqs_hz"]]
+    meta["meta"]["scaled_from"] = {"key": ref["key"], "modulus_factor": f}
+    a["meta_json"] = np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)
+    return _from_arrays(a)
 
 
 def path_for(key: str, cache_dir: str | os.PathLike | None = None) -> Path:

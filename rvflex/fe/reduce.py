@@ -132,15 +132,23 @@ def reduce_part(spec: ReducerSpec, part: FEPart, *, maxh_m: float | None = None,
     s = settings_for(part, maxh_m=maxh_m, n_modes=n_modes, **settings)
     key = cache.key_for(spec, part, s, CODE_VERSION)
     if use_cache:
+        free, e = cache.modulus_free_key(spec, part, s, CODE_VERSION), cache.modulus(spec, part)
         hit = cache.load(key, cache_dir)
+        if hit is not None:
+            cache.note_modulus(free, key, e, cache_dir)  # (a reduction cached before such notes were kept)
+            return hit
+        hit = cache.load_at_modulus(free, key, e, part, cache_dir)  # the same part at another Young's modulus
         if hit is not None:
             return hit
     if mp.parent_process() is not None:  # a pool worker: OCC meshing is not fork-safe (rvflex.fe.isolated)
-        return build_isolated(spec, part, s, key, cache_dir, use_cache)
-    rp = _build(spec, part, s, key, progress)
+        rp = build_isolated(spec, part, s, key, cache_dir, use_cache)
+    else:
+        rp = _build(spec, part, s, key, progress)
+        if use_cache:
+            cache.store(rp, cache_dir)
+        rp.meta["cached"] = False
     if use_cache:
-        cache.store(rp, cache_dir)
-    rp.meta["cached"] = False
+        cache.note_modulus(free, key, e, cache_dir)
     return rp
 
 
