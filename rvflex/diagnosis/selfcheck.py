@@ -459,6 +459,27 @@ def _case_job(args):
     return None, msgs
 
 
+def _diagnosis_job(args):
+    """One self-check case diagnosed blind (serially: the cases run side by side, see :func:`selfcheck`), its
+    report written as `rvflex diagnose --json` writes it (no plots: the misses can be read case by case) and
+    scored against its truth, read only then. Returns (row, log line)."""
+    from rvflex.diagnosis.fit import diagnose
+    from rvflex.diagnosis.report import json_document
+    from rvflex.io import write_atomic
+
+    k, folder, truth_path, report_path, settings, cache = args
+    diag = diagnose(read_bench(folder), settings=dc.replace(settings.diagnosis, workers=1), effects=settings.effects,
+                    nominal=settings.nominal, cache_dir=cache)
+    write_atomic(report_path, json.dumps(json_document(diag), indent=2, default=float).encode())
+    truth_doc = json.loads(Path(truth_path).read_text(encoding="utf-8"))
+    row = {"case": k, **score_case(truth_doc, diag)}
+    top = diag.candidates[0] if diag.candidates else None
+    why = (f"best {top.name}: score {top.score:.0f}, shrink {top.gap_shrink_pct:.0f} %, withheld "
+           f"{top.withheld.get('improvement_pct') or 0:.0f} %, refined {top.refined}") if top else ""
+    return row, (f"case {k:2d}: hidden {row['hidden'] or 'none'} → {row['chosen'] or 'no effect'} "
+                 f"(ranked {', '.join(row['ranked'][:2])}; {why}) [{diag.wall_s:.0f} s, {diag.model_runs} model runs]")
+
+
 GENERATOR_VERSION = 1
 """Version of what a self-check job writes (``draw_truth``, ``generate_case``, the bench plan): part of
 each bench's key, so that ``reuse_benches`` never takes a bench an older generator wrote. Bump it with any
@@ -491,10 +512,8 @@ def selfcheck(out_dir: str | Path, settings: SelfCheckSettings = SelfCheckSettin
     ``wall_s``, and ``per_case``).
     """
     from rvflex import catalog
-    from rvflex.diagnosis.fit import diagnose, signature_sizes
+    from rvflex.diagnosis.fit import signature_sizes
     from rvflex.diagnosis.plan import plan_from_dataset
-    from rvflex.diagnosis.report import json_document
-    from rvflex.io import write_atomic
 
     t0 = time.perf_counter()
     out = Path(out_dir)
@@ -555,8 +574,8 @@ def selfcheck(out_dir: str | Path, settings: SelfCheckSettings = SelfCheckSettin
     outcomes = map_warm(_case_job, [jobs[k] for k in todo], settings.diagnosis.workers if len(todo) > 1 else 0,
                         on_outcome=generated)
     made = dict(zip(todo, outcomes))
+    ready = []  # the cases to diagnose: (case, folder, truth file)
     for k, job in enumerate(jobs):
-        folder, truth_path = job[0], job[1]
         if k in kept:
             truth_doc, msgs = kept[k], []
         else:
@@ -567,23 +586,27 @@ def selfcheck(out_dir: str | Path, settings: SelfCheckSettings = SelfCheckSettin
         if truth_doc is None:
             rows.append({"case": k, "error": "generator did not converge"})
             continue
-        diag = diagnose(read_bench(folder), settings=settings.diagnosis, effects=settings.effects,
-                        nominal=settings.nominal, cache_dir=cache)
-        # each case's diagnosis as `rvflex diagnose --json` writes it (no plots): the misses can be read case by case
-        write_atomic(out / "reports" / f"case_{k:02d}.json",
-                     json.dumps(json_document(diag), indent=2, default=float).encode())
-        truth_doc = json.loads(truth_path.read_text(encoding="utf-8"))  # scored only after the diagnosis
-        row = {"case": k, **score_case(truth_doc, diag)}
+        ready.append((k, job[0], job[1]))
+
+    def diagnosed(o) -> None:  # scored, logged and kept as each case finishes (an interrupted run keeps them)
+        k = ready[o.index][0]
+        if not o.ok:  # a diagnosis that raises is a bug to see, not a case to leave out of the rates
+            raise RuntimeError(f"self-check case {k}: the diagnosis {'process died' if o.died else f'failed: {o.error}'}")
+        row, line = o.value
         rows.append(row)
-        top = diag.candidates[0] if diag.candidates else None
-        why = (f"best {top.name}: score {top.score:.0f}, shrink {top.gap_shrink_pct:.0f} %, withheld "
-               f"{top.withheld.get('improvement_pct') or 0:.0f} %, refined {top.refined}") if top else ""
-        log(f"case {k:2d}: hidden {row['hidden'] or 'none'} → {row['chosen'] or 'no effect'} "
-            f"(ranked {', '.join(row['ranked'][:2])}; {why}) [{diag.wall_s:.0f} s, {diag.model_runs} model runs]")
+        log(line)
         if partial_path is not None:
-            partial_path.write_text(json.dumps({"done": len(rows), "per_case": rows}, indent=2, default=float))
+            partial_path.write_text(json.dumps({"done": len(rows), "per_case": sorted(rows, key=lambda r: r["case"])},
+                                               indent=2, default=float))
         if progress:
-            progress(k + 1, settings.cases)
+            progress(len(rows), settings.cases)
+
+    # the cases' diagnoses side by side, each serial in its own worker: a diagnosis alone leaves the pool half idle
+    # in its serial stretches (the fits, an odd batch of runs), two of them keep both cores busy
+    workers = settings.diagnosis.workers if len(ready) > 1 else 0
+    map_warm(_diagnosis_job, [(k, folder, truth_path, out / "reports" / f"case_{k:02d}.json", settings, cache)
+                              for k, folder, truth_path in ready], workers, on_outcome=diagnosed)
+    rows.sort(key=lambda r: r["case"])
     eff = [r for r in rows if not r.get("control") and "error" not in r]
     ctl = [r for r in rows if r.get("control")]
     hits = [r for r in eff if r.get("top1")]
