@@ -26,7 +26,9 @@ _SCALARS = ("nModes", "nNodes", "dim3D", "nODE2rot", "nODE2rigid", "nODE2FFRFred
 
 
 def _path(reduced, cache_dir) -> Path:
-    return cache_root(cache_dir) / f"ffrf-{reduced.key}.npz"
+    """The interface file of ``reduced`` (a part scaled from another modulus shares that part's)."""
+    ref = reduced.meta.get("scaled_from")
+    return cache_root(cache_dir) / f"ffrf-{ref['key'] if ref else reduced.key}.npz"
 
 
 def _build(reduced, node_type):
@@ -67,18 +69,30 @@ def _load(path: Path, node_type):
 def ffrf_interface(reduced, *, cache_dir: str | os.PathLike | None = None):
     """The ``ObjectFFRFreducedOrderInterface`` of ``reduced`` (a ReducedPart) for a
     NodeRigidBodyRxyz reference node: from the disk cache when a valid file exists, else
-    computed and stored. Reuse one interface for several bodies of the same part."""
+    computed and stored. Reuse one interface for several bodies of the same part.
+
+    A part that is another one at a different Young's modulus (``meta["scaled_from"]``, see
+    :func:`rvflex.fe.cache.load_at_modulus`) shares that part's file: every tensor but the reduced
+    stiffness comes from the mode basis and the mass matrix, which the modulus leaves alone, and the
+    reduced stiffness is scaled by the modulus factor."""
     import exudyn as exu
 
     node_type = exu.NodeType.RotationRxyz
+    factor = float(reduced.meta.get("scaled_from", {}).get("modulus_factor", 1.0))
     path = _path(reduced, cache_dir)
     if path.is_file():
         try:
-            return _load(path, node_type)
+            obj = _load(path, node_type)
         except Exception:  # corrupt or foreign file: rebuild, never use
             path.unlink(missing_ok=True)
+        else:
+            obj.stiffnessMatrixReduced = obj.stiffnessMatrixReduced * factor
+            return obj
     obj = _build(reduced, node_type)
+    k = obj.stiffnessMatrixReduced
+    obj.stiffnessMatrixReduced = k / factor  # stored as the reference part's
     _save(obj, path)
+    obj.stiffnessMatrixReduced = k
     return obj
 
 
