@@ -25,7 +25,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--json", help="write the score document here")
     s.add_argument("--out", help="folder for the datasets, truths, cache and per-case reports "
                                  "(default: a temporary folder)")
-    s.add_argument("--workers", type=int, default=2, help="processes for the model runs (default 2)")
+    s.add_argument("--workers", type=int, default=2,
+                   help="processes: the benches are generated and the cases diagnosed that many at a time (default 2)")
     s.add_argument("--mismatch", choices=choices(Mismatch), default="none",
                    help="generator: 'none' (default) the diagnosing model at a finer resolution, contact 2 %% stiffer; "
                         "'realistic' another model family per case (power-law contact, needle-bearing and mesh "

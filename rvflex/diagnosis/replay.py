@@ -240,10 +240,8 @@ def evaluate(spec: ReducerSpec, errors: ErrorSpec, plan: tuple[PlanRun, ...], se
     Raises
     ------
     EvaluationFailed
-        The model did not converge (or an effect value broke a spec rule) for some run.
+        From :func:`run_model`, for the first of the runs that fails.
     """
-    if settings.positions_per_rev is None:
-        settings = settings.for_spec(spec)
     ev = plan_evaluation(active, options)
     return combine(ev, [run_model(spec, errors, plan, settings, r, law=law) for r in ev.runs], plan, settings, spec)
 

@@ -556,7 +556,7 @@ def selfcheck(out_dir: str | Path, settings: SelfCheckSettings = SelfCheckSettin
                      settings.generator, settings.reducer,
                      settings.family))
     # the benches are independent of each other and of the diagnoses: generated in the pool first
-    # (each generator run is serial), then diagnosed one by one (each diagnosis uses the pool); with
+    # (each generator run is serial), then diagnosed in the pool too (each diagnosis serial); with
     # reuse_benches a bench the same job wrote before (its key matches) is diagnosed again as it is
     kept = {k: doc for k, job in enumerate(jobs) if settings.reuse_benches and (doc := _reusable(job)) is not None}
     if kept:

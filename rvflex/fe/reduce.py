@@ -119,7 +119,9 @@ def reduce_part(spec: ReducerSpec, part: FEPart, *, maxh_m: float | None = None,
     Returns
     -------
     ReducedPart
-        ``rp.meta["cached"]`` tells whether it came from the cache.
+        ``rp.meta["cached"]`` tells whether it came from the cache; ``rp.meta["scaled_from"]`` (key,
+        modulus factor) that it is the cached part of another Young's modulus, its stiffness scaled
+        (:func:`rvflex.fe.cache.load_at_modulus`: the same basis, nothing meshed).
 
     Raises
     ------
