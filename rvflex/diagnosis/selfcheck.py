@@ -460,16 +460,16 @@ def _case_job(args):
 
 
 def _diagnosis_job(args):
-    """One self-check case diagnosed blind (serially: the cases run side by side, see :func:`selfcheck`), its
-    report written as `rvflex diagnose --json` writes it (no plots: the misses can be read case by case) and
-    scored against its truth, read only then. Returns (row, log line)."""
+    """One self-check case diagnosed blind with the diagnosis settings ``diag`` (serial when the cases run side
+    by side, see :func:`selfcheck`), its report written as `rvflex diagnose --json` writes it (no plots: the
+    misses can be read case by case) and scored against its truth, read only then. Returns (row, log line)."""
     from rvflex.diagnosis.fit import diagnose
     from rvflex.diagnosis.report import json_document
     from rvflex.io import write_atomic
 
-    k, folder, truth_path, report_path, settings, cache = args
-    diag = diagnose(read_bench(folder), settings=dc.replace(settings.diagnosis, workers=1), effects=settings.effects,
-                    nominal=settings.nominal, cache_dir=cache)
+    k, folder, truth_path, report_path, settings, diag_settings, cache = args
+    diag = diagnose(read_bench(folder), settings=diag_settings, effects=settings.effects, nominal=settings.nominal,
+                    cache_dir=cache)
     write_atomic(report_path, json.dumps(json_document(diag), indent=2, default=float).encode())
     truth_doc = json.loads(Path(truth_path).read_text(encoding="utf-8"))
     row = {"case": k, **score_case(truth_doc, diag)}
@@ -602,10 +602,12 @@ def selfcheck(out_dir: str | Path, settings: SelfCheckSettings = SelfCheckSettin
             progress(len(rows), settings.cases)
 
     # the cases' diagnoses side by side, each serial in its own worker: a diagnosis alone leaves the pool half idle
-    # in its serial stretches (the fits, an odd batch of runs), two of them keep both cores busy
+    # in its serial stretches (the fits, an odd batch of runs), two of them keep both cores busy (a lone case keeps
+    # the pool for its runs)
     workers = settings.diagnosis.workers if len(ready) > 1 else 0
-    map_warm(_diagnosis_job, [(k, folder, truth_path, out / "reports" / f"case_{k:02d}.json", settings, cache)
-                              for k, folder, truth_path in ready], workers, on_outcome=diagnosed)
+    diag_settings = dc.replace(settings.diagnosis, workers=1) if workers else settings.diagnosis
+    map_warm(_diagnosis_job, [(k, folder, truth_path, out / "reports" / f"case_{k:02d}.json", settings, diag_settings,
+                               cache) for k, folder, truth_path in ready], workers, on_outcome=diagnosed)
     rows.sort(key=lambda r: r["case"])
     eff = [r for r in rows if not r.get("control") and "error" not in r]
     ctl = [r for r in rows if r.get("control")]
