@@ -126,15 +126,14 @@ class ModelRunner:
         evals = {i: plan_evaluation(actives[i]) for i in todo}
         runs: dict[str, ModelRun] = {}
         got: dict[str, tuple] = {}  # run key → (response | None, message)
+        waiting = {i: [self._run_key(r) for r in evals[i].runs] for i in todo}  # each evaluation's run keys
         for i in todo:
-            for r in evals[i].runs:
-                k = self._run_key(r)
+            for r, k in zip(evals[i].runs, waiting[i]):
                 if k not in runs:
                     runs[k] = r
                     v = self._load_run(k, r)
                     if v is not None:
                         got[k] = v
-        waiting = {i: [self._run_key(r) for r in evals[i].runs] for i in todo}
         pending = {keys[i] for i in todo}
 
         def combined() -> None:  # every evaluation whose runs are all in
