@@ -72,7 +72,8 @@ def _run_model(variants: list[tuple[ReducerSpec, ErrorSpec]], plan: tuple[PlanRu
             model = models[key]
             if p.kind == "te":
                 theta = p.direction * np.linspace(0.0, 2 * math.pi * model.ratio, n, endpoint=False)
-                res = quasi_static(model, theta, p.load_Nm, progress=budget, fail_fast=True, skip_unsolved=True)
+                res = quasi_static(model, theta, p.load_Nm, progress=budget, fail_fast=True, skip_unsolved=True,
+                                   contact_states=False)
                 grid = np.empty(n)
                 grid[(p.direction * np.arange(n)) % n] = res.te_rad
                 bad = np.isnan(grid)
