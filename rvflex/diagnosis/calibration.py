@@ -12,7 +12,8 @@ from rvflex.diagnosis.linear import Candidate, Sensitivities
 from rvflex.diagnosis.nominal import SAME_QUANTITY, describe_calibration
 from rvflex.diagnosis.verdict import SIGNATURE_TIE
 
-__all__ = ["CALIBRATION_PREFERRED", "UNDETERMINED_INFO", "calibration_lookalikes", "calibration_sentence", "lookalike_sentence", "calibration_ties", "undetermined"]
+__all__ = ["CALIBRATION_PREFERRED", "UNDETERMINED_INFO", "calibration_lookalikes", "calibration_sentence", "lookalike_sentence", "calibration_ties", "separable",
+           "undetermined"]
 
 UNDETERMINED_INFO = 1.0  # a prior σ of the parameter moves the weighted features by less: the runs do not determine it
 
@@ -142,15 +143,10 @@ def _reproduced(sig: np.ndarray, cal, now: dict, sens: Sensitivities, w) -> tupl
     the weighted residual's energy; no names beyond SIGNATURE_TIE)."""
     if not cal:
         return (), (), math.inf, math.inf
-    sig = sig * w
-    norm = float(np.linalg.norm(sig))
+    norm = float(np.linalg.norm(sig * w))
     if norm <= 0:
         return (), (), math.inf, math.inf
-    J = np.column_stack([sens.plus[c.name] for c in cal]) * w[:, None]
-    lo = np.concatenate([c.lower - now.get(c.name, c.center) for c in cal])
-    hi = np.concatenate([c.upper - now.get(c.name, c.center) for c in cal])
-    coef = lsq_linear(J, sig, bounds=(lo, hi), method="bvls").x
-    left = float(np.linalg.norm(sig - J @ coef))
+    coef, J, left = _reproduction(sig, cal, now, sens, w)
     ratio = left / norm
     if ratio > SIGNATURE_TIE:
         return (), (), ratio, left**2
@@ -158,6 +154,30 @@ def _reproduced(sig: np.ndarray, cal, now: dict, sens: Sensitivities, w) -> tupl
     names = tuple(c.name for c, s in zip(cal, share) if s > 0.1 * share.max())
     runs = tuple(dict.fromkeys(c.separating_runs for c in cal if c.name in names and c.separating_runs))
     return names, runs, ratio, left**2
+
+
+def _reproduction(sig: np.ndarray, cal, now: dict, sens: Sensitivities, w) -> tuple[np.ndarray, np.ndarray, float]:
+    """The nominal parameters' best reproduction of the model change ``sig`` (bounded least squares on the
+    weighted features, each parameter within its prior range from its value in ``now``): their steps, their
+    weighted columns, and the weighted norm of what is left."""
+    sig = sig * w
+    J = np.column_stack([sens.plus[c.name] for c in cal]) * w[:, None]
+    lo = np.concatenate([c.lower - now.get(c.name, c.center) for c in cal])
+    hi = np.concatenate([c.upper - now.get(c.name, c.center) for c in cal])
+    coef = lsq_linear(J, sig, bounds=(lo, hi), method="bvls").x
+    return coef, J, float(np.linalg.norm(sig - J @ coef))
+
+
+def separable(sig: np.ndarray, calibrated: Candidate, sens: Sensitivities, w) -> tuple[float, float]:
+    """The size of the model change ``sig`` (features) in floor units (its weighted norm, ``w`` = 1/floor),
+    and of its part the calibrated nominal parameters of ``calibrated`` cannot reproduce within their prior
+    ranges: the part a diagnosis that calibrates first can tell from a calibration with these runs."""
+    size = float(np.linalg.norm(sig * w))
+    cal = tuple(e for e in calibrated.effects if e.nominal and e.name in sens.plus)
+    if not cal or size <= 0:
+        return size, size
+    now = {e.name: xe for e, xe in calibrated.split() if e.nominal}
+    return size, _reproduction(sig, cal, now, sens, w)[2]
 
 
 def lookalike_sentence(lookalikes: dict) -> str:

@@ -50,6 +50,7 @@ from rvflex.diagnosis.calibration import (
     calibration_sentence,
     calibration_ties,
     lookalike_sentence,
+    separable,
     undetermined,
 )
 from rvflex.diagnosis.discrepancy import Discrepancy, evidence, feature_groups
@@ -57,6 +58,7 @@ from rvflex.diagnosis.features import measured_runs
 from rvflex.diagnosis.linear import (
     Candidate,
     Problem,
+    Sensitivities,
     bounds,
     lin_fit,
     make_candidate,
@@ -128,6 +130,29 @@ class Diagnosis:
     anchor: Anchor = dc.field(default_factory=Anchor)  # the global stiffness scale the calibration starts from
     discrepancy: Discrepancy | None = None  # what the calibrated model leaves, per order band and run
     lookalikes: dict = dc.field(default_factory=dict)  # effects the calibration can stand in for (see calibration_lookalikes)
+    sensitivities: Sensitivities | None = None  # the secants the candidates were fitted with (about the anchored model)
+
+    def observability(self, name: str, x) -> tuple[float, float]:
+        """How well these runs can see candidate effect ``name`` at parameters ``x`` (its parameter units):
+        its linearised signature in floor units (weighted norm of the feature change by its secants), and
+        the part of it the calibrated nominal parameters cannot reproduce within their prior ranges
+        (:func:`~rvflex.diagnosis.calibration.separable`), the part that can be told from a calibration.
+        Measured on the self-checks' misses (docs/diagnosis.md, session 18): a hidden series compliance
+        leaves under 5 floor units separable, a modification deviation drawn along its near-cancelling
+        direction 12 to 18. NaN, NaN for an effect without sensitivities here.
+
+        Raises
+        ------
+        ValueError
+            ``x`` does not have the effect's number of parameters.
+        """
+        if self.sensitivities is None or name not in self.sensitivities:
+            return math.nan, math.nan
+        x = np.asarray(x, float)
+        k = self.sensitivities.plus[name].shape[1]
+        if x.shape != (k,):
+            raise ValueError(f"x = {x.tolist()}: {name} has {k} parameters")
+        return separable(self.sensitivities.change_at(name, x), self.baseline, self.sensitivities, self.weights)
 
     def to_dataframe(self, table: str = "ranking"):
         """One of the diagnosis's tables as a tidy pandas DataFrame.
@@ -370,6 +395,7 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
     # the fidelity effects (the contact-law form, the elastic discs) act as the difference their model makes,
     # measured first about the nominal model; far from it that difference is wrong (see rebase_fidelity), so it is
     # measured again about the calibration, and the calibration goes on from there
+    sens_nominal = sens  # the secants about the anchored nominal model (the rebase replaces the fidelity ones)
     for rebase in range(FIDELITY_REBASES + 1):
         if rebase:
             if not cal_ref or calib.jacobian is None:
@@ -414,21 +440,70 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
 
     # --- stage 2, attribution: each candidate effect (and pair) with the nominal parameters, linearised
     # about the calibrated model (its model run and Broyden Jacobian), on all features
-    def lin(effs):
+    J_nominal = np.column_stack([sens_nominal.plus[c.name] for c in cal]) if cal else np.zeros((n, 0))
+
+    def lin(effs, about_nominal: bool = False):
         effs = tuple(effs)
         prior = prior_of(cal + effs)
-        x_ref = np.r_[x_cal, np.zeros(sum(e.n for e in effs))]
+        x_c, f_b, J_b = (np.zeros(len(x_cal)), f0, J_nominal) if about_nominal else (x_cal, f_cal, J_cal)
+        x_ref = np.r_[x_c, np.zeros(sum(e.n for e in effs))]
         lo_c, hi_c = bounds(cal)
         best = None
         for Je, lo, hi in sens.orthants(effs):  # two-sided parameters: each sign with its own secant
-            J = np.column_stack([J_cal, Je])
+            J = np.column_stack([J_b, Je])
             lo_, hi_ = np.r_[lo_c, lo], np.r_[hi_c, hi]
-            fit_ = lin_fit(prob, f_cal, J, x_ref, lo_, hi_, prior=prior)
+            fit_ = lin_fit(prob, f_b, J, x_ref, lo_, hi_, prior=prior)
             if best is None or fit_[3] < best[0][3]:
                 best = (fit_, J, lo_, hi_)
         (x, nu, d, rss, A), J, lo, hi = best
-        return make_candidate(cal + effs, x, nu, d, rss, A, n, n_nuis, f_cal + J @ (x - x_ref), refined=False,
-                              note="linearised", jacobian=J, box=(lo, hi), base=(x_ref, f_cal))
+        return make_candidate(cal + effs, x, nu, d, rss, A, n, n_nuis, f_b + J @ (x - x_ref), refined=False,
+                              note="linearised about the nominal model" if about_nominal else "linearised",
+                              jacobian=J, box=(lo, hi), base=(x_ref, f_b))
+
+    # a second start about the anchored nominal model: the calibration alone can stand in for an effect with a
+    # far-fetched mix of its parameters, and linearised about that mix the effect finds nothing (measured, same-
+    # family self-check seed 1, case 0: a hidden series compliance taken as contact stiffness ×3.33 with needle
+    # bearings ×0.46, weighted RSS with the priors 120.0; the compliance fitted about it 118.2, while the drawn
+    # compliance with the drawn stiffnesses gives 89.6). Only for an effect without evidence about the calibration:
+    # where the effect has some, a start far from the calibration can fit the model-form gap better and the effect
+    # worse (measured, far self-check seed 1, case 10: a hidden 8.9 ppm/K thermal mismatch fitted at 8.0 ppm/K about
+    # the calibration, score 74, confirmed; from the nominal model at 13.0 ppm/K, score 153, refuted by the TE runs'
+    # fold). Kept when its linearised fit is better by the evidence threshold than the fit about the calibration and
+    # than the calibration alone linearised about the nominal model (each kept start costs model runs), with its twin
+    # about the calibration refined beside it (the better real residual stays)
+    twins = {}
+    # the calibration alone linearised about the nominal model: what that linearisation gains without any effect
+    # (linearised so far from the calibration it is optimistic: measured, far self-check seed 2, case 2, weighted RSS
+    # 330 against the calibrated model's 474, which five effects with no signature there then "shared")
+    lo_c, hi_c = bounds(cal)
+    rss_nominal = lin_fit(prob, f0, J_nominal, np.zeros(len(x_cal)), lo_c, hi_c, prior=prior_of(cal))[3]
+    # trusted only where it does not promise the calibration more than the model run at the calibration gave
+    # (measured: 123.0 against 120.0 in the case above; 330 against 474 in the far case where its effect fits were
+    # spurious, 188 against 264 in far seed 3's case 6)
+    nominal_trusted = settings.nominal_start and rss_nominal >= none.rss - settings.bic_threshold
+
+    def lin_best(effs, about_nominal: bool = True):
+        here = lin(effs)
+        if not (about_nominal and nominal_trusted) or score_of(here) >= settings.bic_threshold:
+            return here  # (an effect with evidence about the calibration keeps that fit: the rescue is for the hidden)
+        there = lin(effs, about_nominal=True)
+        # better by the evidence an effect must bring, against the fit about the calibration and against the
+        # calibration alone linearised the same way (the effect's own share of the gain)
+        if there.rss > min(here.rss, rss_nominal) - settings.bic_threshold:
+            return here
+        twins[there.name] = here
+        return there
+
+    def with_twins(cands: list) -> list:  # (a scored candidate is a copy: its twin is found by name and start)
+        return list(cands) + [twins[c.name] for c in cands
+                              if c.name in twins and not c.refined and c.note.startswith("linearised about")]
+
+    def best_per_name(cands: list) -> list:
+        best = {}
+        for c in cands:
+            if c.name not in best or c.rss < best[c.name].rss:
+                best[c.name] = c
+        return list(best.values())
 
     # --- the discrepancy the calibrated model leaves, per order band and run: every score is measured against it
     folds = withheld_folds(plan)
@@ -439,7 +514,8 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
         return (none.bic - c.bic if settings.evidence_model == "bic"
                 else evidence(prob, c, none, disc, settings.discrepancy_pooling))
 
-    singles = sorted((lin((e,)) for e in usable), key=lambda c: c.bic)
+    singles = sorted((lin_best((e,)) for e in usable), key=lambda c: c.bic)
+    from_nominal = {c.attributed[0].name for c in singles if c.note.startswith("linearised about")}
     # pairs: every pair of effects (or those with one of the best pair_top singles) — a weak second
     # effect need not rank high alone while a strong one dominates the gap, and two effects can act
     # only together; kept only when the second effect has evidence given the better single
@@ -449,7 +525,7 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
     for a, b in itertools.combinations([c.attributed[0] for c in singles], 2):
         if lead is not None and a.name not in lead and b.name not in lead:
             continue
-        c = lin((a, b))
+        c = lin_best((a, b), about_nominal=bool({a.name, b.name} & from_nominal))
         if second_effect_adds(c, by_name, settings, score_of):
             pairs.append(c)
     ranked = sorted(singles + pairs, key=lambda c: c.bic)
@@ -463,7 +539,7 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
     to_refine = by_score[: settings.refine_top]
     if singles and singles[0] not in to_refine:
         to_refine.append(singles[0])
-    refined = refine(to_refine, prob, runner, sens, f0, resp0, settings, failed, n_nuis)
+    refined = best_per_name(refine(with_twins(to_refine), prob, runner, sens, f0, resp0, settings, failed, n_nuis))
     refined_names = {c.name for c in refined}
     allc = refined + [c for c in ranked if c.name not in refined_names]
     # the pair rule again with the model-in-the-loop residuals where there are some
@@ -507,7 +583,7 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
                 break
         if nxt is None:
             break
-        again = refine([nxt], prob, runner, sens, f0, resp0, settings, failed, n_nuis)
+        again = best_per_name(refine(with_twins([nxt]), prob, runner, sens, f0, resp0, settings, failed, n_nuis))
         out = [c for c in out if c is not nxt] + [scored(c) for c in again]
         if not again:  # its evaluation failed: kept linearised, and named so in the verdict
             out.append(nxt)
@@ -564,7 +640,7 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
     return Diagnosis(dataset, settings, plan, lay, w, y, none, none.response or resp0, tuple(final), chosen,
                      folds, unavailable, failed, size, text, runner.model_runs,
                      time.perf_counter() - t0, tied, nominal_model, windows, cal_ties, runs_needed, held, anc, disc,
-                     lookalikes)
+                     lookalikes, sens)
 
 
 def _baseline(runner: ModelRunner) -> tuple[np.ndarray, Response]:

@@ -306,6 +306,16 @@ class Sensitivities:
     def __contains__(self, name: str) -> bool:
         return name in self.plus
 
+    def change_at(self, name: str, x) -> np.ndarray:
+        """The linearised feature change of effect ``name`` at its parameters ``x``: each parameter by the
+        secant of its side (the −step secant for a negative value of a two-sided parameter)."""
+        x = np.asarray(x, float)
+        J = self.plus[name].copy()
+        if name in self.minus:
+            neg = x < 0
+            J[:, neg] = self.minus[name][:, neg]
+        return J @ x
+
     def orthants(self, effects) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
         """(J, lower, upper) per sign pattern of the two-sided parameters of ``effects``: the +step
         secant with the bounds [0, high] and the −step secant with [low, 0]; one entry with the

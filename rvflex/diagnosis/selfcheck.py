@@ -18,7 +18,14 @@ Scoring (per effect case; the dominant hidden effect is the first one drawn):
 - top-2: the dominant hidden effect is among the two best-ranked candidates;
 - magnitude: for top-1 hits, the fitted magnitude is within ±25 % of the hidden one;
 - gap shrink: the accepted correction's shrink of the weighted gap (0 when none accepted);
-- controls: a control is correct when no effect is accepted.
+- controls: a control is correct when no effect is accepted;
+- observability (reported beside top-1, never instead of it): the dominant effect's linearised signature at
+  its drawn parameters and the part of it the calibrated nominal parameters cannot reproduce within their
+  prior ranges (:meth:`~rvflex.diagnosis.fit.Diagnosis.observability`), in floor units; a case is
+  ``observable`` when that separable part reaches :data:`MIN_SIGNATURE`, the rule that decides which effects
+  are drawn at all (there taken at typical size, before calibration). ``top1_rate_observable`` is the top-1
+  rate over the observable effect cases: what the diagnosis finds of what a diagnosis that calibrates first
+  could see with these runs.
 """
 
 from __future__ import annotations
@@ -388,6 +395,11 @@ def score_case(truth: dict, diag) -> dict:
         row["correct"] = chosen is None
         return row
     dom = hidden[0]
+    # how well these runs can see the dominant effect as drawn, and what of it the calibration cannot take
+    params = truth["effects"][0].get("params", {})
+    size, sep = diag.observability(dom, list(params.values())) if params else (math.nan, math.nan)
+    row["hidden_signature_fu"], row["hidden_separable_fu"] = size, sep
+    row["observable"] = bool(sep >= MIN_SIGNATURE)
     row["top1"] = bool(chosen and dom in [e.name for e in chosen.effects])
     row["top2"] = any(dom in [e.name for e in c.effects] for c in ranked[:2])
     tied = [c for c in ranked if c.name in diag.ties] if chosen else []
@@ -509,7 +521,7 @@ def selfcheck(out_dir: str | Path, settings: SelfCheckSettings = SelfCheckSettin
 
     Returns the JSON document (keys ``cases``, ``top1_rate``, ``top2_rate``,
     ``magnitude_within_25pct_rate``, ``median_gap_shrink_pct``, ``control_correct_rate``,
-    ``wall_s``, and ``per_case``).
+    ``top1_rate_observable`` with ``observable_effect_cases``, ``wall_s``, and ``per_case``).
     """
     from rvflex import catalog
     from rvflex.diagnosis.fit import signature_sizes
@@ -617,6 +629,8 @@ def selfcheck(out_dir: str | Path, settings: SelfCheckSettings = SelfCheckSettin
         "top1_rate": _rate([r["top1"] for r in eff]),
         "top2_rate": _rate([r["top2"] for r in eff]),
         "top1_or_tie_rate": _rate([r["top1_or_tie"] for r in eff]),
+        "top1_rate_observable": _rate([r["top1"] for r in eff if r.get("observable")]),
+        "observable_effect_cases": sum(bool(r.get("observable")) for r in eff),
         "magnitude_within_25pct_rate": _rate([r["magnitude_ok"] for r in hits]),
         "median_gap_shrink_pct": float(np.median([r["gap_shrink_pct"] for r in eff])) if eff else None,
         "control_correct_rate": _rate([r["correct"] for r in ctl]),

@@ -40,6 +40,11 @@ class DiagnosisSettings:
     pair_top : int or None
         None: every pair of effects is fitted; an int: only pairs with one of the best
         ``pair_top`` single effects.
+    nominal_start : bool
+        A candidate without evidence about the calibrated model is linearised also about the anchored
+        nominal model, where that linearisation does not promise the calibration alone more than its model
+        run gave; the fit is kept when it is better by ``bic_threshold`` and refined beside the other (True,
+        default). False: about the calibrated model alone (the rule before session 18; docs/diagnosis.md).
     evidence_model : {"discrepancy", "bic"}
         How an effect's evidence is measured against the calibrated model. "discrepancy" (default):
         against a model discrepancy with its own variance per order band and run, profiled
@@ -91,6 +96,7 @@ class DiagnosisSettings:
     refine_iterations: int = 5
     refine_min_gain: float = 0.02
     pair_top: int | None = None
+    nominal_start: bool = True
     evidence_model: EvidenceModel = "discrepancy"
     discrepancy_pooling: float | None = None
     bic_threshold: float = 10.0
