@@ -133,13 +133,26 @@ class Diagnosis:
     sensitivities: Sensitivities | None = None  # the secants the candidates were fitted with (about the anchored model)
 
     def observability(self, name: str, x) -> tuple[float, float]:
-        """How well these runs can see candidate effect ``name`` at parameters ``x`` (its parameter units):
-        its linearised signature in floor units (weighted norm of the feature change by its secants), and
-        the part of it the calibrated nominal parameters cannot reproduce within their prior ranges
-        (:func:`~rvflex.diagnosis.calibration.separable`), the part that can be told from a calibration.
+        """How well these runs can see candidate effect ``name`` at parameters ``x``.
+
         Measured on the self-checks' misses (docs/diagnosis.md, session 18): a hidden series compliance
-        leaves under 5 floor units separable, a modification deviation drawn along its near-cancelling
-        direction 12 to 18. NaN, NaN for an effect without sensitivities here.
+        mostly leaves under 7 floor units separable, a modification deviation drawn along its
+        near-cancelling direction 9 to 21.
+
+        Parameters
+        ----------
+        name : str
+            A candidate effect of this diagnosis.
+        x : array_like
+            Its parameters, in their units (m, rad, 1/K, …).
+
+        Returns
+        -------
+        tuple of float
+            Its linearised signature in floor units (the weighted norm of the feature change by its
+            secants) and the part of it the calibrated nominal parameters cannot reproduce within their
+            prior ranges (:func:`~rvflex.diagnosis.calibration.separable`): the part these runs can tell
+            from a calibration. NaN, NaN for an effect without sensitivities here.
 
         Raises
         ------
