@@ -130,6 +130,17 @@ class _NotConverged(RuntimeError):
     pass
 
 
+def _static_solver(model: ReducerModel, ss, q_abs: np.ndarray):
+    """A static solver of ``model``'s system with settings ``ss``, initialised at the absolute ODE2
+    coordinates ``q_abs``, for Newton iterations driven step by step (the chord and the kept Newton)."""
+    import exudyn as exu
+
+    model.mbs.systemData.SetODE2Coordinates(q_abs - model.reference, configuration=exu.ConfigurationType.Initial)
+    solver = exu.MainSolverStatic()
+    solver.InitializeSolver(model.mbs, ss)
+    return solver
+
+
 class _ChordNewton:
     """Static equilibria by a chord Newton iteration on Exudyn's own static residual and
     Jacobian (``MainSolverStatic.ComputeNewtonResidual``/``ComputeNewtonJacobian``).
@@ -203,9 +214,7 @@ class _ChordNewton:
 
         mbs, ref = self.model.mbs, self.model.reference
         if self.solver is None:
-            mbs.systemData.SetODE2Coordinates(q_abs - ref, configuration=exu.ConfigurationType.Initial)
-            self.solver = exu.MainSolverStatic()
-            self.solver.InitializeSolver(mbs, self.ss)
+            self.solver = _static_solver(self.model, self.ss, q_abs)
         lam = np.asarray(mbs.systemData.GetAECoordinates(configuration=exu.ConfigurationType.Current))
         x = np.concatenate([q_abs - ref, lam])
         self._set(x)
@@ -266,9 +275,7 @@ class _KeptNewton:
 
         mbs, ref = self.model.mbs, self.model.reference
         if self.solver is None:
-            mbs.systemData.SetODE2Coordinates(q_abs - ref, configuration=exu.ConfigurationType.Initial)
-            self.solver = exu.MainSolverStatic()
-            self.solver.InitializeSolver(mbs, self.ss)
+            self.solver = _static_solver(self.model, self.ss, q_abs)
         mbs.systemData.SetODE2Coordinates(q_abs - ref, configuration=exu.ConfigurationType.Current)
         if not self.solver.Newton(mbs, self.ss):
             raise _NotConverged("Exudyn's Newton did not converge")
