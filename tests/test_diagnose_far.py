@@ -379,11 +379,12 @@ def test_the_separable_part_is_what_the_calibration_cannot_make_within_its_range
 
 @pytest.mark.slow
 def test_a_series_compliance_the_calibration_mimics_is_found_from_the_nominal_model(tmp_path):
-    """The same-family self-check's seed 1, case 0, generated afresh: a series compliance (linear and
-    stiffening twist 113 and 112 µrad at rated torque) on the unit as the model has it. The calibration takes
-    it as stiff contacts (×3.33, at its bound) and soft needle bearings (×0.46); linearised about that mix the
-    compliance finds nothing, and a modification deviation is accepted instead (measured, both asserted
-    here). Linearised also about the nominal model (``nominal_start``, the default) it is found."""
+    """The hidden effect of the same-family self-check's seed 1, case 0, on a bench generated afresh (another
+    noise draw, four candidates): a series compliance (linear and stiffening twist 113 and 112 µrad at rated
+    torque) on the unit as the model has it. The calibration takes it as stiff contacts (×3.33, at its bound)
+    and soft needle bearings (×0.46); linearised about that mix the compliance finds nothing (measured: a
+    modification deviation is accepted instead; asserted: not the compliance). Linearised also about the
+    nominal model (``nominal_start``, the default) it is found."""
     from rvflex.diagnosis.fit import diagnose
     from rvflex.diagnosis.selfcheck import generate_case
 
