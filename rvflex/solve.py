@@ -381,8 +381,8 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
     theta_in = np.asarray(theta_in, float)
     n, nd, npins = len(theta_in), len(model.discs.nodes), model.spec.cycloid.pin_count
     out = np.full(n, np.nan)
-    forces = np.zeros((n, nd, npins)) if contact_states else np.full((n, nd, npins), np.nan)
-    gaps = np.zeros((n, nd, npins)) if contact_states else np.full((n, nd, npins), np.nan)
+    forces = np.full((n, nd, npins), 0.0 if contact_states else np.nan)
+    gaps = forces.copy()
     t0 = time.perf_counter()
     q = model.kinematic_coordinates(theta_in[0])
     done = 0

@@ -454,13 +454,13 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
     # --- stage 2, attribution: each candidate effect (and pair) with the nominal parameters, linearised
     # about the calibrated model (its model run and Broyden Jacobian), on all features
     J_nominal = np.column_stack([sens_nominal.plus[c.name] for c in cal]) if cal else np.zeros((n, 0))
+    lo_c, hi_c = bounds(cal)
 
     def lin(effs, about_nominal: bool = False):
         effs = tuple(effs)
         prior = prior_of(cal + effs)
         x_c, f_b, J_b = (np.zeros(len(x_cal)), f0, J_nominal) if about_nominal else (x_cal, f_cal, J_cal)
         x_ref = np.r_[x_c, np.zeros(sum(e.n for e in effs))]
-        lo_c, hi_c = bounds(cal)
         best = None
         for Je, lo, hi in sens.orthants(effs):  # two-sided parameters: each sign with its own secant
             J = np.column_stack([J_b, Je])
@@ -488,8 +488,8 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
     # the calibration alone linearised about the nominal model: what that linearisation gains without any effect
     # (linearised so far from the calibration it is optimistic: measured, far self-check seed 2, case 2, weighted RSS
     # 330 against the calibrated model's 474, which five effects with no signature there then "shared")
-    lo_c, hi_c = bounds(cal)
-    rss_nominal = lin_fit(prob, f0, J_nominal, np.zeros(len(x_cal)), lo_c, hi_c, prior=prior_of(cal))[3]
+    rss_nominal = (lin_fit(prob, f0, J_nominal, np.zeros(len(x_cal)), lo_c, hi_c, prior=prior_of(cal))[3]
+                   if settings.nominal_start else math.inf)
     # trusted only where it does not promise the calibration more than the model run at the calibration gave
     # (measured: 123.0 against 120.0 in the case above; 330 against 474 in the far case where its effect fits were
     # spurious, 188 against 264 in far seed 3's case 6)
@@ -507,9 +507,8 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
         twins[there.name] = here
         return there
 
-    def with_twins(cands: list) -> list:  # (a scored candidate is a copy: its twin is found by name and start)
-        return list(cands) + [twins[c.name] for c in cands
-                              if c.name in twins and not c.refined and c.note.startswith("linearised about")]
+    def with_twins(cands: list) -> list:  # (a scored candidate is a copy: its twin is found by name)
+        return list(cands) + [twins[c.name] for c in cands if c.name in twins and not c.refined]
 
     def best_per_name(cands: list) -> list:
         best = {}
@@ -528,7 +527,7 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
                 else evidence(prob, c, none, disc, settings.discrepancy_pooling))
 
     singles = sorted((lin_best((e,)) for e in usable), key=lambda c: c.bic)
-    from_nominal = {c.attributed[0].name for c in singles if c.note.startswith("linearised about")}
+    from_nominal = {c.name for c in singles if c.name in twins}
     # pairs: every pair of effects (or those with one of the best pair_top singles) — a weak second
     # effect need not rank high alone while a strong one dominates the gap, and two effects can act
     # only together; kept only when the second effect has evidence given the better single
