@@ -51,6 +51,9 @@ def test_zones_only_where_the_root_is_sharper_than_the_pin(relieved):
     zc = relieved.disc_teeth
     zones = concave_zones(build_profile(relieved), relieved.pin_radius_m)
     assert zones.shape == (zc, K.N_ZONE)
+    zones[:] = np.nan  # each caller gets its own copy of the zones kept per curve
+    zones = concave_zones(build_profile(relieved), relieved.pin_radius_m)
+    assert zones.shape == (zc, K.N_ZONE) and np.isfinite(zones).all()
     root_phase = np.angle(np.exp(1j * zc * 0.5 * (zones[:, 0] + zones[:, 1])))
     assert np.abs(root_phase).max() < 1e-9  # centred on the roots
     assert np.all(zc * (zones[:, 1] - zones[:, 0]) < math.radians(10.0))

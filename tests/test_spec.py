@@ -187,6 +187,25 @@ def test_refused_profile_really_self_intersects():
     assert _crossings(xy_ok[: 3 * 2000]) == 0
 
 
+def test_a_refused_profile_is_refused_again_under_the_field_that_asks():
+    """The check's outcome is kept per curve (a diagnosis builds the same discs some 70 times): the same
+    swallowtail is refused each time it is checked, each refusal naming the field its caller gives, and
+    a profile that differs from it by 1 nm of equidistant modification is checked on its own."""
+    spec = loads_spec(_edit(_small_ring("0.0007"), "cycloid.modification", "equidistant_m", "2.0e-5"))
+    stage = object.__new__(type(spec.cycloid))  # bypass validation to check the refused geometry directly
+    for f in dc.fields(spec.cycloid):
+        object.__setattr__(stage, f.name, getattr(spec.cycloid, f.name))
+    object.__setattr__(stage, "modification", dc.replace(spec.cycloid.modification, equidistant_m=6.0e-5))
+    bad = build_profile(stage, check=False)
+    for field in ("cycloid.modification", "errors.disc_equidistant_error_m", "cycloid.modification"):
+        with pytest.raises(SpecError, match=rf"^{field.replace('.', '[.]')} = .*self-intersects"):
+            bad.check(field=field)
+    build_profile(spec.cycloid, check=False).check()  # 2e-5 m: a valid profile, before and after
+    object.__setattr__(stage, "modification", dc.replace(spec.cycloid.modification, equidistant_m=6.0e-5 + 1e-9))
+    with pytest.raises(SpecError, match="self-intersects"):
+        build_profile(stage, check=False).check()
+
+
 def _crossings(xy: np.ndarray) -> int:
     """Number of properly crossing pairs among the open polyline's segments (numpy, O(n²))."""
     a, b = xy[:-1], xy[1:]

@@ -20,6 +20,7 @@ flexible pin housing moves the pins by its modal seat displacement (``housing_no
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 
@@ -28,7 +29,7 @@ import numpy as np
 from rvflex.choices import ContactLawKind, check_choice
 from rvflex.contact import _cycloid_kernel as K
 from rvflex.geometry.pins import pin_centres, pin_radii
-from rvflex.geometry.profile import CycloidProfile, build_profile
+from rvflex.geometry.profile import CurveKey, CycloidProfile, build_profile
 from rvflex.spec import CycloidStage, ErrorSpec, Material
 
 __all__ = ["ContactError", "ContactLaw", "CycloidPinContact", "PinState", "add_cycloid_pin_contact",
@@ -441,6 +442,14 @@ def concave_zones(profile: CycloidProfile, max_pin_radius_m: float, min_pin_radi
         exceeds the pin's).
     """
     min_pin_radius_m = max_pin_radius_m if min_pin_radius_m is None else min_pin_radius_m
+    return _zones(CurveKey(profile), float(max_pin_radius_m), float(min_pin_radius_m)).copy()
+
+
+@functools.lru_cache(maxsize=64)
+def _zones(curve: CurveKey, max_pin_radius_m: float, min_pin_radius_m: float) -> np.ndarray:
+    # a pure function of the curve and the radii, kept per process: a third of a rigid model build, and a
+    # diagnosis builds the same discs some 70 times (the caller gets a copy: the kernel's input stays as made)
+    profile = curve.profile
     n = profile.stage.disc_teeth * ZONE_SAMPLES_PER_TOOTH
     h = 2 * np.pi / n
     ts = np.arange(n) * h

@@ -10,6 +10,7 @@ self-intersection.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -19,7 +20,7 @@ from scipy.optimize import brentq
 from rvflex.geometry import _kernels as K
 from rvflex.spec_types import CycloidStage, ErrorSpec, SpecError
 
-__all__ = ["CycloidProfile", "GapResult", "build_profile", "check_stage", "harmonics_from_teeth"]
+__all__ = ["CurveKey", "CycloidProfile", "GapResult", "build_profile", "check_stage", "harmonics_from_teeth"]
 
 SAMPLES_PER_TOOTH = 256
 COMPENSATION_SMOOTHING_RAD = 0.01
@@ -149,7 +150,28 @@ class CycloidProfile:
         minimisation (else the envelope folds into a swallowtail, however small);
         (2) no two segments of the polyline (SAMPLES_PER_TOOTH per tooth) cross within
         ±1.5 teeth, where a fold of a tooth can reach; (3) positive signed area.
+        The outcome is remembered per curve (:func:`_defect`): every model build checks its
+        profiles, and a diagnosis builds the same discs some 70 times.
         """
+        defect = _defect(CurveKey(self))
+        if defect is None:
+            return
+        kind, a, b = defect
+        zc = self.stage.disc_teeth
+        if kind == "undercut":
+            raise SpecError(field, _mod_repr(self.stage),
+                            f"the profile self-intersects: the generating pin radius exceeds the pin-centre curve's "
+                            f"radius of curvature near tooth phase {math.degrees((a * zc) % (2 * math.pi)):.1f}° "
+                            f"(undercut); reduce the pin radius, the equidistant/tip modification or the eccentricity")
+        if kind == "crossing":
+            raise SpecError(field, _mod_repr(self.stage),
+                            f"the profile self-intersects near tooth phases {math.degrees((a * zc) % (2 * np.pi)):.1f}°"
+                            f" and {math.degrees((b * zc) % (2 * np.pi)):.1f}°")
+        raise SpecError(field, _mod_repr(self.stage), "the profile is not counter-clockwise")
+
+    def _defect(self) -> tuple[str, float, float] | None:
+        """What :meth:`check` refuses: ("undercut", t, 0), ("crossing", t_i, t_j) or
+        ("clockwise", 0, 0) (profile parameters, rad); None for a simple counter-clockwise curve."""
         zc = self.stage.disc_teeth
         ts = np.linspace(0.0, 2 * np.pi, zc * SAMPLES_PER_TOOTH, endpoint=False)
         margin = self._offset_margin(ts)
@@ -158,19 +180,15 @@ class CycloidProfile:
         worst = min(float(margin[k]), _minimise(lambda x: float(self._offset_margin(np.array([x]))[0]),
                                                 ts[k] - h, ts[k] + h))
         if worst <= 0.0:
-            raise SpecError(field, _mod_repr(self.stage),
-                            f"the profile self-intersects: the generating pin radius exceeds the pin-centre curve's "
-                            f"radius of curvature near tooth phase {math.degrees((ts[k] * zc) % (2 * math.pi)):.1f}° "
-                            f"(undercut); reduce the pin radius, the equidistant/tip modification or the eccentricity")
+            return "undercut", float(ts[k]), 0.0
         q, q1, _ = self.evaluate(ts)
         i, j = K.first_self_intersection(np.column_stack([q.real, q.imag]), SAMPLES_PER_TOOTH * 3 // 2)
         if i >= 0:
-            raise SpecError(field, _mod_repr(self.stage),
-                            f"the profile self-intersects near tooth phases {math.degrees((ts[i] * zc) % (2 * np.pi)):.1f}°"
-                            f" and {math.degrees((ts[j] * zc) % (2 * np.pi)):.1f}°")
+            return "crossing", float(ts[i]), float(ts[j])
         area = 0.5 * np.sum(q.real * q1.imag - q.imag * q1.real) * h
         if area <= 0.0:
-            raise SpecError(field, _mod_repr(self.stage), "the profile is not counter-clockwise")
+            return "clockwise", 0.0, 0.0
+        return None
 
     def _offset_margin(self, ts: np.ndarray) -> np.ndarray:
         """1 − r(t)·κ_p(t): positive where the envelope of the generating pins is regular."""
@@ -182,6 +200,30 @@ class CycloidProfile:
         r = np.empty(ts.shape)
         K.radii(np.ascontiguousarray(ts, dtype=float), self.par, self.herr, r)
         return 1.0 - r * kappa
+
+
+class CurveKey:
+    """A profile as a cache key: equal when its tooth count and kernel inputs (``par``, ``herr``,
+    ``hpsi``: all the curve depends on) are equal."""
+
+    __slots__ = ("key", "profile")
+
+    def __init__(self, profile: CycloidProfile):
+        self.profile = profile
+        self.key = (profile.stage.disc_teeth, profile.par.tobytes(), profile.herr.tobytes(), profile.hpsi.tobytes())
+
+    def __hash__(self) -> int:
+        return hash(self.key)
+
+    def __eq__(self, other) -> bool:
+        return isinstance(other, CurveKey) and self.key == other.key
+
+
+@functools.lru_cache(maxsize=64)
+def _defect(curve: CurveKey) -> tuple[str, float, float] | None:
+    # a pure function of the curve, kept per process (it is 60 % of a rigid model build: the disc's
+    # profiles are checked four times a build, with nothing changed between a diagnosis's runs)
+    return curve.profile._defect()
 
 
 def _minimise(f, a: float, b: float) -> float:
