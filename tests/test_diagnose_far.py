@@ -516,6 +516,35 @@ def test_the_runs_of_one_variant_share_one_model_build(monkeypatch):
     assert len(builds) == 1 + len(plan)
 
 
+
+def test_a_model_run_split_into_parts_in_a_pool_is_the_run_of_one_process():
+    """In a pool a model run is split into its plan runs, each built and run on its own (both workers stay
+    busy): the joined response is the one-process run's within 1e-9 rad (2e-4″, ten times the solver's
+    step tolerance; each part starts from its own build), one model run is counted per run, not per part,
+    and a run failing in every part fails with the one-process run's message."""
+    import dataclasses as dc
+
+    from rvflex.diagnosis.nominal import NOMINAL
+    from rvflex.diagnosis.runs import ModelRunner
+
+    plan = (PlanRun("te", "f", 1, 0.5 * TR), PlanRun("te", "r", -1, 0.5 * TR)) + _cycle_plan(16)
+    s = DiagnosisSettings(hysteresis_steps=16).for_spec(SPEC)
+    clr = NOMINAL["crank_bearing_clearance"]
+    points = [(), ((clr, np.array([3e-6])),), ((clr, np.array([-1e-3])),)]  # the last breaks a spec rule
+    one = ModelRunner(SPEC, ErrorSpec(), plan, dc.replace(s, workers=1), None, None)
+    pool = ModelRunner(SPEC, ErrorSpec(), plan, dc.replace(s, workers=2), None, None)
+    a, b = one.run(points), pool.run(points)
+    assert one.model_runs == pool.model_runs == 3
+    for (fa, ra, ma), (fb, rb, mb) in zip(a[:2], b[:2]):
+        assert ma == mb == ""
+        for x, y in zip(ra.te + ra.theta, rb.te + rb.theta):
+            assert (x is None) == (y is None)
+            if x is not None:
+                np.testing.assert_allclose(y, x, rtol=0.0, atol=1e-9)
+    assert a[2][0] is None and b[2][0] is None and a[2][2] == b[2][2]
+    assert b[2][2].startswith("effect value breaks a spec rule")
+
+
 def test_a_failed_run_is_remembered_per_solver_revision_and_a_converged_one_for_good(tmp_path):
     """The disk cache keeps a failed model run under the solver revision that failed it: a solver that has
     since learnt to take the step runs the point again (measured: far seed 1, case 18, whose fitted values

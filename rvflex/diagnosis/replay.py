@@ -16,7 +16,7 @@ from rvflex.options import ModelOptions
 from rvflex.spec import ErrorSpec, ReducerSpec
 
 __all__ = ["FIDELITY_TIME_FACTOR", "Evaluation", "EvaluationFailed", "ModelRun", "Response", "combine", "evaluate",
-           "plan_evaluation", "recorded", "run_model"]
+           "joined", "plan_evaluation", "recorded", "run_model"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -37,10 +37,10 @@ FIDELITY_TIME_FACTOR = 4.0  # a flexible run may take this many times the rigid 
 
 
 def _run_model(variants: list[tuple[ReducerSpec, ErrorSpec]], plan: tuple[PlanRun, ...],
-               settings: DiagnosisSettings, options: ModelOptions, law) -> Response:
-    """Run every plan run with its own (spec, errors) variant (``variants[r]`` for run r), the model
-    built with ``options`` (``law``, a ContactLaw or a callable spec → ContactLaw, replaces its
-    contact law when given)."""
+               settings: DiagnosisSettings, options: ModelOptions, law, parts: tuple[int, ...] | None = None) -> Response:
+    """Run every plan run (or those of ``parts``, the others None) with its own (spec, errors) variant
+    (``variants[r]`` for run r), the model built with ``options`` (``law``, a ContactLaw or a callable
+    spec → ContactLaw, replaces its contact law when given)."""
     import time
 
     from rvflex.model import build_reducer
@@ -55,13 +55,17 @@ def _run_model(variants: list[tuple[ReducerSpec, ErrorSpec]], plan: tuple[PlanRu
         if time.perf_counter() > t_end[0]:
             raise EvaluationFailed(f"over the {limit:g} s budget of a run after {done}/{total} steps")
 
-    # one build per distinct variant, shared by its runs: a build is a fifth of a rigid run (geometry checks,
-    # profiles, the contact kernels), and every run sets its own state (kinematic guess, load continuation), so
-    # sharing changes its results only within the solver's tolerance (measured on foreign H04's four runs: at most
-    # 1.4e-8″ with a 3 µm clearance, 3.5e-10″ flexible; CPU per replay 2.0 s against 2.2-2.5 s rigid, 12.9-13.5 s
-    # against 13.6-14.6 s flexible)
+    # one build per distinct variant, shared by its runs: every run sets its own state (kinematic guess, load
+    # continuation), so sharing changes its results only within the solver's tolerance (measured on foreign H04's
+    # four runs: at most 1.4e-8″ with a 3 µm clearance, 3.5e-10″ flexible). A rigid build was a fifth of a rigid
+    # run until the disc's checks were kept per curve (now 2 ms); an elastic one loads its reductions (~0.4 s)
     models = {}
-    for p, (spec, errors) in zip(plan, variants):
+    for r, (p, (spec, errors)) in enumerate(zip(plan, variants)):
+        if parts is not None and r not in parts:
+            te.append(None)
+            tq.append(None)
+            th.append(None)
+            continue
         t_end[0] = time.perf_counter() + limit
         try:
             key = (repr(spec), repr(errors))  # an effect applied run by run gives equal, not identical, variants
@@ -178,9 +182,11 @@ def plan_evaluation(active: tuple = (), options: ModelOptions | None = None) -> 
 
 
 def run_model(spec: ReducerSpec, errors: ErrorSpec, plan: tuple[PlanRun, ...], settings: DiagnosisSettings,
-              run: ModelRun, *, law=None) -> Response:
+              run: ModelRun, *, law=None, parts: tuple[int, ...] | None = None) -> Response:
     """The response of one model run (``law``: the diagnosing model's contact law, a ContactLaw or a
-    callable spec → ContactLaw; None: the model's), before the measurement effects.
+    callable spec → ContactLaw; None: the model's), before the measurement effects; with ``parts``
+    (indices into ``plan``) of those plan runs only, the others None (:func:`joined` puts a run's
+    parts together).
 
     Raises
     ------
@@ -205,7 +211,17 @@ def run_model(spec: ReducerSpec, errors: ErrorSpec, plan: tuple[PlanRun, ...], s
                 plan_c = tuple(eff.conditions(p, x, variants[0][0]) for p in plan_c)
     except SpecError as err:
         raise EvaluationFailed(f"effect value breaks a spec rule: {err}") from None
-    return _run_model(variants, tuple(plan_c), settings, run.options, run.alt_law or law)
+    return _run_model(variants, tuple(plan_c), settings, run.options, run.alt_law or law, parts)
+
+
+def joined(responses: list[Response]) -> Response:
+    """One run's response from the responses of its parts (:func:`run_model` with ``parts``): each
+    plan run's entry from the part that ran it."""
+    def pick(field: str) -> tuple:
+        cols = [getattr(r, field) for r in responses]
+        return tuple(next((c[i] for c in cols if c[i] is not None), None) for i in range(len(cols[0])))
+
+    return Response(pick("te"), pick("torque"), pick("theta"))
 
 
 def combine(ev: Evaluation, responses: list[Response], plan: tuple[PlanRun, ...], settings: DiagnosisSettings,

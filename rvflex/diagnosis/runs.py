@@ -7,12 +7,14 @@ from __future__ import annotations
 import dataclasses as dc
 import hashlib
 import pickle
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
 
 from rvflex.diagnosis.features import features
-from rvflex.diagnosis.replay import EvaluationFailed, ModelRun, combine, plan_evaluation, run_model
+from rvflex.diagnosis.replay import EvaluationFailed, ModelRun, combine, joined, plan_evaluation, run_model
+from rvflex.options import ModelOptions
 from rvflex.parallel import Outcome, map_warm
 
 __all__ = ["CACHE_VERSION", "FAILURE_REVISION", "ModelRunner"]
@@ -30,15 +32,30 @@ def _run_item(item):
     static steps are silenced meanwhile (the retries are expected)."""
     import exudyn as exu
 
-    spec, errors, plan, settings, law, run = item
+    spec, errors, plan, settings, law, run, parts = item
     before = exu.config.printToConsole
     exu.config.printToConsole = False
     try:
-        return run_model(spec, errors, plan, settings, run, law=law), ""
+        return run_model(spec, errors, plan, settings, run, law=law, parts=parts), ""
     except EvaluationFailed as err:
         return None, str(err)
     finally:
         exu.config.printToConsole = before
+
+
+PLAN_RUNS_PER_PART = {"rigid": 1, "elastic": 2}
+"""Plan runs per part of a model run in a pool. A rigid build takes 2 ms (the disc's checks kept per curve), so
+each plan run is a part; an elastic one loads the reductions and builds in about 0.4 s of a 10-20 s run, so
+two plan runs share it."""
+
+
+def _joined(values: list[tuple]) -> tuple:
+    """(response, message) of a run from its parts' in plan order: the first failing part's message, else
+    the parts' responses joined."""
+    for resp, msg in values:
+        if resp is None:
+            return None, msg
+    return (values[0][0] if len(values) == 1 else joined([v[0] for v in values])), ""
 
 
 class ModelRunner:
@@ -143,10 +160,22 @@ class ModelRunner:
                 self._finish(keys[i], out[i])
 
         new = sorted((k for k in runs if k not in got), key=lambda k: runs[k].plain)  # the slow (elastic) runs first
+        # in a pool, a model run is split into parts (its plan runs, PLAN_RUNS_PER_PART), each built and run on
+        # its own: the parts of a few unequal runs keep both workers busy where whole runs left one idle (measured:
+        # the baseline's elastic run alone beside a rigid one, a calibration step's runs of 2 to 6 s)
+        split = self.settings.workers > 1
+        items = [(k, part) for k in new for part in (self._parts(runs[k]) if split else [None])]
+        workers = min(self.settings.workers, len(items)) if split and len(items) > 1 else 0
+        n_parts = Counter(k for k, _ in items)
+        pieces: dict[str, list] = {k: [] for k in new}  # run key → its parts' (part, (response | None, message))
 
         def done(o: Outcome) -> None:  # a dying worker or an exception is a failed run, not a crash
-            k = new[o.index]
-            got[k] = o.value if o.ok else (None, "worker died" if o.died else f"{type(o.error).__name__}: {o.error}")
+            k, part = items[o.index]
+            pieces[k].append((part or (), o.value if o.ok else (None, "worker died" if o.died else
+                                                                f"{type(o.error).__name__}: {o.error}")))
+            if len(pieces[k]) < n_parts[k]:
+                return
+            got[k] = _joined([v for _, v in sorted(pieces[k], key=lambda pv: pv[0])])
             self.model_runs += 1
             r = runs[k]
             if not r.plain:
@@ -157,12 +186,17 @@ class ModelRunner:
 
         combined()
         args = (self.spec, self.errors, self.plan, self.settings, self.law)
-        workers = min(self.settings.workers, len(new)) if len(new) > 1 and self.settings.workers > 1 else 0
         if workers:
             self._warm_geometry()
             self._warm_fe([runs[k] for k in new])
-        map_warm(_run_item, [(*args, runs[k]) for k in new], workers, on_outcome=done)
+        map_warm(_run_item, [(*args, runs[k], part) for k, part in items], workers, on_outcome=done)
         return [o if o is not None else self._load(k) for o, k in zip(out, keys)]
+
+    def _parts(self, run: ModelRun) -> list[tuple[int, ...]]:
+        """The plan runs of ``run`` in the parts a pool runs separately (:data:`PLAN_RUNS_PER_PART`)."""
+        per = PLAN_RUNS_PER_PART["rigid" if run.options == ModelOptions.rigid() else "elastic"]
+        idx = list(range(len(self.plan)))
+        return [tuple(idx[i:i + per]) for i in range(0, len(idx), per)]
 
     def _run_key(self, run: ModelRun) -> str:
         if run.plain:
