@@ -281,7 +281,8 @@ def _plots(diag, out: Path) -> list[Path]:
                     continue
                 y = shift_measured(diag.measured, lay, c.delta)[:, 0]
                 amp = np.hypot(y[lay.cos[r]] - c.model_features[lay.cos[r]], y[lay.sin[r]] - c.model_features[lay.sin[r]])
-                ax.bar(k + (0.2 if c is ch else -0.2), amp, width=0.4, color=col, label=lab)
+                # one line collection per run, not 255 bar patches (a third of the report's plotting time)
+                ax.vlines(k + (0.2 if c is ch else -0.2), 1e-3, np.maximum(amp, 1e-3), color=col, lw=1.0, label=lab)
             ax.set_yscale("log")
             ax.set_ylim(bottom=1e-3)
             ax.set_title(f"residual order spectrum — {diag.plan[r].label}", fontsize=9)
