@@ -348,33 +348,16 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
     plan = plan_from_dataset(dataset, settings)
     y, lay, windows = measured_runs(dataset, plan, settings)
     cands, unavailable = available_candidates(effects, plan)
-    nominal_all, no_room = nominal_parameters(nominal, spec)
-    unavailable.update({n: f"not calibrated: {why}" for n, why in no_room.items()})
-    cal = []
-    for c in nominal_all:  # one the model cannot evaluate is named in the verdict, with why
-        why = c.available()[1] or c.available_for(plan)[1]
-        if why:
-            unavailable[c.name] = f"not calibrated: {reason_line(why)}"
-        else:
-            cal.append(c)
-    cal = tuple(cal)
+    cal = _calibration_parameters(nominal, spec, plan, unavailable)
     replaced = {REPLACES[c.name] for c in cal if c.name in REPLACES}
     cands = tuple(e for e in cands if e.name not in replaced)
     cache = Path(cache_dir) if cache_dir else None
     runner = ModelRunner(spec, errors, plan, settings, law, cache, progress)
 
-    # --- the data anchor: the unit's torsional stiffness against the nominal model's (rigid plus the elastic
-    # discs, the calibration's nominal point); far off, every stiffness is scaled and calibration starts there
-    flexed = [((NOMINAL["disc_flexibility"], np.array([1.0])),)] if "disc_flexibility" in {c.name for c in cal} else []
-    flex = runner.run([()] + flexed)[-1][0] if flexed else None  # the baseline's run alongside
-    f0, resp0 = _baseline(runner)
-    f_nom = f0 if flex is None else flex
-    anc = anchor(y, f_nom, lay, plan)
-    f_spec, resp_spec, runs_before = f0, resp0, runner.model_runs  # the model as specified (the gap before)
-    if anc.applied:
-        spec = scale_stiffness(spec, anc.scale)
-        runner = ModelRunner(spec, errors, plan, settings, law, cache, progress)
-        runner.model_runs = runs_before
+    # --- the data anchor: the unit's torsional stiffness against the nominal model's; far off, every stiffness
+    # is scaled and calibration starts there (f_spec, resp_spec: the model as specified, the gap before)
+    anc, runner, f_spec, resp_spec = _anchored(runner, cal, y, lay, plan)
+    spec = runner.spec
     cal = within_spec_rules(cal, spec)
     runner.run([()] + sensitivity_runs(cands + cal))  # the baseline alongside the sensitivities' runs
     f0, resp0 = _baseline(runner)
@@ -398,49 +381,9 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
     x, nu, d, rss, A = lin_fit(prob, f_spec, np.zeros((n, 0)), np.zeros(0), np.zeros(0), np.zeros(0))
     nominal_model = make_candidate((), x, nu, d, rss, A, n, n_nuis, f_spec, refined=True, response=resp_spec)
 
-    # --- stage 1, calibration: the nominal parameters alone (on every feature: the wind-ups' load and direction
-    # dependence, the torque cycles' slope and free play, and the orders the contact-law form and the disc
-    # flexibility shape), with their priors, refined with the model in the loop
-    starts = [_calibrate(prob, f0, sens, cal, n, n_nuis)]
-    starts += [_calibrate(prob, f0, sens, cal, n, n_nuis, fix=f) for f in _law_starts(cal)]
-    cal_ref = refine(starts, prob, runner, sens, f0, resp0, settings, failed, n_nuis)
-    calib = min(cal_ref, key=lambda c: c.rss) if cal_ref else starts[0]
-    # the fidelity effects (the contact-law form, the elastic discs) act as the difference their model makes,
-    # measured first about the nominal model; far from it that difference is wrong (see rebase_fidelity), so it is
-    # measured again about the calibration, and the calibration goes on from there
+    # --- stage 1, calibration: the nominal parameters alone, refined with the model in the loop
     sens_nominal = sens  # the secants about the anchored nominal model (the rebase replaces the fidelity ones)
-    for rebase in range(FIDELITY_REBASES + 1):
-        if rebase:
-            if not cal_ref or calib.jacobian is None:
-                break
-            sens_b, _ = _rebased(runner, sens, cal, calib, resp0, lay)
-            if sens_b is sens:
-                break
-            sens = sens_b
-            at = _evaluated(prob, runner, sens, cal, calib, f0, resp0, n_nuis)
-            if at is None:
-                break
-            calib = at
-        # the calibration goes on while a step of the nominal parameters, linearised about it (its model run and
-        # Broyden Jacobian), still pays with the model in the loop. Stopped short, every candidate's joint fit took
-        # that step too and was credited with it (measured: a far-mismatch control in which each single effect, at
-        # zero size, "removed" 41 % of what calibration left, and a 15 µm main-bearing clearance was accepted)
-        for _ in range(CALIBRATION_CONTINUATIONS):
-            if not cal_ref or calib.jacobian is None or not calib.jacobian.shape[1]:
-                break
-            lo_c, hi_c = bounds(cal)
-            x_s, nu_s, d_s, rss_s, A_s = lin_fit(prob, calib.model_features, calib.jacobian, calib.x, lo_c, hi_c,
-                                                 prior=prior_of(cal))
-            if rss_s >= (1.0 - settings.refine_min_gain) * calib.rss:
-                break
-            step = make_candidate(cal, x_s, nu_s, d_s, rss_s, A_s, n, n_nuis,
-                                  calib.model_features + calib.jacobian @ (x_s - calib.x), refined=False,
-                                  note="calibration", jacobian=calib.jacobian, box=(lo_c, hi_c),
-                                  base=(calib.x, calib.model_features))
-            more = refine([step], prob, runner, sens, f0, resp0, settings, {}, n_nuis)
-            if not more or more[0].rss >= (1.0 - settings.refine_min_gain) * calib.rss:
-                break
-            calib = more[0]
+    calib, sens = _calibrated(prob, runner, sens, cal, f0, resp0, lay, settings, failed, n_nuis)
     x_cal = calib.x
     f_cal = calib.model_features
     J_cal = calib.jacobian
@@ -600,17 +543,7 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
         if not again:  # its evaluation failed: kept linearised, and named so in the verdict
             out.append(nxt)
         out.sort(key=lambda c: -c.score)
-    chosen = None
-    final = []
-    blocked = None  # a candidate that fits better (linearised) but whose model evaluation failed
-    for c in out:
-        if c.refined and acceptable(c, settings) and chosen is None and blocked is None:
-            chosen = dc.replace(c, accepted=True)
-            final.append(chosen)
-            continue
-        if chosen is None and blocked is None and c.name in failed and c.score >= settings.bic_threshold:
-            blocked = c
-        final.append(c)
+    chosen, final, blocked = _accepted(out, settings, failed)
     # calibrate first: an effect that the nominal parameters reproduce within their prior ranges is not
     # needed — the nominal explanation is expected, the effect is extra; it is reported as a tie
     cal_ties, runs_needed, tie_ratio = (calibration_ties(chosen, cal, sens, w) if chosen is not None
@@ -653,6 +586,111 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
                      folds, unavailable, failed, size, text, runner.model_runs,
                      time.perf_counter() - t0, tied, nominal_model, windows, cal_ties, runs_needed, held, anc, disc,
                      lookalikes, sens)
+
+
+def _calibration_parameters(nominal, spec: ReducerSpec, plan: tuple[PlanRun, ...], unavailable: dict) -> tuple:
+    """The nominal parameters to calibrate (:func:`~rvflex.diagnosis.nominal.nominal_parameters`): one the
+    spec leaves no room for or the model cannot evaluate under ``plan`` is named in ``unavailable``
+    (name → "not calibrated: why", for the verdict) instead."""
+    nominal_all, no_room = nominal_parameters(nominal, spec)
+    unavailable.update({n: f"not calibrated: {why}" for n, why in no_room.items()})
+    cal = []
+    for c in nominal_all:
+        why = c.available()[1] or c.available_for(plan)[1]
+        if why:
+            unavailable[c.name] = f"not calibrated: {reason_line(why)}"
+        else:
+            cal.append(c)
+    return tuple(cal)
+
+
+def _anchored(runner: ModelRunner, cal: tuple, y: np.ndarray, lay: Layout, plan: tuple[PlanRun, ...]):
+    """The data anchor (:func:`~rvflex.diagnosis.anchor.anchor`): the unit's torsional stiffness from the
+    bench against the nominal model's (rigid plus the elastic discs when the disc flexibility is calibrated:
+    the calibration's nominal point). Returns the anchor, the runner of the model the diagnosis goes on with
+    (every stiffness scaled when the anchor applies; the model runs counted on), and the features and
+    response of the model as specified."""
+    flexed = [((NOMINAL["disc_flexibility"], np.array([1.0])),)] if "disc_flexibility" in {c.name for c in cal} else []
+    flex = runner.run([()] + flexed)[-1][0] if flexed else None  # the baseline's run alongside
+    f0, resp0 = _baseline(runner)
+    anc = anchor(y, f0 if flex is None else flex, lay, plan)
+    if anc.applied:
+        runs_before = runner.model_runs
+        runner = ModelRunner(scale_stiffness(runner.spec, anc.scale), runner.errors, runner.plan, runner.settings,
+                             runner.law, runner.cache_dir, runner.progress)
+        runner.model_runs = runs_before
+    return anc, runner, f0, resp0
+
+
+def _accepted(ranked: list[Candidate], settings: DiagnosisSettings, failed: dict):
+    """Walk down ``ranked`` (by score) as the verdict does: the first refined candidate that passes every
+    acceptance test is chosen (a copy marked accepted), unless a candidate above it with evidence could
+    not be evaluated with the model in the loop (named in ``failed``): that one blocks the acceptance.
+    Returns (chosen | None, the ranking with the chosen copy in its place, blocked | None)."""
+    chosen = None
+    final = []
+    blocked = None  # a candidate that fits better (linearised) but whose model evaluation failed
+    for c in ranked:
+        if c.refined and acceptable(c, settings) and chosen is None and blocked is None:
+            chosen = dc.replace(c, accepted=True)
+            final.append(chosen)
+            continue
+        if chosen is None and blocked is None and c.name in failed and c.score >= settings.bic_threshold:
+            blocked = c
+        final.append(c)
+    return chosen, final, blocked
+
+
+def _calibrated(prob: Problem, runner: ModelRunner, sens: Sensitivities, cal: tuple, f0: np.ndarray, resp0: Response,
+                lay: Layout, settings: DiagnosisSettings, failed: dict, n_nuis: int) -> tuple[Candidate, Sensitivities]:
+    """Stage 1: the nominal parameters ``cal`` alone, on every feature (the wind-ups' load and direction
+    dependence, the torque cycles' slope and free play, the orders the contact-law form and the disc flexibility
+    shape), with their priors, from the free start and the fixed ones (:func:`_law_starts`), refined with the
+    model in the loop; the fidelity effects measured again about the result (:func:`_rebased`) and the
+    calibration continued from there. Returns the calibrated candidate and the sensitivities with the
+    fidelity effects' secants about it (``sens`` itself when none were measured again); refinements that
+    failed are added to ``failed``."""
+    n = prob.lay.n
+    starts = [_calibrate(prob, f0, sens, cal, n, n_nuis)]
+    starts += [_calibrate(prob, f0, sens, cal, n, n_nuis, fix=f) for f in _law_starts(cal)]
+    cal_ref = refine(starts, prob, runner, sens, f0, resp0, settings, failed, n_nuis)
+    calib = min(cal_ref, key=lambda c: c.rss) if cal_ref else starts[0]
+    # the fidelity effects (the contact-law form, the elastic discs) act as the difference their model makes,
+    # measured first about the nominal model; far from it that difference is wrong (see rebase_fidelity), so it is
+    # measured again about the calibration, and the calibration goes on from there
+    for rebase in range(FIDELITY_REBASES + 1):
+        if rebase:
+            if not cal_ref or calib.jacobian is None:
+                break
+            sens_b, _ = _rebased(runner, sens, cal, calib, resp0, lay)
+            if sens_b is sens:
+                break
+            sens = sens_b
+            at = _evaluated(prob, runner, sens, cal, calib, f0, resp0, n_nuis)
+            if at is None:
+                break
+            calib = at
+        # the calibration goes on while a step of the nominal parameters, linearised about it (its model run and
+        # Broyden Jacobian), still pays with the model in the loop. Stopped short, every candidate's joint fit took
+        # that step too and was credited with it (measured: a far-mismatch control in which each single effect, at
+        # zero size, "removed" 41 % of what calibration left, and a 15 µm main-bearing clearance was accepted)
+        for _ in range(CALIBRATION_CONTINUATIONS):
+            if not cal_ref or calib.jacobian is None or not calib.jacobian.shape[1]:
+                break
+            lo_c, hi_c = bounds(cal)
+            x_s, nu_s, d_s, rss_s, A_s = lin_fit(prob, calib.model_features, calib.jacobian, calib.x, lo_c, hi_c,
+                                                 prior=prior_of(cal))
+            if rss_s >= (1.0 - settings.refine_min_gain) * calib.rss:
+                break
+            step = make_candidate(cal, x_s, nu_s, d_s, rss_s, A_s, n, n_nuis,
+                                  calib.model_features + calib.jacobian @ (x_s - calib.x), refined=False,
+                                  note="calibration", jacobian=calib.jacobian, box=(lo_c, hi_c),
+                                  base=(calib.x, calib.model_features))
+            more = refine([step], prob, runner, sens, f0, resp0, settings, {}, n_nuis)
+            if not more or more[0].rss >= (1.0 - settings.refine_min_gain) * calib.rss:
+                break
+            calib = more[0]
+    return calib, sens
 
 
 def _baseline(runner: ModelRunner) -> tuple[np.ndarray, Response]:
