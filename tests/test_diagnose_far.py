@@ -535,7 +535,7 @@ def test_a_model_run_split_into_parts_in_a_pool_is_the_run_of_one_process():
     pool = ModelRunner(SPEC, ErrorSpec(), plan, dc.replace(s, workers=2), None, None)
     a, b = one.run(points), pool.run(points)
     assert one.model_runs == pool.model_runs == 3
-    for (fa, ra, ma), (fb, rb, mb) in zip(a[:2], b[:2]):
+    for (_fa, ra, ma), (_fb, rb, mb) in zip(a[:2], b[:2]):
         assert ma == mb == ""
         for x, y in zip(ra.te + ra.theta, rb.te + rb.theta):
             assert (x is None) == (y is None)
