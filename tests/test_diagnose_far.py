@@ -516,7 +516,6 @@ def test_the_runs_of_one_variant_share_one_model_build(monkeypatch):
     assert len(builds) == 1 + len(plan)
 
 
-
 def test_a_model_run_split_into_parts_in_a_pool_is_the_run_of_one_process():
     """In a pool a model run is split into its plan runs, each built and run on its own (both workers stay
     busy): the joined response is the one-process run's within 1e-9 rad (2e-4″, ten times the solver's

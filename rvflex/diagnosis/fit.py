@@ -655,6 +655,7 @@ def _calibrated(prob: Problem, runner: ModelRunner, sens: Sensitivities, cal: tu
     starts += [_calibrate(prob, f0, sens, cal, n, n_nuis, fix=f) for f in _law_starts(cal)]
     cal_ref = refine(starts, prob, runner, sens, f0, resp0, settings, failed, n_nuis)
     calib = min(cal_ref, key=lambda c: c.rss) if cal_ref else starts[0]
+    lo_c, hi_c = bounds(cal)
     # the fidelity effects (the contact-law form, the elastic discs) act as the difference their model makes,
     # measured first about the nominal model; far from it that difference is wrong (see rebase_fidelity), so it is
     # measured again about the calibration, and the calibration goes on from there
@@ -677,7 +678,6 @@ def _calibrated(prob: Problem, runner: ModelRunner, sens: Sensitivities, cal: tu
         for _ in range(CALIBRATION_CONTINUATIONS):
             if not cal_ref or calib.jacobian is None or not calib.jacobian.shape[1]:
                 break
-            lo_c, hi_c = bounds(cal)
             x_s, nu_s, d_s, rss_s, A_s = lin_fit(prob, calib.model_features, calib.jacobian, calib.x, lo_c, hi_c,
                                                  prior=prior_of(cal))
             if rss_s >= (1.0 - settings.refine_min_gain) * calib.rss:

@@ -55,7 +55,7 @@ def _joined(values: list[tuple]) -> tuple:
     for resp, msg in values:
         if resp is None:
             return None, msg
-    return (values[0][0] if len(values) == 1 else joined([v[0] for v in values])), ""
+    return joined([v[0] for v in values]), ""
 
 
 class ModelRunner:
@@ -232,7 +232,6 @@ class ModelRunner:
             return
         self._geometry_warm = True
         from rvflex.model import build_reducer
-        from rvflex.options import ModelOptions
 
         try:
             build_reducer(self.spec, self.errors, ModelOptions.rigid())
