@@ -25,6 +25,7 @@ from rvflex.diagnosis.features import branch_angles, shift_measured
 from rvflex.diagnosis.fit import withheld_folds, withheld_split
 from rvflex.diagnosis.plan import BRANCH_FRACTIONS, PlanRun, feature_layout
 from rvflex.diagnosis.settings import DiagnosisSettings
+from rvflex.fe.reduce import PartSettings
 from rvflex.options import ModelOptions
 from rvflex.spec import ErrorSpec
 
@@ -765,3 +766,46 @@ def test_the_pin_ring_runout_is_parameterised_by_the_doubled_angle():
     zc = SPEC.cycloid.disc_teeth
     c = [np.fft.rfft(np.asarray(o.te[0]))[2 * zc] * 2 / len(o.te[0]) / ARCSEC for o in out]
     assert abs(c[2] - c[0]) > 1.0  # a quarter turn of φ is half a turn of 2φ: the order-2·z_c TE flips
+
+
+def test_a_run_that_repeats_every_pin_pitch_is_solved_over_one_pitch():
+    """One crank revolution turns the output one pin pitch with the carrier, the cranks and the discs back where
+    they were: with errors that ride on those parts or are alike at every pin, the TE repeats every pitch, and
+    solved over one pitch it is the whole revolution's; a pin-ring runout turns with the housing, breaks it and
+    gets the whole revolution."""
+    from rvflex.diagnosis.replay import ModelRun, one_period, run_model
+
+    z_b, z_c = SPEC.cycloid.pin_count, SPEC.cycloid.pin_count - 1
+    n = 576
+    phase = one_period(n, SPEC, ErrorSpec(), ModelOptions.rigid())
+    m = phase.max() + 1
+    assert m == 72  # gcd(576, 40) = 8: 72 distinct positions within a pitch
+    turns = (np.arange(n) / n - phase / (m * z_b)) * z_b  # whole pitches between the two positions
+    np.testing.assert_allclose(turns, np.round(turns), rtol=0, atol=1e-9)
+
+    plan = (PlanRun("te", "a", 1, 412.0), PlanRun("te", "b", -1, 206.0))
+    st = DiagnosisSettings(max_order=20, positions_per_rev=360, workers=1).for_spec(SPEC)  # 9 positions a pitch
+    pitch_steps = 360 // z_b
+    rng = np.random.default_rng(3)
+    riding = ErrorSpec(crank_support_clearance_m=(2e-6, 2e-6), eccentric_bearing_clearance_m=(3e-6,) * 4,
+                       crank_eccentricity_error_m=(2e-6, -1e-6), crank_phase_error_rad=(3e-4, 0.0),
+                       disc_pitch_error_m=tuple(tuple(rng.normal(0, 2e-6, z_c)) for _ in range(2)),
+                       input_carrier_hole_distance_error_m=4e-6, pin_radius_error_m=-3e-6,
+                       pin_circle_radius_error_m=2e-6, planet_runout_m=(3e-6, 0.0), disc_moved_error_m=(3e-6, 0.0))
+    runout = ErrorSpec(pin_ring_runout_m=5e-6, pin_ring_runout_phase_rad=0.4)
+    assert one_period(360, SPEC, riding, ModelOptions.rigid()) is not None
+    assert one_period(360, SPEC, runout, ModelOptions.rigid()) is None
+    assert one_period(360, SPEC, ErrorSpec(carrier_runout_m=5e-6), ModelOptions.rigid()) is None  # measured: 0.06″
+    assert one_period(360, SPEC, riding, ModelOptions(housing=PartSettings(4e-3, 8))) is None
+    rigid = ModelRun((), ModelOptions.rigid())
+    full = run_model(SPEC, riding, plan, dataclasses.replace(st, one_period=False), rigid)
+    short = run_model(SPEC, riding, plan, st, rigid)
+    as_ = 180 / math.pi * 3600
+    for te_full, te_short in zip(full.te, short.te):
+        assert np.ptp(te_full) * as_ > 1.0  # the errors and clearances make arcseconds of TE within each pitch
+        # the whole revolution repeats every pitch, and the pitch solved alone is it, within the solver's tolerance
+        assert np.max(np.abs(te_full - np.roll(te_full, pitch_steps))) * as_ < 1e-6
+        assert np.max(np.abs(te_full - te_short)) * as_ < 1e-6
+    # the runout's TE does not repeat in a pitch: solved over one, it would be wrong by hundredths of an arcsecond
+    te = run_model(SPEC, runout, plan[:1], st, rigid).te[0]
+    assert np.max(np.abs(te - np.roll(te, pitch_steps))) * as_ > 0.02  # (0.058″ measured)

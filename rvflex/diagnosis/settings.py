@@ -26,6 +26,11 @@ class DiagnosisSettings:
         Highest order analysed (per output revolution). None (default): every order the bench's TE runs
         resolve (:func:`orders_resolved`: their samples per revolution / 4, at most MAX_ORDER_CAP; 255 for
         1024 samples), set by :meth:`for_dataset`; DEFAULT_MAX_ORDER where no dataset is given.
+    one_period : bool
+        A TE run of a model that repeats itself every pin pitch of the output (no error fixed to the pins, the pin
+        ring or the input; :func:`~rvflex.diagnosis.replay.one_period`) is solved at the grid's distinct positions
+        within one pitch and repeated (True, default: an eighth of the steps for the RV-40E at 576 positions, the same
+        TE within the solver's tolerance). False: every run over the whole revolution.
     hysteresis_steps : int
         Equal torque steps of the replayed torque cycle (plus the fine ±0.5…4 % points).
     workers : int
@@ -90,6 +95,7 @@ class DiagnosisSettings:
 
     positions_per_rev: int | None = None
     max_order: int | None = None
+    one_period: bool = True
     hysteresis_steps: int = 40
     workers: int = 2
     refine_top: int = 3
