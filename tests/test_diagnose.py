@@ -774,8 +774,9 @@ def test_a_run_that_repeats_every_pin_pitch_is_solved_over_one_pitch():
     solved over one pitch it is the whole revolution's; a pin-ring runout turns with the housing, breaks it and
     gets the whole revolution."""
     from rvflex.diagnosis.replay import ModelRun, one_period, run_model
+    from rvflex.units import ARCSEC_PER_RAD as as_
 
-    z_b, z_c = SPEC.cycloid.pin_count, SPEC.cycloid.pin_count - 1
+    z_b, z_c = SPEC.cycloid.pin_count, SPEC.cycloid.disc_teeth
     n = 576
     phase = one_period(n, SPEC, ErrorSpec(), ModelOptions.rigid())
     m = phase.max() + 1
@@ -800,7 +801,6 @@ def test_a_run_that_repeats_every_pin_pitch_is_solved_over_one_pitch():
     rigid = ModelRun((), ModelOptions.rigid())
     full = run_model(SPEC, riding, plan, dataclasses.replace(st, one_period=False), rigid)
     short = run_model(SPEC, riding, plan, st, rigid)
-    as_ = 180 / math.pi * 3600
     for te_full, te_short in zip(full.te, short.te):
         assert np.ptp(te_full) * as_ > 1.0  # the errors and clearances make arcseconds of TE within each pitch
         # the whole revolution repeats every pitch, and the pitch solved alone is it, within the solver's tolerance

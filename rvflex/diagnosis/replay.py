@@ -117,13 +117,14 @@ PERIODIC_ERRORS = frozenset({
     "crank_support_clearance_m", "eccentric_bearing_clearance_m", "main_bearing_clearance_m",
     "pin_radius_error_m", "pin_circle_radius_error_m", "sun_pitch_radius_error_m",
     "crank_eccentricity_error_m", "crank_phase_error_rad",
-    "planet_base_eccentricity_m", "planet_base_eccentricity_phase_rad", "planet_runout_m",
+    "planet_base_eccentricity_m", "planet_runout_m",
     "planet_pitch_radius_error_m", "planet_base_pitch_error_m",
     "input_carrier_hole_distance_error_m", "output_carrier_hole_distance_error_m",
     "disc_pitch_error_m", "disc_profile_error_m", "disc_bore_distance_error_m", "disc_moved_error_m",
     "disc_equidistant_error_m",
 })
-"""ErrorSpec fields that keep the model periodic in one pin pitch of the output (:func:`one_period`). The others
+"""ErrorSpec fields that keep the model periodic in one pin pitch of the output (:func:`one_period`; a ``*_phase_rad``
+field goes with its magnitude's). The others
 (the pins' individual positions and radii, the pin ring's runout, the sun's eccentricity and runout) turn with the
 housing or the input, not with the crank, and break it; so does the model's carrier runout (measured: 0.06″ between
 the TE and itself one pitch on for 5 µm, against ≤ 7e-8″ for each field here; the carrier-bore eccentricities, not
