@@ -323,6 +323,118 @@ def test_two_sided_sensitivities_fit_each_sign_with_its_own_secant():
     assert len(sens.orthants((pr,))) == 1
 
 
+def test_on_the_cancelling_diagonal_the_modification_deviation_is_fitted_through_its_corner():
+    """Moved and equidistant deviations of the same sign nearly cancel: at (−4, −4) µm the TE ripple changes
+    by about 1″ where the sum of the two axes' changes says about 4.5″ (measured), so a fit from the axes'
+    secants mis-states every deviation along that diagonal. The model is also run at the four corners
+    (±step, ±step), and the fits may use secants through a corner (each column in turn replaced so that
+    J·h is the corner's change); the axes' sign patterns stay as they were."""
+    from rvflex.diagnosis.linear import Sensitivities
+    from rvflex.diagnosis.replay import evaluate
+    from rvflex.diagnosis.sensitivity import sensitivity_runs
+    from rvflex.units import ARCSEC_PER_RAD as arcsec
+
+    e = EFFECTS["disc_modification_deviation"]
+    assert e.corners and len(sensitivity_runs((e,))) == 2 * 2 + 4  # each parameter at ±step, and the corners
+    plan = (PlanRun("te", "a", 1, 412.0), PlanRun("te", "b", 1, 103.0))
+    s = DiagnosisSettings()
+
+    def ripple(x):  # the TE of both runs less their means (the wind-up is the clearance's, shared with others)
+        r = evaluate(SPEC, ErrorSpec(), plan, s, ((e, np.asarray(x)),) if x is not None else ())
+        return np.concatenate([(np.asarray(t) - np.mean(t)) * arcsec for t in r.te])
+
+    h = -4e-6
+    f0, fm, fe, fc = ripple(None), ripple([h, 0.0]), ripple([0.0, h]), ripple([h, h])
+    corner, axes = np.linalg.norm(fc - f0), np.linalg.norm(fm + fe - 2 * f0)
+    assert corner < 0.4 * axes and np.linalg.norm(fc - fm - fe + f0) > 2.0  # arcsec
+    minus = np.column_stack([(f0 - fm) / -h, (f0 - fe) / -h])  # the −step secants
+    sens = Sensitivities({e.name: minus}, {e.name: minus}, corners={e.name: {(-1.0, -1.0): (np.array([h, h]), fc - f0)}})
+    axes_only = sens.orthants((e,))
+    assert len(axes_only) == 4
+    through = sens.orthants((e,), corners=True)
+    assert len(through) == 2  # the one measured corner, each column in turn
+    for J, lo, hi in through:
+        np.testing.assert_allclose(J @ np.array([h, h]), fc - f0, atol=1e-9)
+        assert np.all(hi == 0.0) and np.all(lo < 0.0)  # the corner's sign pattern
+    J_axes = next(J for J, lo, hi in axes_only if np.all(hi == 0.0))
+    assert np.linalg.norm(J_axes @ np.array([h, h]) - (fc - f0)) > 2.0
+
+
+def test_the_fidelity_differences_are_measured_again_about_candidates_alike_at_every_pin():
+    """A candidate whose model errors change every contact the same way (a profile deviation, the pin circle's
+    thermal growth, a clearance) has the contact-law and elastic-disc differences measured again about its own
+    point; one whose errors differ from pin to pin (a pin pattern, a runout) keeps the calibration's (its elastic
+    runs take the whole revolution). Decided by the replay's own test of a model that repeats every pin pitch."""
+    from types import SimpleNamespace
+
+    from rvflex.diagnosis.fit import _alike_at_every_pin
+    from rvflex.diagnosis.runs import ModelRunner
+
+    plan = (PlanRun("te", "a", 1, 412.0, temperature_C=40.0),)
+    runner = ModelRunner(SPEC, ErrorSpec(), plan, DiagnosisSettings(), None, None)
+
+    def alike(name, x):
+        e = EFFECTS[name]
+        return _alike_at_every_pin(runner, SimpleNamespace(effects=(e,), x=np.asarray(x, float)))
+
+    assert alike("thermal_expansion", [11.5e-6]) and alike("disc_modification_deviation", [-4e-6, -4e-6])
+    assert alike("eccentric_bearing_clearance", [5e-6]) and alike("pin_contact_friction", [0.01])
+    assert not alike("pin_position_h3", [2e-6, 1e-6]) and not alike("pin_ring_runout", [3e-6, 0.0])
+
+
+def test_a_pin_friction_fit_and_an_output_friction_fit_without_load_part_are_one_model():
+    """The pin friction's Coulomb torque is the output friction with its load-proportional part at zero: the
+    same model run. A fit of the output friction whose load part sits at zero is restated as the pin friction
+    (the same residual, one parameter fewer, so the evidence prefers it by log n), and a pin friction fit as the
+    output friction at zero load part (with that part's secant); one with a load part is not restated down.
+    Features written here: a torque-cycle signature per parameter, and a measured loop no wider at high load."""
+    from rvflex.diagnosis.discrepancy import Discrepancy, evidence, feature_groups
+    from rvflex.diagnosis.fit import restated
+    from rvflex.diagnosis.linear import Problem, Sensitivities, bounds, lin_fit, make_candidate, nuisance_columns
+    from rvflex.diagnosis.plan import feature_layout
+
+    pin, out = EFFECTS["pin_contact_friction"], EFFECTS["output_friction"]
+    assert pin.same_as == (out.name, (0, None))
+    plan = (PlanRun("hysteresis", "cycle", torque_max_Nm=412.0, torque_path_Nm=(0.0, 412.0, 0.0, -412.0, 0.0)),)
+    lay = feature_layout(plan, 127)
+    rng = np.random.default_rng(3)
+    u = np.sign(np.arange(lay.n) - lay.n / 2) * 50.0  # arcsec per unit Coulomb fraction: the loop's width
+    v = np.linspace(-1.0, 1.0, lay.n) * 40.0  # per unit load share: a width growing with the torque
+    sens = Sensitivities({out.name: np.column_stack([u, v]), pin.name: u[:, None]}, {})
+    effects = {pin.name: pin, out.name: out}
+    w = np.full(lay.n, 1.0 / 0.05)
+
+    def fit(y, e):
+        prob = Problem.build(y, lay, w, nuisance_columns(lay))
+        n_nuis = prob.nuis.shape[1]
+        J = sens.plus[e.name]
+        x, nu, d, rss, A = lin_fit(prob, np.zeros(lay.n), J, np.zeros(e.n), *bounds((e,)))
+        c = make_candidate((e,), x, nu, d, rss, A, lay.n, n_nuis, J @ x, refined=True, jacobian=J)
+        x0, nu0, d0, rss0, A0 = lin_fit(prob, np.zeros(lay.n), np.zeros((lay.n, 0)), np.zeros(0), np.zeros(0), np.zeros(0))
+        none = make_candidate((), x0, nu0, d0, rss0, A0, lay.n, n_nuis, np.zeros(lay.n), refined=True)
+        disc = Discrepancy.of(prob, none, feature_groups(lay, plan, SPEC.cycloid.pin_count))
+        return prob, n_nuis, c, lambda k: evidence(prob, k, none, disc)
+
+    noise = rng.normal(0.0, 0.05, lay.n)
+    prob, n_nuis, c, score = fit(0.013 * u - 0.002 * v + noise, out)
+    assert c.x[1] == 0.0  # the load part at its bound
+    (down,) = restated(prob, c, effects, sens, n_nuis)
+    assert down.name == pin.name and down.k == c.k - 1 and down.refined
+    np.testing.assert_allclose(down.x, c.x[:1])
+    assert down.rss == pytest.approx(c.rss, rel=1e-12)
+    assert score(down) - score(c) == pytest.approx(math.log(lay.n), rel=1e-9)
+
+    prob, n_nuis, c, _ = fit(0.013 * u + 0.02 * v + noise, out)
+    assert c.x[1] > 0.01 and restated(prob, c, effects, sens, n_nuis) == []  # a load part: not the pin friction
+
+    prob, n_nuis, c, _ = fit(0.013 * u + noise, pin)
+    (up,) = restated(prob, c, effects, sens, n_nuis)
+    assert up.name == out.name and up.k == c.k + 1
+    np.testing.assert_allclose(up.x, [c.x[0], 0.0])
+    np.testing.assert_array_equal(up.jacobian[:, 1], v)
+    assert up.rss == pytest.approx(c.rss, rel=1e-12)
+
+
 def test_a_pair_needs_its_second_effect_to_remove_a_quarter_of_the_rest():
     """With the single-variance evidence ("bic", the former rule kept to compare), the rule that admits an
     effect against "no effect" applied to the second effect of a pair: ≥ 25 % of the weighted gap the better

@@ -100,6 +100,13 @@ class Effect:
     both secants: the fit uses the +step secant for a positive parameter value and the −step
     secant for a negative one (for responses whose slope differs on the two sides of zero, as
     a clearance that opens on one side and closes into preload on the other).
+    ``corners`` (two-parameter ``two_sided`` effects): the model is also run at the four corners
+    (±step, ±step), and the linearised fits may also use secants through a corner
+    (:meth:`Sensitivities.orthants <rvflex.diagnosis.linear.Sensitivities.orthants>`): for parameters that
+    nearly cancel each other along a diagonal, the response there is not the sum of the two axes' responses.
+    ``same_as`` (name, map): this effect is the effect ``name`` with some of its parameters held at zero, the
+    same model: per parameter of that effect, the index of this effect's parameter it equals (None: zero).
+    A fit of either is restated as the other where the values allow (:func:`rvflex.diagnosis.fit.restated`).
     ``per_run`` (kind ``"model"``): ``apply`` receives the run as a fourth argument.
     ``run_fields``: run attributes (of :class:`~rvflex.diagnosis.plan.PlanRun`) that must be
     known (finite) for every run of a dataset for the effect to be evaluated, e.g.
@@ -126,6 +133,7 @@ class Effect:
     polar: bool = False
     central: bool = False
     two_sided: bool = False
+    corners: bool = False
     per_run: bool = False
     run_fields: tuple[str, ...] = ()
     alt_law: Callable | None = None
@@ -134,6 +142,7 @@ class Effect:
     separating_runs: str = ""
     coupled_to: str | None = None
     series: Callable | None = None  # kind "measurement": output twist (rad) of a series compliance at a torque
+    same_as: tuple[str, tuple[int | None, ...]] | None = None
 
     def __post_init__(self) -> None:
         check_choice(f"effect {self.name}: kind", self.kind, EffectKind)
@@ -143,6 +152,10 @@ class Effect:
             raise ValueError(f"effect {self.name}: kind {self.kind!r} needs its function")
         if self.central and self.two_sided:
             raise ValueError(f"effect {self.name}: central and two_sided sensitivities exclude each other")
+        if self.corners and not (self.two_sided and len(self.params) == 2):
+            raise ValueError(f"effect {self.name}: corners applies to two-parameter two_sided effects only")
+        if self.same_as and sorted(i for i in self.same_as[1] if i is not None) != list(range(len(self.params))):
+            raise ValueError(f"effect {self.name}: same_as must map each of its parameters once")
         if self.per_run and self.kind != "model":
             raise ValueError(f"effect {self.name}: per_run applies to kind 'model' only")
         if self.prior_sigma and (len(self.prior_sigma) != len(self.params) or min(self.prior_sigma) <= 0):
@@ -381,7 +394,7 @@ def _builtin() -> tuple[Effect, ...]:
         Effect("disc_modification_deviation", "deviation of the moved (Δr_p) and equidistant (Δr_rp) modification; "
                "an equidistant deviation −δ is also a pin radius error +δ of all pins (the same pin–profile gap)",
                (Param("moved_m", "m", -10 * um, 10 * um, 4 * um), Param("equidistant_m", "m", -10 * um, 10 * um, 4 * um)),
-               apply=_modification, two_sided=True),
+               apply=_modification, two_sided=True, corners=True),
         Effect("cycloid_pitch_error", "cumulative pitch error of the discs, once-per-disc harmonic (cos/sin)",
                polar(15 * um, 5 * um, ("cos_m", "sin_m")), apply=_pitch_harmonic, polar=True),
         Effect("carrier_hole_position", "crank-hole distance error of both carrier plates",
@@ -397,7 +410,7 @@ def _builtin() -> tuple[Effect, ...]:
                polar(20 * um, 5 * um), apply=partial(_runout, field="sun_runout_m"), polar=True),
         Effect("pin_contact_friction", "Coulomb friction at the pin contacts as a torque opposing the motion "
                "(fraction of rated torque)", (Param("friction_torque_fraction", "1", 0.0, 0.08, 0.02),),
-               kind="conditions", conditions=_friction_conditions),
+               kind="conditions", conditions=_friction_conditions, same_as=("output_friction", (0, None))),
         # bench friction is mostly not at the pins: seals and preloaded main bearings give a Coulomb torque, the
         # loaded bearings and meshes a part proportional to the torque (seen on a foreign bench: a friction loop
         # no pin-friction candidate had the form of; the nearest predicted the withheld runs 123 % worse)

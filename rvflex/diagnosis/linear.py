@@ -302,6 +302,7 @@ class Sensitivities:
     responses: dict = field(default_factory=dict)  # fidelity effects: the response at their step
     coupling: dict = field(default_factory=dict)  # coupled effects: (fidelity effect, n × k change per unit share·x)
     base: dict = field(default_factory=dict)  # the point (name → x) the fidelity effects were measured about; none: nominal
+    corners: dict = field(default_factory=dict)  # ``corners`` effects: (sign, sign) → (corner x, feature change there)
 
     def __contains__(self, name: str) -> bool:
         return name in self.plus
@@ -316,24 +317,46 @@ class Sensitivities:
             J[:, neg] = self.minus[name][:, neg]
         return J @ x
 
-    def orthants(self, effects) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    def orthants(self, effects, corners: bool = False) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
         """(J, lower, upper) per sign pattern of the two-sided parameters of ``effects``: the +step
         secant with the bounds [0, high] and the −step secant with [low, 0]; one entry with the
-        full bounds when no parameter is two-sided."""
-        cols, los, his, choices = [], [], [], []
-        for e in effects:
-            for j, prm in enumerate(e.params):
-                cols.append((self.plus[e.name][:, j], self.minus[e.name][:, j] if e.name in self.minus else None))
-                los.append(prm.low)
-                his.append(prm.high)
-                choices.append((1.0, -1.0) if e.name in self.minus else (0.0,))
+        full bounds when no parameter is two-sided.
+
+        ``corners``: instead, the sign patterns of an effect with a model run at their corner (h₁, h₂)
+        (signed steps, ``Effect.corners``), each with one column in turn replaced so that the secants pass
+        through that corner (J₁h₁ + J₂h₂ = ΔF there, the other column kept): the response along a diagonal on
+        which the two parameters nearly cancel (empty when no effect has corners)."""
+        per_effect = [self._effect_orthants(e) for e in effects]
         out = []
-        for signs in itertools.product(*choices):
-            J = np.column_stack([c[1] if sg < 0 else c[0] for c, sg in zip(cols, signs)])
-            lo = np.array([0.0 if sg > 0 else lw for sg, lw in zip(signs, los)])
-            hi = np.array([0.0 if sg < 0 else h for sg, h in zip(signs, his)])
-            if np.all(lo < hi) or not len(lo):
-                out.append((J, lo, hi))
+        for combo in itertools.product(*per_effect):
+            if corners != any(c for _, _, _, c in combo):
+                continue
+            out.append((np.column_stack([J for J, _, _, _ in combo]), np.concatenate([lo for _, lo, _, _ in combo]),
+                        np.concatenate([hi for _, _, hi, _ in combo])))
+        return out
+
+    def _effect_orthants(self, e: Effect) -> list[tuple[np.ndarray, np.ndarray, np.ndarray, bool]]:
+        """(J, lower, upper, through a corner) of one effect (see :meth:`orthants`)."""
+        plus, minus = self.plus[e.name], self.minus.get(e.name)
+        lo_all = np.array([p.low for p in e.params])
+        hi_all = np.array([p.high for p in e.params])
+        if minus is None:
+            return [(plus, lo_all, hi_all, False)]
+        out = []
+        at = self.corners.get(e.name, {})
+        for signs in itertools.product((1.0, -1.0), repeat=e.n):
+            neg = np.array(signs) < 0
+            J = np.where(neg[None, :], minus, plus)
+            lo, hi = np.where(neg, lo_all, 0.0), np.where(neg, 0.0, hi_all)
+            if not np.all(lo < hi):
+                continue
+            out.append((J, lo, hi, False))
+            if signs in at:
+                h, df = at[signs]  # the corner (signed steps) and the feature change there
+                for j in range(e.n):
+                    Jc = J.copy()
+                    Jc[:, j] = (df - np.delete(J, j, axis=1) @ np.delete(h, j)) / h[j]
+                    out.append((Jc, lo, hi, True))
         return out
 
 

@@ -37,11 +37,12 @@ REFINE_BACKTRACK_STEPS = (0.5, 0.25)  # a first step that makes the real residua
 
 @dataclass
 class RefineState:
-    """The refinement of one candidate: its Jacobian, the last evaluated point and its features,
+    """The refinement of one candidate: its sensitivities, its Jacobian, the last evaluated point and its features,
     the next point to evaluate (None: done) and the best evaluation so far
     (weighted RSS, x, features, response, Jacobian)."""
 
     cand: Candidate
+    sens: Sensitivities
     J: np.ndarray
     x_prev: np.ndarray
     f_prev: np.ndarray
@@ -56,26 +57,27 @@ def _blend(resp: Response, resp0: Response, flex: Response, share: float) -> Res
     return Response(mix(resp.te, resp0.te, flex.te), resp.torque, mix(resp.theta, resp0.theta, flex.theta))
 
 
-def evaluate_sets(runner, sens: Sensitivities, resp0: Response, actives: list[tuple], f0: np.ndarray,
-                  lay) -> list[tuple]:
+def evaluate_sets(runner, sens: Sensitivities | list[Sensitivities], resp0: Response, actives: list[tuple],
+                  f0: np.ndarray, lay) -> list[tuple]:
     """Model runs of each active set ((Effect, x) pairs), fidelity shares added linearly (see the
-    module docstring), the change from the nominal features ``f0`` cleared of the model's numerical
-    noise (:func:`~rvflex.diagnosis.linear.denoise_orders`). Returns (features | None, response | None,
-    message) per set."""
+    module docstring; ``sens``: one for all sets or one per set), the change from the nominal features
+    ``f0`` cleared of the model's numerical noise (:func:`~rvflex.diagnosis.linear.denoise_orders`).
+    Returns (features | None, response | None, message) per set."""
     model_sets = [tuple((e, x) for e, x in a if e.kind != "fidelity") for a in actives]
+    each = sens if isinstance(sens, list) else [sens] * len(actives)
     out = []
-    for a, (f, r, msg) in zip(actives, runner.run(model_sets)):
+    for a, sn, (f, r, msg) in zip(actives, each, runner.run(model_sets)):
         if f is not None:
             f = f0 + denoise_orders(f - f0, lay)
             shares = {e.name: float(x[0]) for e, x in a if e.kind == "fidelity"}
             for e, x in a:
                 if e.kind == "fidelity":
-                    f = f + sens.plus[e.name] @ np.asarray(x, float)
-                    if r is not None and e.name in sens.responses:
-                        r = _blend(r, resp0, sens.responses[e.name], float(x[0]) / e.params[0].step)
-                elif e.name in sens.coupling:  # its change on the fidelity model, by that model's share
-                    fid, c = sens.coupling[e.name]  # about the point the fidelity effects were measured at
-                    f = f + shares.get(fid, 0.0) * (c @ (np.asarray(x, float) - sens.base.get(e.name, 0.0)))
+                    f = f + sn.plus[e.name] @ np.asarray(x, float)
+                    if r is not None and e.name in sn.responses:
+                        r = _blend(r, resp0, sn.responses[e.name], float(x[0]) / e.params[0].step)
+                elif e.name in sn.coupling:  # its change on the fidelity model, by that model's share
+                    fid, c = sn.coupling[e.name]  # about the point the fidelity effects were measured at
+                    f = f + shares.get(fid, 0.0) * (c @ (np.asarray(x, float) - sn.base.get(e.name, 0.0)))
         out.append((f, r, msg))
     return out
 
@@ -105,19 +107,21 @@ def evaluated_candidate(prob: Problem, effects: tuple, x: np.ndarray, f: np.ndar
                           note=note, jacobian=J)
 
 
-def refine(cands: list[Candidate], prob: Problem, runner, sens: Sensitivities, f0: np.ndarray, resp0: Response,
-           settings: DiagnosisSettings, failed: dict, n_nuis: int) -> list[Candidate]:
+def refine(cands: list[Candidate], prob: Problem, runner, sens: Sensitivities | list[Sensitivities], f0: np.ndarray,
+           resp0: Response, settings: DiagnosisSettings, failed: dict, n_nuis: int) -> list[Candidate]:
     """Refine ``cands`` with the model in the loop (each from its linearisation point, the nominal
-    model unless the candidate says otherwise); returns the refined candidates (those with at least
-    one successful evaluation). A candidate whose first evaluation fails is entered in ``failed`` (by
-    name)."""
-    st = {id(c): RefineState(c, c.jacobian.copy(), np.zeros(len(c.x)) if c.base_x is None else c.base_x.copy(),
-                             f0 if c.base_features is None else c.base_features, c.x.copy()) for c in cands}
+    model unless the candidate says otherwise; ``sens``: one for all or one per candidate); returns the
+    refined candidates (those with at least one successful evaluation). A candidate whose first
+    evaluation fails is entered in ``failed`` (by name)."""
+    each = sens if isinstance(sens, list) else [sens] * len(cands)
+    st = {id(c): RefineState(c, s, c.jacobian.copy(), np.zeros(len(c.x)) if c.base_x is None else c.base_x.copy(),
+                             f0 if c.base_features is None else c.base_features, c.x.copy())
+          for c, s in zip(cands, each)}
     known_failed = set(failed)  # effects whose sensitivities failed: not refined
     lost = {}  # candidates whose first evaluation failed: the message
 
     def run_at(keys, points):  # model evaluations of candidates ``keys`` at ``points`` (key → x)
-        return dict(zip(keys, evaluate_sets(runner, sens, resp0,
+        return dict(zip(keys, evaluate_sets(runner, [st[k].sens for k in keys], resp0,
                                             [tuple(split_params(st[k].cand.effects, points[k])) for k in keys],
                                             f0, prob.lay)))
 

@@ -5,6 +5,7 @@ candidates a dataset can evaluate."""
 from __future__ import annotations
 
 import dataclasses as dc
+import itertools
 import math
 from pathlib import Path
 
@@ -18,8 +19,8 @@ from rvflex.diagnosis.runs import ModelRunner
 from rvflex.diagnosis.settings import DiagnosisSettings
 from rvflex.spec import ErrorSpec, ReducerSpec
 
-__all__ = ["available_candidates", "rebase_fidelity", "second_effect_adds", "sensitivities", "sensitivity_runs",
-           "signature_size", "signature_sizes"]
+__all__ = ["available_candidates", "fidelity_sets", "rebase_fidelity", "rebased_from", "second_effect_adds",
+           "sensitivities", "sensitivity_runs", "signature_size", "signature_sizes"]
 
 
 def available_candidates(effects, plan) -> tuple[tuple[Effect, ...], dict]:
@@ -87,6 +88,11 @@ def _jobs(cands) -> tuple[list[tuple], list[tuple]]:
                 x[j] = sign * _side_step(e, prm, sign)
                 jobs.append(((e, x),))
                 owners.append((e.name, j, sign))
+        if e.corners:  # the four corners (±step, ±step), each parameter's step on its side
+            for signs in itertools.product((1.0, -1.0), repeat=2):
+                x = np.array([sg * _side_step(e, prm, sg) for sg, prm in zip(signs, e.params)])
+                jobs.append(((e, x),))
+                owners.append((e.name, None, (signs, x)))
     # coupled effects: the same step on the model of the fidelity effect they are coupled to (at its step)
     by_name = {c.name: c for c in cands}
     for name, fid in _coupled(cands).items():
@@ -134,9 +140,14 @@ def sensitivities(runner, cands, f0, resp0, plan, settings, lay) -> tuple[Sensit
             sens[e.name] = np.column_stack(cols)
     responses = {}
     flexed = {}
+    corners: dict[str, dict] = {}
     for (name, j, sign), (fj, rj, msg) in zip(owners, outs):
         if sign == "coupled":
             flexed[(name, j)] = (fj, msg)
+            continue
+        if j is None:  # a corner: its feature change; a failed one is left out (the axes' secants stay)
+            if fj is not None:
+                corners.setdefault(name, {})[sign[0]] = (sign[1], fj - f0)
             continue
         e = by_name[name]
         if fj is not None and e.kind == "fidelity":
@@ -179,7 +190,9 @@ def sensitivities(runner, cands, f0, resp0, plan, settings, lay) -> tuple[Sensit
     sens = {name: denoise_orders(v, lay) for name, v in sens.items()}
     minus = {name: denoise_orders(v, lay) for name, v in minus.items()}
     coupling = {name: (fid, denoise_orders(c, lay)) for name, (fid, c) in coupling.items()}
-    return Sensitivities(sens, minus, responses, coupling), failed
+    corners = {name: {sg: (x, denoise_orders(df, lay)) for sg, (x, df) in c.items()} for name, c in corners.items()
+               if name in sens}
+    return Sensitivities(sens, minus, responses, coupling, corners=corners), failed
 
 
 def rebase_fidelity(runner, sens: Sensitivities, effects, base: tuple, f_base: np.ndarray, resp_base,
@@ -194,10 +207,25 @@ def rebase_fidelity(runner, sens: Sensitivities, effects, base: tuple, f_base: n
     calibration far from it (measured, far self-check seed 3, control case 7: at the calibrated point the
     model with the nominal differences left a weighted RSS of 2397, the model run with its own 604, and the
     point contact preferred at share 1.5 where the model run prefers 1.0)."""
-    fids = [e for e in effects if e.kind == "fidelity" and e.name in sens.plus]
-    if not fids or not base:
+    sets = fidelity_sets(sens, effects, base)
+    if not sets:
         return sens, {}
-    outs = runner.run([tuple(base) + ((e, np.array([e.params[0].step])),) for e in fids])
+    return rebased_from(sens, effects, base, f_base, resp_base, runner.run(sets), resp0, lay)
+
+
+def fidelity_sets(sens: Sensitivities, effects, base: tuple) -> list[tuple]:
+    """The model runs :func:`rebase_fidelity` makes (active sets): each fidelity effect among ``effects`` at
+    its step about ``base`` (none without a base)."""
+    if not base:
+        return []
+    return [tuple(base) + ((e, np.array([e.params[0].step])),) for e in effects
+            if e.kind == "fidelity" and e.name in sens.plus]
+
+
+def rebased_from(sens: Sensitivities, effects, base: tuple, f_base: np.ndarray, resp_base, outs: list, resp0,
+                 lay) -> tuple[Sensitivities, dict]:
+    """:func:`rebase_fidelity` from the outputs ``outs`` of its model runs (:func:`fidelity_sets`, in order)."""
+    fids = [e for e in effects if e.kind == "fidelity" and e.name in sens.plus]
     plus, responses, failed = dict(sens.plus), dict(sens.responses), {}
     for e, (fj, rj, msg) in zip(fids, outs):
         if fj is None:
@@ -207,7 +235,10 @@ def rebase_fidelity(runner, sens: Sensitivities, effects, base: tuple, f_base: n
         if rj is not None and resp_base is not None and resp0 is not None:  # resp0 plus the difference at base
             responses[e.name] = Response(_moved(rj.te, resp_base.te, resp0.te), resp0.torque,
                                          _moved(rj.theta, resp_base.theta, resp0.theta))
-    at = {e.name: np.asarray(x, float) for e, x in base if e.name in sens.coupling}
+    # a coupled effect's point moves with its fidelity effect's difference: where that was measured again
+    done = {e.name for e in fids if e.name not in failed}
+    at = {name: v for name, v in sens.base.items() if sens.coupling[name][0] not in done}
+    at.update({e.name: np.asarray(x, float) for e, x in base if e.name in sens.coupling and sens.coupling[e.name][0] in done})
     return dc.replace(sens, plus=plus, responses=responses, base=at), failed
 
 
