@@ -492,7 +492,7 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
     # stalled; named output friction)
     effect_of = {e.name: e for e in usable}
 
-    def rebased(cands: list) -> list:
+    def settled(cands: list) -> list:  # re-measured about themselves, and restated
         cands = best_per_name(cands)
         cands += _about_themselves(prob, runner, sens, cands, f0, resp0, settings, n_nuis)
         named = {frozenset(e.name for e in c.attributed): [e.name for e in c.attributed] for c in ranked}
@@ -533,7 +533,7 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
     to_refine = by_score[: settings.refine_top]
     if singles and singles[0] not in to_refine:
         to_refine.append(singles[0])
-    refined = rebased(refine(with_twins(to_refine), prob, runner, sens, f0, resp0, settings, failed, n_nuis))
+    refined = settled(refine(with_twins(to_refine), prob, runner, sens, f0, resp0, settings, failed, n_nuis))
     refined_names = {c.name for c in refined}
     allc = refined + [c for c in ranked if c.name not in refined_names]
     # the pair rule again with the model-in-the-loop residuals where there are some
@@ -577,7 +577,7 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
                 break
         if nxt is None:
             break
-        again = rebased(refine(with_twins([nxt]), prob, runner, sens, f0, resp0, settings, failed, n_nuis))
+        again = settled(refine(with_twins([nxt]), prob, runner, sens, f0, resp0, settings, failed, n_nuis))
         out = [c for c in out if c is not nxt] + [scored(c) for c in again]
         if not again:  # its evaluation failed: kept linearised, and named so in the verdict
             out.append(nxt)
@@ -694,7 +694,6 @@ def _calibrated(prob: Problem, runner: ModelRunner, sens: Sensitivities, cal: tu
     starts += [_calibrate(prob, f0, sens, cal, n, n_nuis, fix=f) for f in _law_starts(cal)]
     cal_ref = refine(starts, prob, runner, sens, f0, resp0, settings, failed, n_nuis)
     calib = min(cal_ref, key=lambda c: c.rss) if cal_ref else starts[0]
-    lo_c, hi_c = bounds(cal)
     # the fidelity effects (the contact-law form, the elastic discs) act as the difference their model makes,
     # measured first about the nominal model; far from it that difference is wrong (see rebase_fidelity), so it is
     # measured again about the calibration, and the calibration goes on from there
@@ -717,14 +716,9 @@ def _calibrated(prob: Problem, runner: ModelRunner, sens: Sensitivities, cal: tu
         for _ in range(CALIBRATION_CONTINUATIONS):
             if not cal_ref or calib.jacobian is None or not calib.jacobian.shape[1]:
                 break
-            x_s, nu_s, d_s, rss_s, A_s = lin_fit(prob, calib.model_features, calib.jacobian, calib.x, lo_c, hi_c,
-                                                 prior=prior_of(cal))
-            if rss_s >= (1.0 - settings.refine_min_gain) * calib.rss:
+            step = _step(prob, calib, n_nuis, "calibration")
+            if step.rss >= (1.0 - settings.refine_min_gain) * calib.rss:
                 break
-            step = make_candidate(cal, x_s, nu_s, d_s, rss_s, A_s, n, n_nuis,
-                                  calib.model_features + calib.jacobian @ (x_s - calib.x), refined=False,
-                                  note="calibration", jacobian=calib.jacobian, box=(lo_c, hi_c),
-                                  base=(calib.x, calib.model_features))
             more = refine([step], prob, runner, sens, f0, resp0, settings, {}, n_nuis)
             if not more or more[0].rss >= (1.0 - settings.refine_min_gain) * calib.rss:
                 break
@@ -821,16 +815,37 @@ def _rebased(runner, sens, cal, calib: Candidate, resp0, lay):
 def _evaluated(prob: Problem, runner, sens, cal, calib: Candidate, f0, resp0, n_nuis: int) -> Candidate | None:
     """``calib`` evaluated again with ``sens`` (its model run, the fidelity effects' new columns in its
     Jacobian); None when the run fails."""
-    f, r, _ = evaluate_sets(runner, sens, resp0, [tuple(split_params(cal, calib.x))], f0, prob.lay)[0]
-    if f is None:
-        return None
-    J = calib.jacobian.copy()
-    i = 0
-    for e in cal:
-        if e.kind == "fidelity":
-            J[:, i:i + e.n] = sens.plus[e.name]
-        i += e.n
-    return evaluated_candidate(prob, cal, calib.x, f, r, J, n_nuis)
+    return _evaluated_each(prob, runner, [sens], [dc.replace(calib, effects=cal)], f0, resp0, n_nuis)[0]
+
+
+def _evaluated_each(prob: Problem, runner, each: list[Sensitivities], cands: list[Candidate], f0, resp0,
+                    n_nuis: int) -> list[Candidate | None]:
+    """Each of ``cands`` evaluated again with its own sensitivities (one batch of model runs; the fidelity
+    effects' new columns in its Jacobian); None where the run fails."""
+    out = []
+    evaluated = evaluate_sets(runner, each, resp0, [tuple(split_params(c.effects, c.x)) for c in cands], f0, prob.lay)
+    for c, sens, (f, r, _) in zip(cands, each, evaluated):
+        if f is None:
+            out.append(None)
+            continue
+        J = c.jacobian.copy()
+        i = 0
+        for e in c.effects:
+            if e.kind == "fidelity":
+                J[:, i:i + e.n] = sens.plus[e.name]
+            i += e.n
+        out.append(evaluated_candidate(prob, c.effects, c.x, f, r, J, n_nuis))
+    return out
+
+
+def _step(prob: Problem, c: Candidate, n_nuis: int, note: str) -> Candidate:
+    """The linearised step from the evaluated candidate ``c`` (its model run and Jacobian, within its effects'
+    bounds and priors), to be refined from ``c`` (its base)."""
+    lo, hi = bounds(c.effects)
+    f, J = c.model_features, c.jacobian
+    x, nu, d, rss, A = lin_fit(prob, f, J, c.x, lo, hi, prior=prior_of(c.effects))
+    return make_candidate(c.effects, x, nu, d, rss, A, prob.lay.n, n_nuis, f + J @ (x - c.x), refined=False,
+                          note=note, jacobian=J, box=(lo, hi), base=(c.x, f))
 
 
 def _alike_at_every_pin(runner: ModelRunner, c: Candidate) -> bool:
@@ -861,26 +876,11 @@ def _about_themselves(prob: Problem, runner: ModelRunner, sens: Sensitivities, c
             sens_c, _ = rebased_from(sens, c.effects, b, fb, rb, mine, resp0, prob.lay)
             kept.append(c)
             each.append(sens_c)
-    ats, steps, step_sens = [], [], []
-    evaluated = evaluate_sets(runner, each, resp0, [tuple(split_params(c.effects, c.x)) for c in kept], f0, prob.lay)
-    for c, sens_c, (f, r, _) in zip(kept, each, evaluated):
-        if f is None:
-            continue
-        J = c.jacobian.copy()
-        i = 0
-        for e in c.effects:
-            if e.kind == "fidelity":
-                J[:, i:i + e.n] = sens_c.plus[e.name]
-            i += e.n
-        at = evaluated_candidate(prob, c.effects, c.x, f, r, J, n_nuis)
-        lo, hi = bounds(c.effects)
-        x, nu, d, rss, A = lin_fit(prob, f, J, c.x, lo, hi, prior=prior_of(c.effects))
-        ats.append(at)
-        steps.append(make_candidate(c.effects, x, nu, d, rss, A, prob.lay.n, n_nuis, f + J @ (x - c.x),
-                                    refined=False, note="fidelity differences about itself", jacobian=J,
-                                    box=(lo, hi), base=(c.x, f)))
-        step_sens.append(sens_c)
-    return ats + (refine(steps, prob, runner, step_sens, f0, resp0, settings, {}, n_nuis) if steps else [])
+    done = [(at, sens_c) for at, sens_c in zip(_evaluated_each(prob, runner, each, kept, f0, resp0, n_nuis), each)
+            if at is not None]
+    steps = [_step(prob, at, n_nuis, "fidelity differences about itself") for at, _ in done]
+    return [at for at, _ in done] + (refine(steps, prob, runner, [sn for _, sn in done], f0, resp0, settings, {},
+                                            n_nuis) if steps else [])
 
 
 def restated(prob: Problem, c: Candidate, by_name: dict, sens: Sensitivities, n_nuis: int) -> list[Candidate]:
