@@ -216,7 +216,8 @@ class ReducerModel:
 
 def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None,
                   options: ModelOptions | str | None = None, *, law: ContactLaw | None = None,
-                  reduced_disc=None, reduced_carrier=None, reduced_housing=None) -> ReducerModel:
+                  reduced_disc=None, reduced_carrier=None, reduced_housing=None,
+                  disc_mesh_modification=None) -> ReducerModel:
     """Assemble the Exudyn model of a reducer.
 
     Rigid parts are planar rigid bodies. FE discs (``options.discs`` a ``PartSettings``) are
@@ -250,6 +251,13 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None,
     reduced_disc, reduced_carrier, reduced_housing : ReducedPart, optional
         An existing reduction of the disc (disc 0's, or a tuple with one per disc), the carrier or
         the pin housing to use.
+    disc_mesh_modification : Modification, optional
+        The profile modification the FE discs are meshed and reduced with; None: the spec's. The
+        contact always takes the spec's exact profile: the FE disc carries the global deformation,
+        which a profile change of a few µm leaves alike (measured on the RV-40E, flexible discs,
+        a modification deviation of −8/+6 µm meshed as the nominal disc: TE within 0.025″,
+        torque cycle within 0.001″, against 16.3″ of TE ripple), while each new mesh and
+        reduction costs about 15 s and 90 MB of cache.
 
     Returns
     -------
@@ -308,6 +316,8 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None,
         from rvflex.fe.reduce import reduce_part
 
         # a disc that is not disc 0 turned (fe_disc_placements) is reduced as the exact disc it is
+        fe_spec = spec if disc_mesh_modification is None else dataclasses.replace(
+            spec, cycloid=dataclasses.replace(spec.cycloid, modification=disc_mesh_modification))
         if isinstance(reduced_disc, (tuple, list)):  # one given per disc
             reduced_discs = tuple(reduced_disc)
         else:
@@ -318,7 +328,7 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None,
                 h = place.holes_turn_rad
                 if h not in by_turn:
                     try:
-                        by_turn[h] = reduce_part(cycloid_disc.fe_disc_spec(spec, h), "disc",
+                        by_turn[h] = reduce_part(cycloid_disc.fe_disc_spec(fe_spec, h), "disc",
                                                  **dataclasses.asdict(options.discs))
                     except FEError as err:
                         if h == 0.0:

@@ -222,6 +222,29 @@ def test_cache_hit_returns_the_same_reduction(disc, spec, cache_dir):
     np.testing.assert_array_equal(again.interface("bore1").nodes, disc.interface("bore1").nodes)
 
 
+def test_a_cache_file_read_again_is_kept_in_memory_but_never_shared(disc, tmp_path):
+    """Every elastic build loads its reduction; the arrays of the file read last are kept (``cache._READ``), each
+    load gets its own copies, and a file written again (another size or time) is read again, never the old
+    arrays."""
+    import os
+
+    from rvflex.fe import cache
+
+    path = cache.store(disc, tmp_path)
+    a, b = cache.load(disc.key, tmp_path), cache.load(disc.key, tmp_path)
+    assert any(tag[0] == str(path) for tag in cache._READ)
+    np.testing.assert_array_equal(a.mode_basis, b.mode_basis)
+    a.mode_basis[:] = 0.0  # a caller writing into its arrays changes nobody else's
+    np.testing.assert_array_equal(b.mode_basis, disc.mode_basis)
+    np.testing.assert_array_equal(cache.load(disc.key, tmp_path).mode_basis, disc.mode_basis)
+    st = path.stat()
+    raw = bytearray(path.read_bytes())
+    raw[len(raw) // 2] ^= 0xFF  # the same size, another time: read again, found damaged, not served from memory
+    path.write_bytes(bytes(raw))
+    os.utime(path, ns=(st.st_atime_ns, st.st_mtime_ns + 1_000_000))
+    assert cache.load(disc.key, tmp_path) is None
+
+
 def test_the_same_disc_at_another_modulus_is_the_cached_one_scaled_not_a_new_mesh(disc, spec, cache_dir):
     """Linear elasticity at a fixed Poisson ratio: K ∝ E while M and the Craig–Bampton basis do not depend
     on E. The disc at 1.7 E is made from the cached one (nothing meshed, nothing written) and agrees with

@@ -123,18 +123,16 @@ def load_at_modulus(free_key: str, key: str, youngs_modulus_Pa: float, part: FEP
     note = _sibling_path(free_key, cache_dir)
     try:
         ref = json.loads(note.read_text())
-        payload = _read_valid(path_for(ref["key"], cache_dir), ref["key"])
+        a = _arrays(path_for(ref["key"], cache_dir), ref["key"])
         e0 = float(ref["youngs_modulus_Pa"])
     except FileNotFoundError:
         return None
     except (OSError, ValueError, KeyError, TypeError):
-        payload, e0 = None, 0.0
-    if payload is None or not e0 > 0:  # a note whose reduction is gone or damaged: the next one built is noted
+        a, e0 = None, 0.0
+    if a is None or not e0 > 0:  # a note whose reduction is gone or damaged: the next one built is noted
         note.unlink(missing_ok=True)
         return None
     f = youngs_modulus_Pa / e0
-    with np.load(io.BytesIO(payload), allow_pickle=False) as z:
-        a = {k: z[k] for k in z.files}
     for name in ("K_data", "eigenvalues", "stiffness_reduced"):
         a[name] = a[name] * f
     a["freqs_hz"] = a["freqs_hz"] * math.sqrt(f)
@@ -251,15 +249,43 @@ def _read_valid(path: Path, key: str) -> bytes | None:
     return payload
 
 
+_READ: dict = {}
+"""The arrays of the cache files read last in this process, by (path, key, size, mtime) (at most
+:data:`READ_KEPT`). Every elastic model build loads its reductions: read, checked and unpacked
+from disk that was 0.4 s of a 1 s flexible RV-40E run, and a diagnosis builds hundreds (the same
+disc file each time, at other moduli through :func:`load_at_modulus`). A rewritten file has
+another size or time, so it is read again; each load gets copies, so no caller shares an array."""
+READ_KEPT = 2
+
+
+def _arrays(path: Path, key: str) -> dict[str, np.ndarray] | None:
+    """The arrays of the valid cache file ``path`` of ``key`` (copies), or None (missing, corrupt)."""
+    try:
+        st = path.stat()
+    except FileNotFoundError:
+        return None
+    tag = (str(path), key, st.st_size, st.st_mtime_ns)
+    a = _READ.get(tag)
+    if a is None:
+        payload = _read_valid(path, key)
+        if payload is None:
+            return None
+        with np.load(io.BytesIO(payload), allow_pickle=False) as z:
+            a = {k: z[k] for k in z.files}
+        _READ[tag] = a
+        while len(_READ) > READ_KEPT:
+            del _READ[next(iter(_READ))]  # the oldest read
+    return {k: v.copy() for k, v in a.items()}
+
+
 def load(key: str, cache_dir: str | os.PathLike | None = None):
     """The cached :class:`~rvflex.fe.types.ReducedPart` of ``key``, or None (missing, or
     corrupt/partial: then the bad file is removed so that it is rebuilt)."""
     path = path_for(key, cache_dir)
     if not path.exists():
         return None
-    payload = _read_valid(path, key)
-    if payload is None:
+    a = _arrays(path, key)
+    if a is None:
         path.unlink(missing_ok=True)
         return None
-    with np.load(io.BytesIO(payload), allow_pickle=False) as z:
-        return _from_arrays({k: z[k] for k in z.files})
+    return _from_arrays(a)
