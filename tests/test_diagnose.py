@@ -435,6 +435,42 @@ def test_a_pin_friction_fit_and_an_output_friction_fit_without_load_part_are_one
     assert up.rss == pytest.approx(c.rss, rel=1e-12)
 
 
+def test_a_pair_restated_in_the_rankings_name_order_is_the_same_fit():
+    """``fit._ordered``: a pair refined as (b, a) and ranked as "a + b" is given the ranking's order. Its
+    parameters, intervals, Jacobian columns, magnitudes and bounds move together (the nominal parameters stay
+    first), so it is the same fit: the same model features from its Jacobian, the same residual."""
+    from rvflex.diagnosis.fit import _ordered
+    from rvflex.diagnosis.linear import Problem, bounds, lin_fit, make_candidate, nuisance_columns
+    from rvflex.diagnosis.nominal import NOMINAL
+
+    cal, a, b = NOMINAL["contact_stiffness"], EFFECTS["thermal_expansion"], EFFECTS["pin_ring_runout"]
+    assert (cal.n, a.n, b.n) == (1, 1, 2)
+    plan = (PlanRun("te", "te", load_Nm=412.0),)
+    lay = feature_layout(plan, 63)
+    rng = np.random.default_rng(7)
+    J = rng.normal(size=(lay.n, 4)) * np.r_[1.0, 1e6, 1e6, 1e5]  # columns: contact stiffness, runout cos/sin, thermal
+    y = J @ np.array([0.1, 2e-6, -1e-6, 8e-6]) + rng.normal(0.0, 0.05, lay.n)
+    prob = Problem.build(y, lay, np.full(lay.n, 20.0), nuisance_columns(lay))
+    n_nuis = prob.nuis.shape[1]
+    effects = (cal, b, a)
+    lo, hi = bounds(effects)
+    x, nu, d, rss, A = lin_fit(prob, np.zeros(lay.n), J, np.zeros(4), lo, hi)
+    c = make_candidate(effects, x, nu, d, rss, A, lay.n, n_nuis, J @ x, refined=False, jacobian=J, box=(lo, hi),
+                       base=(np.zeros(4), np.zeros(lay.n)))
+    assert c.name == f"{b.name} + {a.name}"
+    o = _ordered(c, {frozenset((a.name, b.name)): [a.name, b.name]})
+    assert o.name == f"{a.name} + {b.name}" and [e.name for e in o.effects] == [cal.name, a.name, b.name]
+    idx = [0, 3, 1, 2]
+    np.testing.assert_array_equal(o.x, c.x[idx])
+    np.testing.assert_array_equal(o.interval, c.interval[idx])
+    np.testing.assert_array_equal(o.jacobian, c.jacobian[:, idx])
+    np.testing.assert_array_equal(o.lower, c.lower[idx])
+    np.testing.assert_array_equal(o.upper, c.upper[idx])
+    np.testing.assert_allclose(o.jacobian @ o.x, c.jacobian @ c.x, rtol=1e-12, atol=1e-12)
+    assert o.magnitude == (c.magnitude[0], c.magnitude[2], c.magnitude[1]) and o.rss == c.rss
+    assert _ordered(o, {frozenset((a.name, b.name)): [a.name, b.name]}) is o  # already in order
+
+
 def test_a_pair_needs_its_second_effect_to_remove_a_quarter_of_the_rest():
     """With the single-variance evidence ("bic", the former rule kept to compare), the rule that admits an
     effect against "no effect" applied to the second effect of a pair: ≥ 25 % of the weighted gap the better
