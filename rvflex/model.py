@@ -256,7 +256,7 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None,
         contact always takes the spec's exact profile: the FE disc carries the global deformation,
         which a profile change of a few µm leaves alike (measured on the RV-40E, flexible discs,
         a modification deviation of −8/+6 µm meshed as the nominal disc: TE within 0.025″,
-        torque cycle within 0.001″, against 16.3″ of TE ripple), while each new mesh and
+        torque cycle within 0.0014″, against 16.3″ of TE ripple), while each new mesh and
         reduction costs about 15 s and 90 MB of cache.
 
     Returns
