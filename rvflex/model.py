@@ -26,7 +26,7 @@ from rvflex.parts import carrier as carrier_part
 from rvflex.parts import crankshaft, cycloid_disc, input_stage, pin_ring
 from rvflex.spec import ErrorSpec, ReducerSpec, check_geometry
 
-__all__ = ["ReducerModel", "build_reducer", "check_fidelity", "default_contact_law", "FIDELITIES"]
+__all__ = ["ReducerModel", "build_reducer", "check_fidelity", "default_contact_law", "disc_mesh_spec", "FIDELITIES"]
 # FIDELITIES (rvflex.options): the preset names build_reducer maps to ModelOptions, re-exported here
 
 
@@ -214,6 +214,17 @@ class ReducerModel:
         return q
 
 
+def disc_mesh_spec(spec: ReducerSpec, modification=None) -> ReducerSpec:
+    """The spec whose FE discs :func:`build_reducer` meshes and reduces for ``spec`` with
+    ``disc_mesh_modification=modification``: ``spec`` with that profile modification (``spec`` itself for
+    None or the same one)."""
+    if modification is None or modification == spec.cycloid.modification:
+        return spec
+    import dataclasses
+
+    return dataclasses.replace(spec, cycloid=dataclasses.replace(spec.cycloid, modification=modification))
+
+
 def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None,
                   options: ModelOptions | str | None = None, *, law: ContactLaw | None = None,
                   reduced_disc=None, reduced_carrier=None, reduced_housing=None,
@@ -316,8 +327,7 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None,
         from rvflex.fe.reduce import reduce_part
 
         # a disc that is not disc 0 turned (fe_disc_placements) is reduced as the exact disc it is
-        fe_spec = spec if disc_mesh_modification is None else dataclasses.replace(
-            spec, cycloid=dataclasses.replace(spec.cycloid, modification=disc_mesh_modification))
+        fe_spec = disc_mesh_spec(spec, disc_mesh_modification)
         if isinstance(reduced_disc, (tuple, list)):  # one given per disc
             reduced_discs = tuple(reduced_disc)
         else:

@@ -12,6 +12,7 @@ from conftest import COARSE_DISC
 
 from rvflex.geometry.formulas import ARCSEC_PER_RAD
 from rvflex.model import build_reducer
+from rvflex.options import ModelOptions
 from rvflex.solve import quasi_static
 
 pytestmark = pytest.mark.flexible
@@ -228,7 +229,7 @@ def test_three_cranks_run_with_flexible_discs_and_carrier(fe_cache):
 
 
 def test_a_disc_meshed_with_the_nominal_profile_keeps_the_exact_modified_contact(setup, monkeypatch):
-    """``disc_mesh_modification`` (the diagnosis's model runs, ``replay.disc_mesh_spec``): a profile moved by a
+    """``disc_mesh_modification`` (the diagnosis's model runs, ``model.disc_mesh_spec``): a profile moved by a
     few µm is contacted exactly while the FE disc keeps the nominal mesh. The modification's TE shows in full
     (−8/+6 µm of moved/equidistant deviation moves the loaded TE by tens of arcseconds: measured 52.6″), and the
     TE is the exactly meshed disc's within this coarse mesh's own noise between two meshes of one disc (0.26″,
@@ -252,7 +253,7 @@ def test_a_disc_meshed_with_the_nominal_profile_keeps_the_exact_modified_contact
         return rp
 
     monkeypatch.setattr(reduce_mod, "reduce_part", recording)
-    options = build_reducer(spec, None, "flexible", reduced_disc=reduced).options  # the coarse disc's settings
+    options = dataclasses.replace(ModelOptions.flexible_discs(), discs=reduced.settings)  # the coarse disc's
     nominal_mesh = quasi_static(build_reducer(moved, None, options, disc_mesh_modification=mod),
                                 theta, spec.rated_torque_Nm).te_rad * ARCSEC_PER_RAD
     before = _flexible_te(spec, reduced, theta)

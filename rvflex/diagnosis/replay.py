@@ -16,7 +16,7 @@ from rvflex.options import ModelOptions
 from rvflex.spec import ErrorSpec, ReducerSpec
 
 __all__ = ["FIDELITY_TIME_FACTOR", "PERIODIC_ERRORS", "Evaluation", "EvaluationFailed", "ModelRun", "Response",
-           "combine", "disc_mesh_spec", "evaluate", "joined", "one_period", "plan_evaluation", "recorded", "run_model"]
+           "combine", "evaluate", "joined", "one_period", "plan_evaluation", "recorded", "run_model"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -241,7 +241,10 @@ def run_model(spec: ReducerSpec, errors: ErrorSpec, plan: tuple[PlanRun, ...], s
     callable spec → ContactLaw; None: the model's), before the measurement effects; with ``parts``
     (indices into ``plan``) of those plan runs only, the others None (:func:`joined` puts a run's
     parts together). ``mesh_as_spec``: the FE discs are meshed with ``spec``'s profile modification whatever
-    the effects do to it (:func:`disc_mesh_spec`: the diagnosis's model runs; a bench's truth is meshed exactly).
+    the effects do to it (``build_reducer``'s ``disc_mesh_modification``: an effect moves the profile by a few µm,
+    which the contact sees exactly and the disc's global deformation does not, while each point a fit visits
+    would be a new mesh and reduction of about 15 s; the diagnosis's model runs, a bench's truth is meshed
+    exactly).
 
     Raises
     ------
@@ -269,15 +272,6 @@ def run_model(spec: ReducerSpec, errors: ErrorSpec, plan: tuple[PlanRun, ...], s
     return _run_model(variants, tuple(plan_c), settings, run.options, run.alt_law or law, parts,
                       spec.cycloid.modification if mesh_as_spec else None)
 
-
-def disc_mesh_spec(variant: ReducerSpec, spec: ReducerSpec) -> ReducerSpec:
-    """The spec whose disc the FE disc of ``variant`` is meshed from in a diagnosis's model runs: ``variant``
-    with ``spec``'s profile modification. An effect moves the profile by a few µm, which the contact sees exactly
-    and the disc's global deformation does not (``build_reducer``'s ``disc_mesh_modification``); meshed exactly,
-    each point a fit visits would be a new mesh and reduction of about 15 s."""
-    if variant.cycloid.modification == spec.cycloid.modification:
-        return variant
-    return dc.replace(variant, cycloid=dc.replace(variant.cycloid, modification=spec.cycloid.modification))
 
 
 def joined(responses: list[Response]) -> Response:

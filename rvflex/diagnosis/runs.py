@@ -13,15 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from rvflex.diagnosis.features import features
-from rvflex.diagnosis.replay import (
-    EvaluationFailed,
-    ModelRun,
-    combine,
-    disc_mesh_spec,
-    joined,
-    plan_evaluation,
-    run_model,
-)
+from rvflex.diagnosis.replay import EvaluationFailed, ModelRun, combine, joined, plan_evaluation, run_model
 from rvflex.options import ModelOptions
 from rvflex.parallel import Outcome, map_warm
 
@@ -30,7 +22,7 @@ __all__ = ["CACHE_VERSION", "FAILURE_REVISION", "ModelRunner"]
 FAILURE_REVISION = "f1"  # failed runs are remembered per solver revision (f1: a loading step or a cycle step that
 # fails is solved again from the state converged at that torque, or left out): a solver that learns to take a
 # step runs the point again, while every run that converged stays valid
-CACHE_VERSION = "diag-13"  # 13: the FE discs of a diagnosis meshed with the unit's profile (disc_mesh_spec); 12: the plan in the key as plain tuples (no module path); 11: a rigid TE run goes on by the chord Newton once Exudyn's solver bisects; 10: the chord Newton re-initialised after Exudyn's solver ran
+CACHE_VERSION = "diag-13"  # 13: the FE discs of a diagnosis meshed with the unit's profile (model.disc_mesh_spec); 12: the plan in the key as plain tuples (no module path); 11: a rigid TE run goes on by the chord Newton once Exudyn's solver bisects; 10: the chord Newton re-initialised after Exudyn's solver ran
 
 
 # ----------------------------------------------------------------------------- workers (module level: picklable)
@@ -255,6 +247,7 @@ class ModelRunner:
         import dataclasses
 
         from rvflex.fe.reduce import reduce_part
+        from rvflex.model import disc_mesh_spec
 
         seen = set()
         for run in runs:
@@ -264,7 +257,7 @@ class ModelRunner:
             for e, x in run.active:
                 if e.kind == "model" and not e.per_run:  # what can change the disc's geometry or material
                     spec, _ = e.apply_to(spec, self.errors, np.asarray(x, float), self.plan[0])
-            spec = disc_mesh_spec(spec, self.spec)  # (as run_model meshes it)
+            spec = disc_mesh_spec(spec, self.spec.cycloid.modification)  # (as run_model meshes it)
             key = (repr(spec), repr(run.options.discs))
             if key not in seen:
                 seen.add(key)
