@@ -19,7 +19,8 @@ from rvflex.parallel import Outcome, map_warm
 
 __all__ = ["CACHE_VERSION", "FAILURE_REVISION", "ModelRunner"]
 
-FAILURE_REVISION = "f1"  # failed runs are remembered per solver revision (f1: a loading step or a cycle step that
+FAILURE_REVISION = "f2"  # failed runs are remembered per solver revision (f2: a torque cycle's step out of zero
+# torque goes by the continuation once one has needed it; f1: a loading step or a cycle step that
 # fails is solved again from the state converged at that torque, or left out): a solver that learns to take a
 # step runs the point again, while every run that converged stays valid
 CACHE_VERSION = "diag-13"  # 13: the FE discs of a diagnosis meshed with the unit's profile (model.disc_mesh_spec); 12: the plan in the key as plain tuples (no module path); 11: a rigid TE run goes on by the chord Newton once Exudyn's solver bisects; 10: the chord Newton re-initialised after Exudyn's solver ran
