@@ -554,7 +554,7 @@ def torque_stepping(model: ReducerModel, torques_Nm: np.ndarray, *, progress=Non
        RV-40E landed 18° away). Without friction the equilibrium at a non-zero torque does not
        depend on the path that led to it, so the restart is exact. Once a step out of zero torque has
        needed it, the next step out of zero torque (the cycle's reversal) starts with it (measured: a rigid
-       RV-40E with 3.3 µm crank-bearing clearance, 1.5 → 0.35 s per cycle, the angles equal within 1e-8″);
+       RV-40E with 3.3 µm crank-bearing clearance, 1.3–1.5 s → 0.35 s per cycle, the angles equal within 1e-8″);
     4. a step at a torque the path has converged at before (a cycle's unloading leg revisits its
        loading leg's torques) is solved from that state instead of the unloaded one (measured: 7.5 µm
        crank-bearing clearance with a 4.9 µm runout, the unloading leg's 16.5 and 12.4 N·m steps both
