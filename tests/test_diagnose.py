@@ -794,7 +794,6 @@ def test_a_cycle_step_that_fails_is_solved_from_the_state_its_first_leg_converge
     assert not bad[top + int(np.flatnonzero(np.isclose(path[top:], 16.48))[0])]  # the failed step is solved
 
 
-
 # measured in the realistic self-check (seed 3, case 14): a calibration point of the refinement, whose torque cycle
 # leaves zero torque twice (the start and the reversal) through 3.3 µm of crank-bearing clearance
 FLOATING_AT_ZERO = ((("contact_stiffness", [-0.7]), ("needle_bearing_stiffness", [0.820632583]),
@@ -803,11 +802,11 @@ FLOATING_AT_ZERO = ((("contact_stiffness", [-0.7]), ("needle_bearing_stiffness",
 
 def test_a_cycle_that_needed_the_continuation_out_of_zero_torque_takes_the_reversal_by_it(monkeypatch):
     """Out of zero torque the unit floats in its free play: Newton and Exudyn's solver fail at the cycle's first
-    step (2.06 N·m) and at each of its bisections, and the stiff-to-working regulariser continuation takes it. The
-    reversal (0 → −2.06 N·m) then starts with the continuation, so Exudyn's solver fails there no more (0.6 s of
-    a 1.5 s cycle before). Without friction the equilibrium does not depend on the path: the reversal's angle is
-    the one a cycle started downwards reaches by the old route (every fallback in turn), within 1e-4″ (the
-    solver's tolerance)."""
+    step (2.06 N·m; before, at each of its bisections too), and the stiff-to-working regulariser continuation
+    takes it. The reversal (0 → −2.06 N·m) then starts with the continuation, so Exudyn's solver fails there no
+    more (with the bisections, 0.6 s of a 1.5 s cycle before). Without friction the equilibrium does not depend on
+    the path: the reversal's angle is the one a cycle started downwards reaches through the fallbacks in turn,
+    within 1e-4″ (the solver's tolerance)."""
     import rvflex.solve as solve
     from rvflex.model import build_reducer
     from rvflex.solve import hysteresis_cycle, torque_stepping
@@ -832,7 +831,7 @@ def test_a_cycle_that_needed_the_continuation_out_of_zero_torque_takes_the_rever
     reversal = int(np.flatnonzero((path[:-1] == 0.0) & (path[1:] < 0.0))[0]) + 1
     failed.clear()
     down = torque_stepping(build_reducer(*_variant(FLOATING_AT_ZERO, run)), [0.0, path[reversal]]).theta_out
-    assert failed  # the downward start needed the fallbacks: it took the old route
+    assert failed  # the downward start needed the fallbacks: it went through them in turn
     assert abs(theta[reversal] - down[1]) / ARCSEC < 1e-4, (theta[reversal] / ARCSEC, down[1] / ARCSEC)
 
 
