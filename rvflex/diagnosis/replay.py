@@ -241,10 +241,8 @@ def run_model(spec: ReducerSpec, errors: ErrorSpec, plan: tuple[PlanRun, ...], s
     callable spec → ContactLaw; None: the model's), before the measurement effects; with ``parts``
     (indices into ``plan``) of those plan runs only, the others None (:func:`joined` puts a run's
     parts together). ``mesh_as_spec``: the FE discs are meshed with ``spec``'s profile modification whatever
-    the effects do to it (``build_reducer``'s ``disc_mesh_modification``: an effect moves the profile by a few µm,
-    which the contact sees exactly and the disc's global deformation does not, while each point a fit visits
-    would be a new mesh and reduction of about 15 s; the diagnosis's model runs, a bench's truth is meshed
-    exactly).
+    the effects do to it (:func:`rvflex.model.disc_mesh_spec`; ``build_reducer``'s ``disc_mesh_modification``
+    says why): the diagnosis's model runs; a bench's truth is meshed exactly.
 
     Raises
     ------
@@ -271,7 +269,6 @@ def run_model(spec: ReducerSpec, errors: ErrorSpec, plan: tuple[PlanRun, ...], s
         raise EvaluationFailed(f"effect value breaks a spec rule: {err}") from None
     return _run_model(variants, tuple(plan_c), settings, run.options, run.alt_law or law, parts,
                       spec.cycloid.modification if mesh_as_spec else None)
-
 
 
 def joined(responses: list[Response]) -> Response:
