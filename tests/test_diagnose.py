@@ -552,6 +552,35 @@ def test_a_pair_whose_second_effect_does_not_predict_the_withheld_runs_is_not_co
     assert text.startswith("No effect is confirmed") and f"against {a.name} alone fewer than 2 folds" in text
 
 
+def test_a_refined_pair_refuted_against_a_linearised_single_has_its_singles_refined():
+    """Before a diagnosis says "unexplained" under a refined pair whose second effect was judged against a
+    linearised single (a model-in-the-loop fit against a linearised one), the pair's linearised singles are
+    refined (far self-check seed 2, case 17: a hidden thermal mismatch, linearised at score 54 at its bound,
+    refined at 860 and confirmed; the pair with a clearance at 764, refuted against the clearance linearised
+    at 97). Not when the single it was judged against is refined, nor under a single or an unrefined leader."""
+    from types import SimpleNamespace
+
+    from rvflex.diagnosis.fit import _singles_of_refuted_pair
+
+    a, b, c = EFFECTS["eccentric_bearing_clearance"], EFFECTS["thermal_expansion"], EFFECTS["pin_ring_runout"]
+    s = DiagnosisSettings()
+
+    def cand(effects, score, refined, against=None):
+        wh = {"against_single": {"single": against}} if against else {}
+        return SimpleNamespace(effects=effects, attributed=effects, name=" + ".join(e.name for e in effects),
+                               score=score, refined=refined, withheld=wh)
+
+    pair = cand((a, b), 764.0, True, against=a.name)
+    sa, sb, sc = cand((a,), 97.0, False), cand((b,), 54.0, False), cand((c,), 27.0, False)
+    assert _singles_of_refuted_pair([pair, sa, sb, sc], s, {}) == [sa, sb]
+    sa_ref = cand((a,), 97.0, True)
+    assert _singles_of_refuted_pair([pair, sa_ref, sb, sc], s, {}) == []  # judged against a refined single
+    assert _singles_of_refuted_pair([sa, pair, sb], s, {}) == []  # the leader is a single
+    assert _singles_of_refuted_pair([cand((a, b), 764.0, False, a.name), sa, sb], s, {}) == []  # linearised pair
+    assert _singles_of_refuted_pair([pair, sa, sb], s, {b.name: "failed"}) == [sa]  # a failed single stays out
+    assert _singles_of_refuted_pair([cand((a, b), 5.0, True, a.name), sa, sb], s, {}) == []  # no evidence
+
+
 def test_settings_refuse_too_few_positions_for_the_orders():
     with pytest.raises(ValueError, match="positions_per_rev"):
         DiagnosisSettings(positions_per_rev=128, max_order=120)

@@ -573,14 +573,28 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
             if c.score < settings.bic_threshold or c.name in failed or (c.refined and acceptable(c, settings)):
                 break  # below the threshold, blocking (its evaluation failed), or the one accepted
             if not c.refined and (c is out[0] or acceptable(c, settings)):
-                nxt = c
+                nxt = [c]
                 break
-        if nxt is None:
+        # nothing accepted under a refined pair judged against a linearised single: before "unexplained", its
+        # singles are refined and the pair judged again (measured, far self-check seed 2, case 17: a hidden
+        # 3.9 ppm/K thermal mismatch, the pair with a crank-bearing clearance refined to score 764 and refuted
+        # against the clearance alone, linearised at 97; the thermal mismatch alone, linearised at 54 at its bound,
+        # refined reaches 860 and is confirmed by the withheld runs)
+        pair_singles = nxt is None and not any(c.refined and acceptable(c, settings) for c in out)
+        if pair_singles:
+            nxt = _singles_of_refuted_pair(out, settings, failed)
+        if not nxt:
             break
-        again = settled(refine(with_twins([nxt]), prob, runner, sens, f0, resp0, settings, failed, n_nuis))
-        out = [c for c in out if c is not nxt] + [scored(c) for c in again]
+        again = settled(refine(with_twins(nxt), prob, runner, sens, f0, resp0, settings, failed, n_nuis))
+        out = [c for c in out if all(c is not s for s in nxt)] + [scored(c) for c in again]
+        if pair_singles:
+            for c in again:
+                if len(c.attributed) == 1 and (c.name not in best_single or c.rss < best_single[c.name].rss):
+                    best_single[c.name] = c
+            out = [scored(c) if len(c.attributed) > 1 else c for c in out
+                   if len(c.attributed) == 1 or second_effect_adds(c, best_single, settings, score_of)]
         if not again:  # its evaluation failed: kept linearised, and named so in the verdict
-            out.append(nxt)
+            out += nxt
         out.sort(key=lambda c: -c.score)
     chosen, final, blocked = _accepted(out, settings, failed)
     # calibrate first: an effect that the nominal parameters reproduce within their prior ranges is not
@@ -678,6 +692,20 @@ def _accepted(ranked: list[Candidate], settings: DiagnosisSettings, failed: dict
             blocked = c
         final.append(c)
     return chosen, final, blocked
+
+
+def _singles_of_refuted_pair(ranked: list[Candidate], settings: DiagnosisSettings, failed: dict) -> list[Candidate]:
+    """The linearised singles of the leader of ``ranked`` (by score) when it is a refined pair whose second effect
+    was judged against a linearised single (``withheld["against_single"]``): a refined fit against a linearised
+    one, which can favour either. [] when the leader is no such pair."""
+    lead = ranked[0] if ranked else None
+    if (lead is None or not lead.refined or len(lead.attributed) < 2 or lead.score < settings.bic_threshold
+            or lead.name in failed):
+        return []
+    names = {e.name for e in lead.attributed}
+    singles = [c for c in ranked if len(c.attributed) == 1 and c.name in names and not c.refined and c.name not in failed]
+    against = lead.withheld.get("against_single", {}).get("single")
+    return singles if against in {c.name for c in singles} else []
 
 
 def _calibrated(prob: Problem, runner: ModelRunner, sens: Sensitivities, cal: tuple, f0: np.ndarray, resp0: Response,
