@@ -122,7 +122,7 @@ def diagnose(bench: str | os.PathLike | BenchDataset, *, effects: tuple[str, ...
 def selfcheck(out_dir: str | os.PathLike | None = None, *, cases: int = 20, seed: int = 1, mismatch: Mismatch = "none",
               reducer: str | os.PathLike = "rv40e", effects: tuple[str, ...] | None = None,
               nominal: tuple[str, ...] | None = None, settings: DiagnosisSettings | None = None, progress=None,
-              log=None, reuse_benches: bool = False) -> dict:
+              log=None, reuse_benches: bool = False, told: bool = False) -> dict:
     """Check the diagnosis blind: write synthetic benches with hidden effects, diagnose each, score.
 
     Every case draws one or two effects (or none: a control case) at random magnitudes, writes a
@@ -161,6 +161,11 @@ def selfcheck(out_dir: str | os.PathLike | None = None, *, cases: int = 20, seed
         Diagnose again a bench that ``out_dir`` already holds from the same draw and generator (its
         key matches; any other is written afresh) instead of generating it: the diagnosis settings or
         code can change, the benches stay. ``wall_s`` then leaves out their generation.
+    told : bool, optional
+        Also diagnose each effect case told its hidden effects (the candidates only those, their sizes
+        not told): per case ``told_top1`` (a candidate with the dominant effect accepted) and
+        ``told_chosen``, and ``top1_rate_told``. What the runs confirm of the hidden effects when the
+        ranking has nothing else to choose; about one more cached diagnosis per effect case.
 
     Returns
     -------
@@ -191,7 +196,7 @@ def selfcheck(out_dir: str | os.PathLike | None = None, *, cases: int = 20, seed
     load_reducer(reducer, field="reducer")  # one clear message for an unknown name or a bad spec, before any run
     settings = SelfCheckSettings(cases=cases, seed=seed, diagnosis=settings or DiagnosisSettings(), mismatch=mismatch,
                                  control_every=5 if mismatch == "none" else 4, reducer=reducer, effects=effects,
-                                 nominal=nominal, reuse_benches=bool(reuse_benches))
+                                 nominal=nominal, reuse_benches=bool(reuse_benches), told=bool(told))
     with tempfile.TemporaryDirectory(prefix="rvflex-selfcheck-") as tmp:
         out = Path(out_dir) if out_dir is not None else Path(tmp)
         doc = run_selfcheck(out, settings, progress=progress, log=log or (lambda line: None))
@@ -200,7 +205,7 @@ def selfcheck(out_dir: str | os.PathLike | None = None, *, cases: int = 20, seed
                        "diagnosis": dc.asdict(settings.diagnosis), "generator": dc.asdict(settings.generator),
                        "realism": dc.asdict(settings.realism), "mismatch": settings.mismatch,
                        "realistic": dc.asdict(settings.realistic), "far": dc.asdict(settings.far),
-                       "reuse_benches": settings.reuse_benches}
+                       "reuse_benches": settings.reuse_benches, "told": settings.told}
     return doc
 
 

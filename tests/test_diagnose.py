@@ -634,7 +634,7 @@ def test_selfcheck_two_cases(tmp_path):
                                  generator=GeneratorModel(positions_per_rev=256, hysteresis_steps=60),
                                  diagnosis=DiagnosisSettings(max_order=63,
                                                              hysteresis_steps=24, refine_top=2,
-                                                             refine_iterations=1, workers=2))
+                                                             refine_iterations=1, workers=2), told=True)
     doc = selfcheck(tmp_path, settings, log=lambda s: None)
     json.dumps(doc)
     assert {"cases", "top1_rate", "top2_rate", "magnitude_within_25pct_rate", "median_gap_shrink_pct",
@@ -642,6 +642,10 @@ def test_selfcheck_two_cases(tmp_path):
     assert doc["cases"] == 2 and doc["effect_cases"] == 1 and doc["control_cases"] == 1
     assert doc["top2_rate"] == 1.0
     assert doc["control_correct_rate"] == 1.0
+    # told its hidden effect (the only candidate), the diagnosis accepts it: tens of times above the noise floor
+    effect_case = next(r for r in doc["per_case"] if not r["control"])
+    assert effect_case["told_top1"] and doc["top1_rate_told"] == 1.0, effect_case
+    assert "told_top1" not in next(r for r in doc["per_case"] if r["control"])
     # the truth stays outside the dataset folders the diagnosis reads
     assert not list((tmp_path / "datasets").rglob("*.json"))
 

@@ -38,6 +38,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--reuse-benches", action="store_true",
                    help="diagnose again the benches --out already holds from the same draws and generator (others are "
                         "generated): after a change to the diagnosis, the same benches")
+    s.add_argument("--told", action="store_true",
+                   help="also diagnose each effect case told its hidden effects (the candidates only those): "
+                        "top1_rate_told, what the runs confirm when the ranking has nothing else to choose")
     s.set_defaults(func=_guarded(_cmd_selfcheck), flags={"cases": "--cases", "mismatch": "--mismatch",
                                                         "reducer": "--reducer"})
 
@@ -103,10 +106,10 @@ def _cmd_selfcheck(args: argparse.Namespace) -> int:
         out = Path(args.out) if args.out else Path(tmp)
         doc = selfcheck(out, cases=args.cases, seed=args.seed, mismatch=args.mismatch, reducer=args.reducer,
                         settings=DiagnosisSettings(workers=args.workers), reuse_benches=args.reuse_benches,
-                        log=lambda s: print(s, file=sys.stderr, flush=True))
+                        told=args.told, log=lambda s: print(s, file=sys.stderr, flush=True))
         summary = {k: doc[k] for k in ("cases", "mismatch", "top1_rate", "top2_rate", "magnitude_within_25pct_rate",
                                        "median_gap_shrink_pct", "control_correct_rate", "calibration_rate",
-                                       "calibration_rate_all_scales", "wall_s")}
+                                       "calibration_rate_all_scales", "top1_rate_told", "wall_s") if k in doc}
         print(json.dumps(summary, indent=2))
         if args.out:
             write_atomic(out / "selfcheck.json", json.dumps(doc, indent=2).encode())
