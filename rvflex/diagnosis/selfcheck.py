@@ -503,8 +503,9 @@ def _told(folder, hidden: list[str], settings: SelfCheckSettings, diag_settings,
     """The case diagnosed again with its hidden effects as the only candidates (their sizes not told): whether
     the acceptance rules then accept a candidate with the dominant effect (``told_top1``). It separates what the
     ranking among the other candidates gets wrong from what these runs cannot confirm of the hidden effects
-    whatever ranks first (measured, far self-check seed 2: cases 4, 9 and 10, told, accept nothing). It is no
-    strict bound of top-1: among more candidates the dominant effect can be accepted beside another one."""
+    whatever ranks first (measured, far self-check seed 2: told, cases 4, 9 and 10 accept no candidate with the
+    dominant effect, as blind). It is no strict bound of top-1: among more candidates the dominant effect can be
+    accepted beside another one."""
     from rvflex.diagnosis.fit import diagnose
 
     told = diagnose(read_bench(folder), settings=diag_settings, effects=tuple(hidden), nominal=settings.nominal,
