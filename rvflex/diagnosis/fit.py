@@ -538,10 +538,17 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
     allc = refined + [c for c in ranked if c.name not in refined_names]
     # the pair rule again with the model-in-the-loop residuals where there are some
     best_single = {}
-    for c in allc:
-        if len(c.attributed) == 1 and (c.name not in best_single or c.rss < best_single[c.name].rss):
-            best_single[c.name] = c
-    allc = [c for c in allc if len(c.attributed) == 1 or second_effect_adds(c, best_single, settings, score_of)]
+
+    def note_singles(cands: list) -> None:  # each single's best fit so far (refined ones by their real residual)
+        for c in cands:
+            if len(c.attributed) == 1 and (c.name not in best_single or c.rss < best_single[c.name].rss):
+                best_single[c.name] = c
+
+    def adding(cands: list) -> list:  # the singles, and the pairs whose second effect adds to their better single
+        return [c for c in cands if len(c.attributed) == 1 or second_effect_adds(c, best_single, settings, score_of)]
+
+    note_singles(allc)
+    allc = adding(allc)
 
     # --- scores against the calibrated model, shrink of what calibration left, withheld check
     none = dc.replace(none, gap_shrink_pct=_shrink(none.rss, nominal_model.rss),
@@ -588,11 +595,8 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
         again = settled(refine(with_twins(nxt), prob, runner, sens, f0, resp0, settings, failed, n_nuis))
         out = [c for c in out if all(c is not s for s in nxt)] + [scored(c) for c in again]
         if pair_singles:
-            for c in again:
-                if len(c.attributed) == 1 and (c.name not in best_single or c.rss < best_single[c.name].rss):
-                    best_single[c.name] = c
-            out = [scored(c) if len(c.attributed) > 1 else c for c in out
-                   if len(c.attributed) == 1 or second_effect_adds(c, best_single, settings, score_of)]
+            note_singles(again)
+            out = [scored(c) if len(c.attributed) > 1 else c for c in adding(out)]
         if not again:  # its evaluation failed: kept linearised, and named so in the verdict
             out += nxt
         out.sort(key=lambda c: -c.score)
