@@ -485,13 +485,14 @@ def _diagnosis_job(args):
     from rvflex.io import write_atomic
 
     k, folder, truth_path, report_path, settings, diag_settings, cache = args
-    diag = diagnose(read_bench(folder), settings=diag_settings, effects=settings.effects, nominal=settings.nominal,
+    dataset = read_bench(folder)
+    diag = diagnose(dataset, settings=diag_settings, effects=settings.effects, nominal=settings.nominal,
                     cache_dir=cache)
     write_atomic(report_path, json.dumps(json_document(diag), indent=2, default=float).encode())
     truth_doc = json.loads(Path(truth_path).read_text(encoding="utf-8"))
     row = {"case": k, **score_case(truth_doc, diag)}
     if settings.told and row["hidden"]:
-        row.update(_told(folder, row["hidden"], settings, diag_settings, cache))
+        row.update(_told(dataset, row["hidden"], settings, diag_settings, cache))
     top = diag.candidates[0] if diag.candidates else None
     why = (f"best {top.name}: score {top.score:.0f}, shrink {top.gap_shrink_pct:.0f} %, withheld "
            f"{top.withheld.get('improvement_pct') or 0:.0f} %, refined {top.refined}") if top else ""
@@ -499,7 +500,7 @@ def _diagnosis_job(args):
                  f"(ranked {', '.join(row['ranked'][:2])}; {why}) [{diag.wall_s:.0f} s, {diag.model_runs} model runs]")
 
 
-def _told(folder, hidden: list[str], settings: SelfCheckSettings, diag_settings, cache) -> dict:
+def _told(dataset: BenchDataset, hidden: list[str], settings: SelfCheckSettings, diag_settings, cache) -> dict:
     """The case diagnosed again with its hidden effects as the only candidates (their sizes not told): whether
     the acceptance rules then accept a candidate with the dominant effect (``told_top1``). It separates what the
     ranking among the other candidates gets wrong from what these runs cannot confirm of the hidden effects
@@ -508,8 +509,7 @@ def _told(folder, hidden: list[str], settings: SelfCheckSettings, diag_settings,
     accepted beside another one."""
     from rvflex.diagnosis.fit import diagnose
 
-    told = diagnose(read_bench(folder), settings=diag_settings, effects=tuple(hidden), nominal=settings.nominal,
-                    cache_dir=cache)
+    told = diagnose(dataset, settings=diag_settings, effects=tuple(hidden), nominal=settings.nominal, cache_dir=cache)
     chosen = told.chosen
     return {"told_chosen": chosen.name if chosen else None,
             "told_top1": bool(chosen and hidden[0] in [e.name for e in chosen.effects])}
