@@ -81,7 +81,7 @@ DiscrepancyKind = Literal["orders", "mesh orders", "wind-up", "torque cycle"]
 """Kinds of the diagnosis' discrepancy groups: a TE run's octave band of orders, its pin-mesh orders, the
 wind-ups of the TE runs, a torque cycle."""
 
-Mismatch = Literal["none", "realistic", "far"]
+Mismatch = Literal["none", "realistic", "far", "ensemble"]
 """Self-check generators: the diagnosing model's family, another one per case, or another one whose
 overall stiffness is also drawn far from the model's (×0.5 … ×2)."""
 

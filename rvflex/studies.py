@@ -138,11 +138,13 @@ def selfcheck(out_dir: str | os.PathLike | None = None, *, cases: int = 20, seed
         Number of benches (≥ 1).
     seed : int, optional
         Random seed of the draws.
-    mismatch : {"none", "realistic", "far"}, optional
+    mismatch : {"none", "realistic", "far", "ensemble"}, optional
         The generator: the diagnosing model at a finer resolution with a 2 % stiffer contact and
         a control every 5th case (``"none"``); another model family per case with a control
         every 4th case (``"realistic"``); that family with the overall stiffness also drawn
-        ×0.5 … ×2 (``"far"``).
+        ×0.5 … ×2 (``"far"``); a unit of another model form per case, drawn from the ensemble the
+        null distribution is made of (:class:`~rvflex.diagnosis.ensemble.EnsembleMismatch`), with a
+        control every 4th case (``"ensemble"``).
     reducer : str or os.PathLike, optional
         The unit: a built-in reducer name or a spec TOML file.
     effects : tuple of str, optional
@@ -172,7 +174,8 @@ def selfcheck(out_dir: str | os.PathLike | None = None, *, cases: int = 20, seed
     dict
         The score document of ``rvflex selfcheck --json``: ``top1_rate``, ``top2_rate``,
         ``magnitude_within_25pct_rate``, ``median_gap_shrink_pct`` (%), ``control_correct_rate``,
-        ``calibration_rate``, ``wall_s`` (s), ``per_case`` and ``settings``.
+        ``calibration_rate``, ``false_names`` (accepted names that are not hidden, over all cases) and
+        ``false_names_per_20_cases``, ``wall_s`` (s), ``per_case`` and ``settings``.
 
     Raises
     ------

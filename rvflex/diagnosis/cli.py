@@ -1,4 +1,4 @@
-"""The diagnosis commands of ``rvflex`` (``rvflex diagnose``, ``rvflex selfcheck``)."""
+"""The diagnosis commands of ``rvflex`` (``rvflex diagnose``, ``rvflex selfcheck``, ``rvflex null-distribution``)."""
 
 from __future__ import annotations
 
@@ -32,7 +32,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "'realistic' another model family per case (power-law contact, needle-bearing and mesh "
                         "stiffness ±40 %%, nominal crank-bearing clearance 0–5 µm, flexible discs, TE sampled over "
                         "[0, 2π)) with a control every 4th case; 'far' the realistic generator with the overall "
-                        "stiffness also drawn ×0.5 … ×2 and a nominal clearance 0–8 µm")
+                        "stiffness also drawn ×0.5 … ×2 and a nominal clearance 0–8 µm; 'ensemble' a unit of another "
+                        "model form per case (contact, bearing, mesh, series-compliance, thermal and disc forms drawn, "
+                        "see rvflex.diagnosis.ensemble)")
     s.add_argument("--reducer", default="rv40e", metavar="NAME|SPEC",
                    help="the unit: a built-in reducer name or a spec TOML file (default rv40e)")
     s.add_argument("--reuse-benches", action="store_true",
@@ -43,6 +45,17 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "top1_rate_told, what the runs confirm when the ranking has nothing else to choose")
     s.set_defaults(func=_guarded(_cmd_selfcheck), flags={"cases": "--cases", "mismatch": "--mismatch",
                                                         "reducer": "--reducer"})
+    n = sub.add_parser("null-distribution",
+                       help="diagnose healthy units of other model forms (the ensemble) and write the null distribution "
+                            "a finding must exceed to be established")
+    n.add_argument("--cases", type=int, default=14, help="ensemble controls per unit (default 14)")
+    n.add_argument("--reducers", default="rv40e,rv80e,rv160n",
+                   help="comma-separated built-in units (default rv40e,rv80e,rv160n)")
+    n.add_argument("--seed", type=int, default=1, help="random seed of the first unit (the next units: seed + 1, …)")
+    n.add_argument("--out", required=True, help="folder for the controls' benches, reports and cache")
+    n.add_argument("--json", help="write the null distribution here (the package's own: "
+                                  "rvflex/diagnosis/null_distribution.json)")
+    n.set_defaults(func=_guarded(_cmd_null), flags={"cases": "--cases"})
 
 
 def _guarded(cmd):
@@ -109,11 +122,34 @@ def _cmd_selfcheck(args: argparse.Namespace) -> int:
                         told=args.told, log=lambda s: print(s, file=sys.stderr, flush=True))
         summary = {k: doc[k] for k in ("cases", "mismatch", "top1_rate", "top2_rate", "magnitude_within_25pct_rate",
                                        "median_gap_shrink_pct", "control_correct_rate", "calibration_rate",
-                                       "calibration_rate_all_scales", "top1_rate_told", "wall_s") if k in doc}
+                                       "calibration_rate_all_scales", "top1_rate_told", "false_names",
+                                       "false_names_per_20_cases", "wall_s") if k in doc}
         print(json.dumps(summary, indent=2))
         if args.out:
             write_atomic(out / "selfcheck.json", json.dumps(doc, indent=2).encode())
             print(f"wrote {out / 'selfcheck.json'}")
         if args.json:
             write_atomic(Path(args.json), json.dumps(doc, indent=2).encode())
+    return 0
+
+
+def _cmd_null(args: argparse.Namespace) -> int:
+    import json
+
+    from rvflex.diagnosis.null_build import build_null
+    from rvflex.spec import SpecError
+
+    if args.cases < 1:
+        raise SpecError("--cases", args.cases, "must be at least 1")
+    reducers = tuple(x.strip() for x in args.reducers.split(",") if x.strip())
+    if not reducers:
+        raise SpecError("--reducers", args.reducers, "names no unit")
+    out = Path(args.out)
+    doc = build_null(out, reducers, args.cases, args.seed, json_path=args.json, cache_dir=out / "cache",
+                     log=lambda s: print(s, file=sys.stderr, flush=True))
+    rows = {k: {"evidence_q95": round(v["evidence_q95"], 1), "false_alarm_rate": round(v["false_alarm_rate"], 3)}
+            for k, v in doc["effects"].items()}
+    print(json.dumps({"controls": doc["source"]["controls"], "wall_s": doc["wall_s"], "effects": rows}, indent=2))
+    if args.json:
+        print(f"wrote {args.json}")
     return 0

@@ -432,7 +432,11 @@ def _builtin() -> tuple[Effect, ...]:
                                "changes the ripple with the load)"),
         Effect("output_encoder_eccentricity", "eccentrically mounted output encoder (measurement artefact): "
                "angle error a·cos θ + b·sin θ", polar(250 * ARCSEC, 5 * ARCSEC, ("a_rad", "b_rad"), "rad"),
-               kind="measurement", measure=_encoder_eccentricity, polar=True),
+               kind="measurement", measure=_encoder_eccentricity, polar=True,
+               separating_runs="the encoder re-mounted turned on the flange (its eccentricity turns with it, an "
+                               "error of the output's parts does not), or a second read head 180° apart (an "
+                               "eccentricity cancels in the mean of two opposite heads, a true angle error does "
+                               "not)"),
         Effect("disc_carrier_flexibility", "disc and carrier flexibility (rigid → FE-reduced flexible model; "
                "1 = the flexible model)", (Param("flexible_share", "1", 0.0, 2.0, 1.0),),
                kind="fidelity", options=ModelOptions.flexible_discs()),

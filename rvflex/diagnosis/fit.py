@@ -55,6 +55,16 @@ from rvflex.diagnosis.calibration import (
 )
 from rvflex.diagnosis.discrepancy import Discrepancy, evidence, feature_groups
 from rvflex.diagnosis.features import measured_runs
+from rvflex.diagnosis.grade import (
+    CONSISTENT,
+    ESTABLISHED,
+    consistent_sentence,
+    explained_where_it_lies,
+    gap_sentence,
+    grade,
+    part_ties,
+    part_ties_sentence,
+)
 from rvflex.diagnosis.linear import (
     Candidate,
     Problem,
@@ -68,6 +78,7 @@ from rvflex.diagnosis.linear import (
     weights,
 )
 from rvflex.diagnosis.nominal import NOMINAL, REPLACES, nominal_parameters, within_spec_rules
+from rvflex.diagnosis.null import load_null
 from rvflex.diagnosis.plan import Layout, PlanRun, plan_from_dataset
 from rvflex.diagnosis.refine import evaluate_sets, evaluated_candidate, refine
 from rvflex.diagnosis.replay import EvaluationFailed, Response, one_period
@@ -134,6 +145,7 @@ class Diagnosis:
     discrepancy: Discrepancy | None = None  # what the calibrated model leaves, per order band and run
     lookalikes: dict = dc.field(default_factory=dict)  # effects the calibration can stand in for (see calibration_lookalikes)
     sensitivities: Sensitivities | None = None  # the secants the candidates were fitted with (about the anchored model)
+    part_ties: tuple = ()  # part errors no candidate models that TE cannot tell from the accepted effect (grade.part_ties)
 
     def observability(self, name: str, x) -> tuple[float, float]:
         """How well these runs can see candidate effect ``name`` at parameters ``x``.
@@ -600,6 +612,11 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
         if not again:  # its evaluation failed: kept linearised, and named so in the verdict
             out += nxt
         out.sort(key=lambda c: -c.score)
+    # --- grades: a candidate that passes the tests is established only beyond what healthy units of other model
+    # forms make of it (the null distribution) and when it explains most of what calibration left where its
+    # signature lies; the others that pass are consistent but not established
+    null = _null_of(settings)
+    out = [dc.replace(c, grade=grade(c, settings, null, explained_where_it_lies(prob, c, none, disc))) for c in out]
     chosen, final, blocked = _accepted(out, settings, failed)
     # calibrate first: an effect that the nominal parameters reproduce within their prior ranges is not
     # needed — the nominal explanation is expected, the effect is extra; it is reported as a tie
@@ -617,6 +634,16 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
     tied = (tuple(o.name for o in equivalent(final, lead_c, sens, f0, w))
             if lead_c is not None and lead_c.score >= settings.bic_threshold else ())
     text = verdict(final, chosen, none, bool(folds), settings, unavailable, failed, tied, blocked)
+    # a candidate that passes every test but is not established: the verdict says so instead of "unexplained"
+    consistent = (next((c for c in final if c.grade.get("grade") == CONSISTENT and c.refined
+                        and acceptable(c, settings)), None) if chosen is None and blocked is None else None)
+    if consistent is not None:
+        text = consistent_sentence(consistent)
+    if chosen is None:
+        text += " " + gap_sentence(disc)
+    ties_to_parts = part_ties(spec, chosen) if chosen is not None else []
+    if ties_to_parts:
+        text += " " + part_ties_sentence(ties_to_parts)
     if demoted is not None:
         text = (f"Nominal parameters off; no unmodelled effect is needed: {demoted.name} would remove "
                 f"{demoted.gap_shrink_pct:.0f} % of what calibration leaves, but within their prior ranges the nominal "
@@ -642,7 +669,14 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
     return Diagnosis(dataset, settings, plan, lay, w, y, none, none.response or resp0, tuple(final), chosen,
                      folds, unavailable, failed, size, text, runner.model_runs,
                      time.perf_counter() - t0, tied, nominal_model, windows, cal_ties, runs_needed, held, anc, disc,
-                     lookalikes, sens)
+                     lookalikes, sens, tuple(ties_to_parts))
+
+
+def _null_of(settings: DiagnosisSettings):
+    """The null distribution ``settings.null_distribution`` names (None: none)."""
+    if settings.null_distribution is None:
+        return None
+    return load_null(None if settings.null_distribution == "builtin" else settings.null_distribution)
 
 
 def _calibration_parameters(nominal, spec: ReducerSpec, plan: tuple[PlanRun, ...], unavailable: dict) -> tuple:
@@ -688,7 +722,8 @@ def _accepted(ranked: list[Candidate], settings: DiagnosisSettings, failed: dict
     final = []
     blocked = None  # a candidate that fits better (linearised) but whose model evaluation failed
     for c in ranked:
-        if c.refined and acceptable(c, settings) and chosen is None and blocked is None:
+        if c.refined and acceptable(c, settings) and c.grade.get("grade", ESTABLISHED) == ESTABLISHED \
+                and chosen is None and blocked is None:
             chosen = dc.replace(c, accepted=True)
             final.append(chosen)
             continue

@@ -62,6 +62,7 @@ class Candidate:
     upper: np.ndarray | None = None
     base_features: np.ndarray | None = None  # the linearisation point of an unrefined fit (None: the nominal model)
     base_x: np.ndarray | None = None  # its parameters (None: zeros)
+    grade: dict = field(default_factory=dict)  # its grade (rvflex.diagnosis.grade.grade), once scored
 
     @property
     def name(self) -> str:

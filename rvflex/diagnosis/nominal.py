@@ -127,11 +127,11 @@ def max_pin_force(spec: ReducerSpec, torque_Nm: float) -> float:
     return 4.0 * torque_Nm / (c.disc_count * c.disc_teeth * k1 * c.pin_circle_radius_m)
 
 
-def power_law_equivalent(spec: ReducerSpec) -> float:
-    """k (N/m^1.5) of a point-contact law F = k·x^1.5 matching ``spec``'s line contact (seed 002,
-    materials and disc width of the spec) over the pin forces of the tests: least squares in log
-    force over POWER_LAW_LOAD_RANGE of the most loaded pin's force at rated torque, at a loaded-flank
-    radius of POWER_LAW_FLANK_RADIUS_M."""
+def power_law_equivalent(spec: ReducerSpec, exponent: float = 1.5) -> float:
+    """k (N/m^e) of a power-law contact F = k·x^e (default e = 1.5, the point contact) matching ``spec``'s
+    line contact (seed 002, materials and disc width of the spec) over the pin forces of the tests: least
+    squares in log force over POWER_LAW_LOAD_RANGE of the most loaded pin's force at rated torque, at a
+    loaded-flank radius of POWER_LAW_FLANK_RADIUS_M."""
     from rvflex.geometry.formulas import hertz_line_deflection
 
     m = spec.materials
@@ -140,7 +140,7 @@ def power_law_equivalent(spec: ReducerSpec) -> float:
                                         spec.cycloid.pin_radius_m, m.gears_cranks_discs.youngs_modulus_Pa,
                                         m.gears_cranks_discs.poisson_ratio, m.pins.youngs_modulus_Pa,
                                         m.pins.poisson_ratio) for x in f])
-    return float(np.exp(np.mean(np.log(f) - 1.5 * np.log(d))))
+    return float(np.exp(np.mean(np.log(f) - exponent * np.log(d))))
 
 
 def point_contact_law(spec: ReducerSpec):

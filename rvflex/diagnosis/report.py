@@ -14,7 +14,7 @@ from rvflex.diagnosis.nominal import describe_calibration
 from rvflex.diagnosis.plan import BRANCH_FRACTIONS, part_label
 from rvflex.geometry.formulas import ARCSEC_PER_RAD
 
-__all__ = ["draw_run", "gap_table", "json_document", "where_list", "write_report"]
+__all__ = ["draw_run", "gap_table", "json_document", "residual_orders", "verdict_grade", "where_list", "write_report"]
 
 
 def _run_meta(diag, r: int) -> tuple[str, float]:
@@ -172,6 +172,56 @@ def _orders_of(diag, c: Candidate, keys) -> list[dict]:
     return out
 
 
+RESIDUAL_ORDER_FLOORS = 3.0  # a residual order is significant at this many floors (noise and model-form floor)
+RESIDUAL_ORDERS_SHOWN = 12  # at most this many residual orders are named, largest first
+
+
+def residual_orders(diag, c: Candidate | None = None) -> list[dict]:
+    """The significant residual TE orders of model ``c`` (default: the accepted one, else the calibrated model),
+    each named by the parts of the unit that turn at it (:func:`rvflex.diagnosis.orders.name_orders`).
+
+    An order is significant in a run when its residual amplitude reaches :data:`RESIDUAL_ORDER_FLOORS` times its
+    floor (the weight's inverse: measurement noise and the model-form floor). Per order: its largest residual
+    (arcsec) and floors, the residual in every TE run with the run's conditions (load, direction, temperature),
+    so its load and temperature dependence can be read, the parts, the candidate effects acting there and the
+    part errors at that order the library lacks. Largest first, at most :data:`RESIDUAL_ORDERS_SHOWN`."""
+    from rvflex.diagnosis.effects import EFFECTS
+    from rvflex.diagnosis.orders import name_orders
+
+    lay = diag.layout
+    c = c or diag.chosen or diag.baseline
+    y = shift_measured(diag.measured, lay, c.delta)[:, 0]
+    amp, floors = {}, {}
+    for r in lay.te_runs:
+        a = np.hypot(y[lay.cos[r]] - c.model_features[lay.cos[r]], y[lay.sin[r]] - c.model_features[lay.sin[r]])
+        f = 1.0 / diag.weights[lay.cos[r]]
+        amp[r], floors[r] = a, a / f
+    peak = {}
+    for r in lay.te_runs:
+        for k in np.flatnonzero(floors[r] >= RESIDUAL_ORDER_FLOORS):
+            if floors[r][k] > peak.get(int(k) + 1, (0.0, None))[0]:
+                peak[int(k) + 1] = (float(floors[r][k]), r)
+    top = sorted(peak, key=lambda k: -amp[peak[k][1]][k - 1])[:RESIDUAL_ORDERS_SHOWN]
+    named = {row["order"]: row for row in name_orders(diag.dataset.reducer, top, candidates=tuple(EFFECTS))}
+    out = []
+    for k in top:
+        fl, r = peak[k]
+        row = named[k]
+        out.append({"order": k, "residual_arcsec": float(amp[r][k - 1]), "floors": fl, **_run_keys(diag, r),
+                    "per_run": [{**_run_keys(diag, q), "residual_arcsec": float(amp[q][k - 1]),
+                                 "floors": float(floors[q][k - 1])} for q in lay.te_runs],
+                    "parts": row["parts"], "sidebands": row["sidebands"], "candidates": row["candidates"],
+                    "lacking": row["lacking"], "note": row["note"]})
+    return out
+
+
+def _parts_text(row: dict) -> str:
+    """The parts of a residual order in words (harmonic m of a part as "m× …")."""
+    parts = [(f"{p['harmonic']}× " if p["harmonic"] > 1 else "") + f"{p['part']} (vs {p['relative_to']})"
+             for p in row["parts"]]
+    return "; ".join(parts) or row["note"] or "—"
+
+
 def _second_effect_withheld(wh: dict) -> dict:
     """A pair's withheld check against its better single as the JSON's ``second_effect_withheld`` ({} for a
     single effect)."""
@@ -217,6 +267,11 @@ def json_document(diag) -> dict:
             "withheld_evidence": c.withheld.get("evidence"),
             "withheld_fold_evidence": [f.get("evidence") for f in c.withheld.get("folds", ())],
             **_second_effect_withheld(c.withheld),
+            "grade": c.grade.get("grade"), "grade_fails": list(c.grade.get("fails", [])),
+            "explained_where_pct": c.grade.get("explained_where_pct"),
+            "signature_groups": list(c.grade.get("signature_groups", [])),
+            "null_evidence_threshold": c.grade.get("evidence_threshold"),
+            "null_magnitude_thresholds": c.grade.get("magnitude_thresholds") or {},
         })
     ref = chosen or (diag.candidates[0] if diag.candidates else None)
     wh = dict(ref.withheld) if ref is not None else {}
@@ -246,7 +301,20 @@ def json_document(diag) -> dict:
             "withheld_check": withheld, "verdict": diag.verdict, "wall_s": diag.wall_s,
             "origin_rad": float((chosen or diag.baseline).delta), "model_runs": diag.model_runs,
             "unavailable_effects": diag.unavailable, "failed_effects": diag.failed,
-            "signature_size": diag.signature_size, "ties": list(diag.ties)}
+            "signature_size": diag.signature_size, "ties": list(diag.ties), "grade": verdict_grade(diag),
+            "residual_orders": residual_orders(diag), "part_ties": list(diag.part_ties)}
+
+
+def verdict_grade(diag) -> str:
+    """The verdict's grade: "established" (an accepted finding), "consistent but not established" (a candidate
+    passes the tests but is not established), or "unexplained model-form gap" (see :mod:`rvflex.diagnosis.grade`)."""
+    from rvflex.diagnosis.grade import CONSISTENT, ESTABLISHED
+
+    if diag.chosen is not None:
+        return ESTABLISHED
+    if any(c.grade.get("grade") == CONSISTENT for c in diag.candidates):
+        return CONSISTENT
+    return "unexplained model-form gap"
 
 
 # ----------------------------------------------------------------------------- plots and Markdown
@@ -452,15 +520,17 @@ def markdown(diag, doc: dict, pngs: list[str]) -> str:
               ("Score = BIC(calibrated model) − BIC(candidate) (> 10: very strong evidence); each candidate is fitted "
                "together with the nominal parameters; gap shrink of what calibration left; 95 % intervals from the "
               "linearised covariance; *refined* candidates were re-fitted with the model in the loop."), "",
-              "| rank | effect | magnitude [95 %] | score | gap shrink | withheld | accepted | note |",
-              "|---:|---|---|---:|---:|---:|:---:|---|"]
+              "| rank | effect | magnitude [95 %] | score | gap shrink | withheld | explained where it lies | grade | note |",
+              "|---:|---|---|---:|---:|---:|---:|---|---|"]
     for i, c in enumerate(diag.candidates[:12], start=1):
         mags = "; ".join(_mag_text(e, m, lo, hi) for e, m, (lo, hi) in zip(c.effects, c.magnitude,
                                                                              c.magnitude_interval) if not e.nominal)
         wh = c.withheld.get("improvement_pct")
         note = ("bound hit: " + ", ".join(c.at_bound) + "; " if c.at_bound else "") + c.note
+        ew = c.grade.get("explained_where_pct")
         lines.append(f"| {i} | {c.name} | {mags} | {c.score:.1f} | {c.gap_shrink_pct:.0f} % | "
-                     f"{'n/a' if wh is None else f'{wh:+.0f} %'} | {'yes' if c.accepted else ''} | {note} |")
+                     f"{'n/a' if wh is None else f'{wh:+.0f} %'} | {'—' if ew is None else f'{ew:.0f} %'} | "
+                     f"{('**accepted**, ' if c.accepted else '') + c.grade.get('grade', '')} | {note} |")
     weak = sorted(k for k, v in diag.signature_size.items() if v < 3.0)
     if weak:
         lines += ["", "Not observable with these runs (model signature at typical size below 3 residual floors): "
@@ -494,6 +564,20 @@ def markdown(diag, doc: dict, pngs: list[str]) -> str:
         sp = a.get("shrink_pct")
         lines.append(f"| {_run_text(b)} | {b['order']} | {b['residual_arcsec']:.3f} | "
                      f"{a['residual_arcsec']:.3f} | {'—' if sp is None else f'{sp:.0f} %'} |")
+    lines += ["", "## Residual orders and the parts that turn at them", "",
+              (f"Orders whose residual reaches {RESIDUAL_ORDER_FLOORS:g} floors in a TE run "
+               f"({'after ' + diag.chosen.name if diag.chosen else 'after calibration'}), largest first, named by the "
+               "unit's kinematics: the parts that turn at the order (harmonic × part, relative to what), the candidate "
+               "effects acting there and the part errors at that order no candidate models."), ""]
+    if doc["residual_orders"]:
+        lines += ["| order | residual (″) | floors | run | residual per run (″) | parts that turn at it | candidates | "
+                  "lacking |", "|---:|---:|---:|---|---|---|---|---|"]
+        for o in doc["residual_orders"]:
+            per = ", ".join(f"{p['residual_arcsec']:.2f}" for p in o["per_run"])
+            lines.append(f"| {o['order']} | {o['residual_arcsec']:.2f} | {o['floors']:.1f} | {_run_text(o)} | {per} | "
+                         f"{_parts_text(o)} | {', '.join(o['candidates']) or '—'} | {'; '.join(o['lacking']) or '—'} |")
+    else:
+        lines.append("No residual order reaches that.")
     lines += ["", (f"Weighted rms gap: {doc['gap_before']['weighted_rms']:.3f} before (nominal model), "
               f"{doc['gap_calibrated']['weighted_rms']:.3f} calibrated, "
               f"{doc['gap_after']['weighted_rms']:.3f} after ({doc['gap_after']['weighted_rms_shrink_pct']:.0f} % "

@@ -47,6 +47,7 @@ import numpy as np
 from rvflex.choices import Mismatch, check_choice
 from rvflex.diagnosis.bench import BenchDataset, BenchRun, read_bench, write_bench
 from rvflex.diagnosis.effects import Effect, available_effects
+from rvflex.diagnosis.ensemble import EnsembleMismatch
 from rvflex.diagnosis.nominal import CLEARANCE_HIGH, SAME_QUANTITY
 from rvflex.diagnosis.plan import PlanRun
 from rvflex.diagnosis.replay import evaluate
@@ -163,6 +164,14 @@ class RealisticMismatch:
         law = ContactLaw.hertz(power_law_equivalent(spec) * drawn["contact_scale"], 1.5, damping_Ns_m=500.0)
         return spec_g, errors, law
 
+    def options_for(self, drawn: dict) -> ModelOptions:
+        """The generator model's fidelity (the same for every case)."""
+        return self.options
+
+    def model_form(self, drawn: dict) -> tuple:
+        """Registered effects the generator applies as its own model form: none."""
+        return ()
+
 
 @dataclass(frozen=True)
 class SelfCheckSettings:
@@ -182,10 +191,12 @@ class SelfCheckSettings:
     realism: BenchRealism = field(default_factory=BenchRealism)
     generator: GeneratorModel = field(default_factory=GeneratorModel)
     diagnosis: DiagnosisSettings = field(default_factory=DiagnosisSettings)
-    mismatch: Mismatch = "none"  # "none": today's generator; "realistic"/"far": RealisticMismatch/far per case
+    mismatch: Mismatch = "none"  # "none": today's generator; "realistic"/"far": RealisticMismatch/far per case;
+    # "ensemble": a healthy unit of another model form per case (EnsembleMismatch)
     realistic: RealisticMismatch = field(default_factory=RealisticMismatch)
     far: RealisticMismatch = field(default_factory=lambda: RealisticMismatch(clearance_max_m=8e-6,
                                                                            global_range=(0.5, 2.0)))
+    ensemble: EnsembleMismatch = field(default_factory=EnsembleMismatch)
 
     def __post_init__(self) -> None:
         check_choice("mismatch", self.mismatch, Mismatch)
@@ -193,7 +204,7 @@ class SelfCheckSettings:
     @property
     def family(self) -> RealisticMismatch | None:
         """The generator of another model family ``mismatch`` selects (None: the diagnosing model's)."""
-        return {"none": None, "realistic": self.realistic, "far": self.far}[self.mismatch]
+        return {"none": None, "realistic": self.realistic, "far": self.far, "ensemble": self.ensemble}[self.mismatch]
 
 
 def draw_truth(rng: np.random.Generator, effects: tuple[Effect, ...], n_effects: int,
@@ -327,7 +338,8 @@ def generate_case(folder: str | Path, truth_path: str | Path, spec: ReducerSpec,
             drawn = realistic.draw(rng)
             truth = beyond_the_class(truth, spec, drawn["clearance_m"])
             spec_g, errors_g, law_g = realistic.model(spec, drawn)
-            resp = evaluate(spec_g, errors_g, plan, gs, tuple(truth), law=law_g, options=realistic.options)
+            resp = evaluate(spec_g, errors_g, plan, gs, tuple(truth) + tuple(realistic.model_form(drawn)), law=law_g,
+                            options=realistic.options_for(drawn))
     finally:
         exu.config.printToConsole = before
     ratio = spec.nominal_ratio
@@ -378,8 +390,8 @@ def generate_case(folder: str | Path, truth_path: str | Path, spec: ReducerSpec,
                         "magnitude": e.magnitude(x)} for e, x in truth],
            "origin_rad": delta0, "offset_arcsec": offset0 / ARCSEC,
            "generator": dc.asdict(gen), "realism": dc.asdict(realism), "nominal": drawn,
-           "mismatch": "none" if realistic is None else ("far" if realistic.global_range[1] > realistic.global_range[0]
-                                                         else "realistic")}
+           "mismatch": "none" if realistic is None else getattr(realistic, "name", None) or (
+               "far" if realistic.global_range[1] > realistic.global_range[0] else "realistic")}
     Path(truth_path).parent.mkdir(parents=True, exist_ok=True)
     Path(truth_path).write_text(json.dumps(doc, indent=2), encoding="utf-8")
     return doc
@@ -396,6 +408,8 @@ def score_case(truth: dict, diag) -> dict:
            "gap_shrink_pct": float(chosen.gap_shrink_pct) if chosen else 0.0,
            "verdict": diag.verdict, "wall_s": diag.wall_s, "model_runs": diag.model_runs}
     row.update(_score_calibration(truth, chosen or diag.baseline, diag.undetermined, diag.anchor.scale))
+    named = [e.name for e in chosen.attributed] if chosen else []
+    row["false_names"] = [n for n in named if n not in hidden]  # accepted names that are not hidden
     if not hidden:
         row["correct"] = chosen is None
         return row
@@ -658,6 +672,8 @@ def selfcheck(out_dir: str | Path, settings: SelfCheckSettings = SelfCheckSettin
         "magnitude_within_25pct_rate": _rate([r["magnitude_ok"] for r in hits]),
         "median_gap_shrink_pct": float(np.median([r["gap_shrink_pct"] for r in eff])) if eff else None,
         "control_correct_rate": _rate([r["correct"] for r in ctl]),
+        "false_names": sum(len(r.get("false_names", ())) for r in rows),
+        "false_names_per_20_cases": 20.0 * sum(len(r.get("false_names", ())) for r in rows) / max(len(rows), 1),
         "calibration_rate": _rate([r["calibration_ok"] for r in rows if "calibration_ok" in r]),
         "calibration_rate_all_scales": _rate([r["calibration_ok_all"] for r in rows if "calibration_ok_all" in r]),
         "calibration_by_scale": _calibration_by_scale(rows),

@@ -91,6 +91,10 @@ class DiagnosisSettings:
     windup_floor_arcsec, windup_floor_rel : float
         Floor of wind-up and hysteresis-angle residuals: absolute (arcsec) plus a share of
         the modelled value (model-form mismatch of the contact stiffness).
+    null_distribution : str or None
+        The null distribution a finding must exceed to be established (:mod:`rvflex.diagnosis.null`):
+        ``"builtin"`` (default) the one shipped with the package, a path to another, or None for none
+        (``rvflex null-distribution`` builds it with none).
     """
 
     positions_per_rev: int | None = None
@@ -115,6 +119,7 @@ class DiagnosisSettings:
     mesh_order_floor_rel: float = 0.0
     windup_floor_arcsec: float = 0.5
     windup_floor_rel: float = 0.02
+    null_distribution: str | None = "builtin"
 
     def __post_init__(self) -> None:
         k = DEFAULT_MAX_ORDER if self.max_order is None else self.max_order

@@ -1,0 +1,120 @@
+"""Alternative model forms of a healthy unit: the ensemble the diagnosis's false alarms are held against.
+
+A unit from another maker, or a real one, is never the rvflex model: its contact law, bearing laws, first
+stage, carrier and thermal behaviour are of other forms, and a diagnosis that names a cause on such a healthy
+unit is worse than one that names none. :class:`EnsembleMismatch` draws one such unit per case, without any
+hidden effect, from the nominal spec of a built-in unit:
+
+- contact law: the spec's line contact, or a power law F = k·x^e with e in [1, 1.5] matched to it over the
+  pin forces of the tests, each scaled by the contact stiffness drawn;
+- needle (eccentric) bearings: stiffness drawn, radial clearance 0 … 4 µm;
+- crank-support and main bearings, first-stage mesh: stiffness drawn; the mesh with or without its backlash
+  and its stiffness ripple;
+- an overall stiffness scale ×0.5 … ×2 on every stiffness (a unit as far from its catalogue model as real ones
+  are);
+- a torsional compliance in series with the output flange: linear, stiffening with load, or both (up to
+  :data:`SERIES_LINEAR_MAX_RAD` and :data:`SERIES_STIFFENING_MAX_RAD` of twist at rated torque);
+- a housing-to-steel thermal mismatch within ±1 ppm/K;
+- rigid or FE-reduced flexible discs.
+
+Not drawn, because the model has no such form yet: a softening contact law (exponent below 1), a series
+compliance at each pin seat, power-law needle bearings, anisotropic crank supports, crank seats that move in
+the carrier and a flexible carrier (its reduction per case would dominate the run's cost). The two foreign
+benches' simulators differ from the rvflex model in those ways too; the ensemble is not either of them.
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from rvflex.options import ModelOptions
+from rvflex.spec import ErrorSpec, ReducerSpec
+from rvflex.units import ARCSEC
+
+__all__ = ["CLEARANCE_MAX_M", "EnsembleMismatch", "SERIES_LINEAR_MAX_RAD", "SERIES_STIFFENING_MAX_RAD",
+           "THERMAL_MISMATCH_MAX_PER_K"]
+
+CLEARANCE_MAX_M = 4e-6  # a healthy unit's needle-bearing radial clearance: 0 … 4 µm
+SERIES_LINEAR_MAX_RAD = 25 * ARCSEC  # a carrier flange or coupling: up to 25″ of linear twist at rated torque
+SERIES_STIFFENING_MAX_RAD = 10 * ARCSEC  # and up to 10″ stiffening with load (∝ T^(2/3))
+THERMAL_MISMATCH_MAX_PER_K = 1e-6  # a steel housing around steel parts: within ±1 ppm/K
+
+
+@dataclass(frozen=True)
+class EnsembleMismatch:
+    """The generator of a healthy unit of another model form (``--mismatch ensemble``), drawn per case (see
+    the module docstring). The interface is that of :class:`~rvflex.diagnosis.selfcheck.RealisticMismatch`:
+    :meth:`draw`, :meth:`model`, :meth:`options_for` and :meth:`model_form`."""
+
+    stiffness_spread: float = 0.4  # each component's stiffness ×(1 ± spread) around the overall scale
+    global_range: tuple[float, float] = (0.5, 2.0)
+    exponent_range: tuple[float, float] = (1.0, 1.5)
+    line_share: float = 1.0 / 3.0  # share of units with the spec's own (line) contact law
+    flexible_share: float = 0.5  # share of units with FE-reduced discs
+    samples_per_rev: int = 1024
+    options: ModelOptions = field(default_factory=ModelOptions.rigid)  # unused: options_for decides per case
+    name: str = "ensemble"
+
+    def draw(self, rng: np.random.Generator) -> dict:
+        """The case's drawn model form (JSON-able): stiffness scales, law, clearance, mesh form, series
+        compliance (rad at rated torque), thermal mismatch (1/K) and disc fidelity."""
+        lo, hi = self.global_range
+        g = float(math.exp(rng.uniform(math.log(lo), math.log(hi))))
+        a, b = 1.0 - self.stiffness_spread, 1.0 + self.stiffness_spread
+        law_line = bool(rng.uniform() < self.line_share)
+        series = int(rng.integers(3))  # 0 linear, 1 stiffening, 2 both
+        return {"global_scale": g, "contact_scale": g * float(rng.uniform(a, b)),
+                "needle_bearing_scale": g * float(rng.uniform(a, b)), "mesh_scale": g * float(rng.uniform(a, b)),
+                "support_scale": g * float(rng.uniform(a, b)),
+                "contact_law": "line" if law_line else "power",
+                "contact_exponent": None if law_line else float(rng.uniform(*self.exponent_range)),
+                "clearance_m": float(rng.uniform(0.0, CLEARANCE_MAX_M)),
+                "mesh_backlash": bool(rng.uniform() < 0.5), "mesh_ripple": bool(rng.uniform() < 0.5),
+                "series_linear_rad": float(rng.uniform(0, SERIES_LINEAR_MAX_RAD)) if series != 1 else 0.0,
+                "series_stiffening_rad": float(rng.uniform(0, SERIES_STIFFENING_MAX_RAD)) if series != 0 else 0.0,
+                "thermal_per_K": float(rng.uniform(-THERMAL_MISMATCH_MAX_PER_K, THERMAL_MISMATCH_MAX_PER_K)),
+                "flexible_discs": bool(rng.uniform() < self.flexible_share)}
+
+    def model(self, spec: ReducerSpec, drawn: dict):
+        """(spec, errors, law) of the generator for the drawn model form."""
+        from rvflex.contact.cycloid_pin import ContactLaw
+        from rvflex.diagnosis.nominal import power_law_equivalent
+        from rvflex.model import default_contact_law
+
+        b, st = spec.bearings, spec.input_stage
+        s_sup, s_ndl, s_msh = drawn["support_scale"], drawn["needle_bearing_scale"], drawn["mesh_scale"]
+        b = dc.replace(b, crank_support=dc.replace(b.crank_support,
+                                                   radial_stiffness_N_m=b.crank_support.radial_stiffness_N_m * s_sup),
+                       main=dc.replace(b.main, radial_stiffness_N_m=b.main.radial_stiffness_N_m * drawn["global_scale"]),
+                       eccentric=dc.replace(b.eccentric, radial_stiffness_N_m=b.eccentric.radial_stiffness_N_m * s_ndl))
+        st = dc.replace(st, mesh_stiffness_mean_N_m=st.mesh_stiffness_mean_N_m * s_msh,
+                        mesh_stiffness_amplitude_N_m=st.mesh_stiffness_amplitude_N_m * s_msh * drawn["mesh_ripple"],
+                        backlash_m=st.backlash_m * drawn["mesh_backlash"])
+        spec_g = dc.replace(spec, bearings=b, input_stage=st)
+        n = spec.cranks.count * spec.cycloid.disc_count
+        errors = ErrorSpec(eccentric_bearing_clearance_m=(drawn["clearance_m"],) * n)
+        if drawn["contact_law"] == "line":
+            law = default_contact_law(spec)
+            law = dc.replace(law, disc_compliance_1_Pa=law.disc_compliance_1_Pa / drawn["contact_scale"],
+                             pin_compliance_1_Pa=law.pin_compliance_1_Pa / drawn["contact_scale"])
+        else:
+            e = drawn["contact_exponent"]
+            law = ContactLaw.hertz(power_law_equivalent(spec, e) * drawn["contact_scale"], e, damping_Ns_m=500.0)
+        return spec_g, errors, law
+
+    def options_for(self, drawn: dict) -> ModelOptions:
+        """The generator model's fidelity for the drawn case."""
+        return ModelOptions.flexible_discs() if drawn["flexible_discs"] else ModelOptions.rigid()
+
+    def model_form(self, drawn: dict) -> tuple:
+        """The registered effects the drawn unit carries as its own model form (not hidden effects): the series
+        compliance and the thermal mismatch, as (Effect, parameters)."""
+        from rvflex.diagnosis.effects import EFFECTS
+
+        return ((EFFECTS["output_series_compliance"],
+                 np.array([drawn["series_linear_rad"], drawn["series_stiffening_rad"]])),
+                (EFFECTS["thermal_expansion"], np.array([drawn["thermal_per_K"]])))

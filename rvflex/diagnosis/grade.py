@@ -1,0 +1,191 @@
+"""Graded verdicts: established, consistent but not established, or an unexplained model-form gap.
+
+A candidate that passes the acceptance tests of :mod:`rvflex.diagnosis.verdict` (evidence, a determined size,
+the withheld runs) has only shown that it helps. On a healthy unit of another make a candidate helps too: it
+absorbs part of the model-form gap (measured on an independent simulator's RV-80E: a 4 µm pin-ring runout
+passed every test on all three healthy units while removing 10–29 % of the gap). A finding is *established*
+only when, besides those tests,
+
+1. it is beyond what healthy units of other model forms make of it (:mod:`rvflex.diagnosis.null`): its
+   evidence exceeds the ensemble controls' 95th percentile for its effects and each effect's size exceeds the
+   size the controls reach;
+2. it explains most (:data:`MOST`) of what calibration left where its own signature lies: in the discrepancy
+   groups (:mod:`rvflex.diagnosis.discrepancy`) that hold :data:`SIGNATURE_SHARE` of its signature, the
+   calibrated residual falls by at least half. An effect that is the cause leaves model-form residue only;
+   one that stands in for a model-form gap takes a part of it and leaves the rest.
+
+Otherwise it is *consistent but not established*, said with the test it fails and what would settle it, and
+the verdict is the unexplained gap (its size and where it lies). Only an established finding is accepted and
+written "explains the gap".
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rvflex.diagnosis.discrepancy import Discrepancy, residual
+from rvflex.diagnosis.linear import Candidate, Problem
+from rvflex.diagnosis.verdict import fmt_mag, fmt_pct, is_significant, undetermined_effect, withheld_confirms
+
+__all__ = ["CONSISTENT", "ESTABLISHED", "MOST", "NOT_SIGNIFICANT", "SIGNATURE_SHARE", "consistent_sentence",
+           "explained_where_it_lies", "part_ties", "part_ties_sentence",
+           "gap_sentence", "grade"]
+
+ESTABLISHED, CONSISTENT, NOT_SIGNIFICANT = "established", "consistent but not established", "not significant"
+MOST = 0.5  # "explains most": at least half of what calibration left where the signature lies
+SIGNATURE_SHARE = 0.8  # the groups that hold this share of a candidate's signature energy are where it lies
+
+
+def own_change(c: Candidate) -> np.ndarray:
+    """The candidate's unmodelled effects' own share of its model change (features, arcsec), from its
+    Jacobian: the part its nominal parameters' recalibration does not make."""
+    out = np.zeros(len(c.model_features))
+    if c.jacobian is None:
+        return out
+    i = 0
+    for e in c.effects:
+        if not e.nominal:
+            out += c.jacobian[:, i:i + e.n] @ c.x[i:i + e.n]
+        i += e.n
+    return out
+
+
+def explained_where_it_lies(prob: Problem, c: Candidate, base: Candidate, disc: Discrepancy) -> dict:
+    """Where ``c``'s signature lies and how much of the calibrated model's (``base``) residual there it removes.
+
+    Returns
+    -------
+    dict
+        ``groups``: labels of the discrepancy groups holding :data:`SIGNATURE_SHARE` of the weighted signature
+        energy (largest first); ``explained_pct``: the fall of the weighted residual sum of squares over those
+        groups (%); ``left_rms_arcsec``: the residual's rms there after the candidate (arcsec). Empty when the
+        candidate has no signature.
+    """
+    groups = disc.groups
+    s = own_change(c) * prob.w
+    e = np.array([float(s[g.rows] @ s[g.rows]) for g in groups])
+    if not e.sum() > 0:
+        return {}
+    order = np.argsort(-e)
+    cum = np.cumsum(e[order]) / e.sum()
+    where = order[:int(np.searchsorted(cum, SIGNATURE_SHARE)) + 1]
+    rb, rc = residual(prob, base), residual(prob, c)
+    rows = np.concatenate([groups[i].rows for i in where])
+    before, after = float(rb[rows] @ rb[rows]), float(rc[rows] @ rc[rows])
+    left = rc[rows] / prob.w[rows]
+    return {"groups": [groups[i].label for i in where],
+            "explained_pct": 100.0 * (before - after) / before if before > 0 else 0.0,
+            "left_rms_arcsec": float(np.sqrt(np.mean(left ** 2)))}
+
+
+def grade(c: Candidate, settings, null, local: dict) -> dict:
+    """The grade of candidate ``c`` (see the module docstring).
+
+    Parameters
+    ----------
+    c : Candidate
+        Scored (withheld check done).
+    settings : DiagnosisSettings
+    null : NullDistribution or None
+        The ensemble's thresholds (None: no null distribution; rule 1 is not applied and ``note`` says so).
+    local : dict
+        :func:`explained_where_it_lies` of ``c``.
+
+    Returns
+    -------
+    dict
+        ``grade`` (:data:`ESTABLISHED`, :data:`CONSISTENT` or :data:`NOT_SIGNIFICANT`), ``fails`` (one phrase per
+        test it fails), ``evidence_threshold`` (the null's, or None), ``magnitude_thresholds`` (effect → size the
+        ensemble's controls reach), ``explained_where_pct`` and ``signature_groups``.
+    """
+    names = [e.name for e in c.attributed]
+    ev_t = null.evidence_threshold(names) if null is not None else None
+    mag_t = {n: null.magnitude_threshold(n) for n in names} if null is not None else {}
+    out = {"evidence_threshold": ev_t, "magnitude_thresholds": mag_t,
+           "explained_where_pct": local.get("explained_pct"), "signature_groups": local.get("groups", [])}
+    if not is_significant(c, settings):
+        return out | {"grade": NOT_SIGNIFICANT, "fails": [f"its evidence {c.score:.0f} is below {settings.bic_threshold:g}"]}
+    fails = _failed_tests(c, settings)
+    if ev_t is not None and c.score <= ev_t:
+        fails.append(f"its evidence {c.score:.0f} does not exceed the {ev_t:.0f} that healthy units of other model "
+                     "forms reach for it")
+    for e, m in zip(c.effects, c.magnitude):
+        t = mag_t.get(e.name)
+        if not e.nominal and t is not None and abs(m) <= t:
+            fails.append(f"its {e.name} of {fmt_mag(e, abs(m))} is within the {fmt_mag(e, t)} healthy units of other "
+                         "model forms reach")
+    pct = local.get("explained_pct")
+    if pct is None or pct < 100 * MOST:
+        where = ", ".join(local.get("groups", [])[:3]) or "its signature's features"
+        fails.append(f"it removes only {max(pct or 0.0, 0.0):.0f} % of what calibration left where its signature "
+                     f"lies ({where})")
+    note = "" if null is not None else "not judged against healthy units of other model forms (no null distribution)"
+    return out | {"grade": CONSISTENT if fails else ESTABLISHED, "fails": fails, "note": note}
+
+
+def _failed_tests(c: Candidate, settings) -> list[str]:
+    """The acceptance tests of :func:`~rvflex.diagnosis.verdict.acceptable` that ``c`` fails, one phrase each."""
+    out = []
+    if not c.refined:
+        out.append("it is known only by its linearised fit")
+    why = undetermined_effect(c)
+    if why:
+        out.append(why)
+    if not withheld_confirms(c.withheld, settings):
+        out.append(f"the withheld runs do not confirm it (prediction {fmt_pct(c.withheld.get('improvement_pct'))})")
+    alone = c.withheld.get("against_single")
+    if alone is not None and not withheld_confirms(alone, settings, replicated=True):
+        out.append(f"its second effect is not confirmed by the withheld runs against {alone['single']} alone")
+    return out
+
+
+def gap_sentence(disc: Discrepancy | None, top: int = 3) -> str:
+    """What calibration leaves, its size and where it lies: the discrepancy groups with the most residual energy
+    beyond their floors, each with its rms (arcsec)."""
+    if disc is None or not len(disc.groups):
+        return ""
+    excess = disc.rss - disc.n
+    idx = [i for i in np.argsort(-excess) if excess[i] > 0][:top]
+    if not idx:
+        return "What calibration leaves is at the noise and model-form floors."
+    parts = [f"{disc.groups[i].label} ({disc.rms_arcsec[i]:.2f}″ rms, {disc.sigma[i]:.1f} floors)" for i in idx]
+    return "The unexplained model-form gap lies mostly in " + "; ".join(parts) + "."
+
+
+def consistent_sentence(c: Candidate) -> str:
+    """The verdict on a candidate that passes the tests but is not established: what it would be, why it is not
+    established, and what would settle it. Never "explains the gap"."""
+    mag = "; ".join(f"{e.name} {fmt_mag(e, m)} (95 % {fmt_mag(e, iv[0])} … {fmt_mag(e, iv[1])})"
+                    for e, m, iv in zip(c.effects, c.magnitude, c.magnitude_interval) if not e.nominal)
+    settle = [e.separating_runs for e in c.attributed if e.separating_runs]
+    return (f"Consistent but not established: {mag} fits (the weighted gap shrinks by {c.gap_shrink_pct:.0f} %, "
+            f"the withheld runs' prediction improves by {c.withheld.get('improvement_pct') or 0:.0f} %), but "
+            + "; ".join(c.grade.get("fails", [])) + ". "
+            + (f"It would be settled by {'; '.join(settle)}." if settle else
+               "It would be settled by runs where its signature stands above the model-form gap: a load, "
+               "temperature or direction where it acts and the model form does not, or a measurement of the part.")
+            + " No effect is named.")
+
+
+def part_ties(spec, c: Candidate) -> list[dict]:
+    """For each effect of an established finding ``c``: the part errors no candidate models that act at its
+    lowest order (:func:`rvflex.diagnosis.orders.lacking_lookalikes`), which TE alone cannot tell from it."""
+    from rvflex.diagnosis.orders import lacking_lookalikes
+
+    out = []
+    for e in c.attributed:
+        tie = lacking_lookalikes(spec, e.name)
+        if tie:
+            out.append({"effect": e.name, "order": tie["order"], "lacking": tie["lacking"],
+                        "separating": e.separating_runs or ""})
+    return out
+
+
+def part_ties_sentence(ties: list[dict]) -> str:
+    """The verdict's sentence on :func:`part_ties` ("" when there are none)."""
+    out = []
+    for t in ties:
+        s = (f"At order {t['order']} {t['effect']} is tied with part errors no candidate models: "
+             + "; ".join(t["lacking"]) + " — the TE runs cannot tell them apart")
+        out.append(s + (f"; {t['separating']} would." if t["separating"] else "."))
+    return " ".join(out)

@@ -1,0 +1,90 @@
+"""The null distribution: what healthy units of other model forms make each candidate effect look like.
+
+Every candidate effect can absorb some model-form gap: on a healthy unit of another make it gains evidence
+and a size although nothing is wrong with the unit. How much is not a property of the benches at hand but
+of the candidate against the range of model forms units come in, so the acceptance is set from an ensemble
+of such units (:class:`~rvflex.diagnosis.ensemble.EnsembleMismatch`), each diagnosed as a bench with no
+effect (:func:`rvflex.diagnosis.null_build.build_null`, the command ``rvflex null-distribution``). Per candidate effect the ensemble's
+controls give
+
+- ``evidence_q95``: the 95th percentile over the controls of the best evidence of any candidate containing
+  the effect (0 where it gained none);
+- ``magnitude_q95``: the 95th percentile of the effect's fitted size in that best candidate;
+- ``false_alarm_rate``: the share of controls in which a candidate with the effect was accepted by the
+  other tests alone (before these thresholds).
+
+A finding is established only when its evidence exceeds its effects' ``evidence_q95`` and each effect's size
+exceeds its ``magnitude_q95`` (:func:`rvflex.diagnosis.grade.grade`). The distribution ships with the package
+(:data:`NULL_PATH`) and names the commit-independent settings it was made with.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["NULL_PATH", "NullDistribution", "load_null", "null_from_reports"]
+
+NULL_PATH = Path(__file__).with_name("null_distribution.json")
+"""The null distribution shipped with the package (made by ``rvflex null-distribution``)."""
+
+QUANTILE = 0.95
+
+
+@dataclass(frozen=True)
+class NullDistribution:
+    """Per candidate effect: ``evidence_q95``, ``magnitude_q95`` (the effect's magnitude unit: m, rad,
+    1/K, …), ``false_alarm_rate`` and ``controls`` (how many controls it was taken over); ``source``: how
+    it was made (units, cases, seeds)."""
+
+    effects: dict = field(default_factory=dict)
+    source: dict = field(default_factory=dict)
+
+    def evidence_threshold(self, names) -> float | None:
+        """The evidence a candidate with effects ``names`` must exceed (the largest of its effects'); None when
+        no effect of it is in the distribution."""
+        v = [self.effects[n]["evidence_q95"] for n in names if n in self.effects]
+        return max(v) if v else None
+
+    def magnitude_threshold(self, name: str) -> float | None:
+        """The size effect ``name`` must exceed (None: not in the distribution)."""
+        e = self.effects.get(name)
+        return None if e is None else e["magnitude_q95"]
+
+    def to_json(self) -> dict:
+        return {"quantile": QUANTILE, "effects": self.effects, "source": self.source}
+
+
+def load_null(path: str | Path | None = None) -> NullDistribution | None:
+    """The null distribution at ``path`` (default :data:`NULL_PATH`); None when there is none."""
+    p = Path(path) if path is not None else NULL_PATH
+    if not p.is_file():
+        return None
+    doc = json.loads(p.read_text(encoding="utf-8"))
+    return NullDistribution(doc.get("effects", {}), doc.get("source", {}))
+
+
+def null_from_reports(reports: list[dict]) -> dict:
+    """Per effect: the ensemble controls' evidence and magnitude quantiles and false-alarm rate, from their
+    diagnosis documents (``rvflex diagnose --json``)."""
+    names = sorted({n for d in reports for e in d["effects"] for n in e["name"].split(" + ")})
+    out = {}
+    for name in names:
+        ev, mag, alarms = [], [], 0
+        for d in reports:
+            having = [e for e in d["effects"] if name in e["name"].split(" + ")]
+            if not having:
+                continue
+            best = max(having, key=lambda e: e["score"])
+            ev.append(max(float(best["score"]), 0.0))
+            mag.append(abs(float(best["magnitude"].get(name, 0.0))))
+            alarms += any(e["accepted"] for e in having)
+        if ev:
+            out[name] = {"evidence_q95": float(np.quantile(ev, QUANTILE)),
+                         "magnitude_q95": float(np.quantile(mag, QUANTILE)),
+                         "evidence_max": float(max(ev)), "magnitude_max": float(max(mag)),
+                         "false_alarm_rate": alarms / len(ev), "controls": len(ev)}
+    return out
