@@ -92,6 +92,7 @@ def _rows(path: Path) -> list[str]:
     ("cycle_beyond_max", "bench.toml, run 3 (hyst.csv), key 'torque_max_Nm'", "momentary maximum"),
     ("short_cycle", "hyst.csv", "reaching ±torque_max_Nm"),
     ("wrong_way", "rev.csv, column 'theta_in_rad'", "does not turn reverse"),
+    ("spike", "te.csv, row 40, column 'theta_out_rad'", "an outlier"),
 ])
 def test_bad_input_names_file_row_or_key(good, case, where, problem):
     toml, te, hy = good / "bench.toml", good / "te.csv", good / "hyst.csv"
@@ -103,11 +104,13 @@ def test_bad_input_names_file_row_or_key(good, case, where, problem):
         rows = _rows(te)
         rows[0] = rows[0].replace("theta_out_rad", "theta_outt_rad" if case == "misspelled_column" else "angle")
         te.write_text("\n".join(rows) + "\n")
-    elif case in ("non_numeric", "nan", "time_backwards"):
+    elif case in ("non_numeric", "nan", "time_backwards", "spike"):
         rows = _rows(te)
-        line = {"non_numeric": 5, "nan": 7, "time_backwards": 10}[case]
+        line = {"non_numeric": 5, "nan": 7, "time_backwards": 10, "spike": 40}[case]
         cells = rows[line - 1].split(",")
-        if case == "non_numeric":
+        if case == "spike":  # one sample 0.5° off its neighbours
+            cells[2] = repr(float(cells[2]) + math.radians(0.5))
+        elif case == "non_numeric":
             cells[1] = "abc"
         elif case == "nan":
             cells[2] = "nan"

@@ -204,6 +204,29 @@ def _read_csv(path: Path, required: tuple[str, ...], optional: tuple[str, ...],
     return data
 
 
+SPIKE_MIN_ARCSEC = 60.0  # a TE sample this far off both neighbours, the same way, is an outlier: no mesh turns so
+SPIKE_FACTOR = 50.0  # fast between two log points (and at least this many typical sample-to-sample steps)
+
+
+def _spike_check(te_arcsec: np.ndarray, name: str, column: str) -> None:
+    """Refuse a single-sample spike: a TE sample that lies more than :data:`SPIKE_MIN_ARCSEC` (and
+    :data:`SPIKE_FACTOR` typical steps) off both its neighbours, on the same side, naming its row (data row k is
+    file row k + 2)."""
+    te = np.asarray(te_arcsec, float)
+    if len(te) < 5:
+        return
+    d = np.diff(te)
+    limit = max(SPIKE_MIN_ARCSEC, SPIKE_FACTOR * float(np.median(np.abs(d))))
+    left, right = d[:-1], -d[1:]  # sample k minus its left and its right neighbour
+    bad = np.nonzero((np.sign(left) == np.sign(right)) & (np.minimum(np.abs(left), np.abs(right)) > limit))[0]
+    if len(bad):
+        k = int(bad[0]) + 1
+        raise BenchError(f"{name}, row {k + 2}, column '{column}'",
+                         f"an outlier: its TE is {min(abs(left[k - 1]), abs(right[k - 1])):.4g}″ off both neighbouring "
+                         f"rows ({k + 1} and {k + 3}), a single-sample spike no mesh makes between two samples; "
+                         f"remove or re-log the row")
+
+
 def _angle_form(path: Path, table, direction: str, where: str) -> dict[str, tuple[np.ndarray, np.ndarray, str]]:
     """TE given as output angle and TE: ``{direction: (position_rad, te_rad, unit)}`` for one
     direction (``te_arcsec``/``te_deg``) or both (``te_forward_*`` and ``te_reverse_*``,
@@ -240,6 +263,7 @@ def _angle_form(path: Path, table, direction: str, where: str) -> dict[str, tupl
     keep = np.r_[True, step != 0]
     for d in dirs:
         te = data[cols[d]]
+        _spike_check(te * (1.0 if units[d] == "arcsec" else 3600.0), name, cols[d])
         rep = np.nonzero(step == 0)[0]
         for i in rep:
             if abs(te[i + 1] - te[i]) > 0.05 * (1.0 if units[d] == "arcsec" else 1 / 3600):
@@ -296,6 +320,7 @@ def _te_run(rt: dict, rwhere: str, folder: Path, spec: ReducerSpec, temp: float,
         raise BenchError(f"{fname}, column 'theta_in_rad'",
                          f"the input does not turn {direction} (net {th_in[-1] - th_in[0]:+.4g} rad)")
     pos = th_in / ratio
+    _spike_check((data["theta_out_rad"] - pos) * 648000.0 / math.pi, fname, "theta_out_rad")
     win = _checked_window(pos, fname, len(th_in))
     return [BenchRun(fname, "te", data["time_s"], th_in, data["theta_out_rad"], data.get("torque_Nm", np.empty(0)),
                      direction=direction, load_Nm=load, speed_out_rpm=speed, temperature_C=temp, extra=extra,

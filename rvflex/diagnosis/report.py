@@ -14,7 +14,7 @@ from rvflex.diagnosis.nominal import describe_calibration
 from rvflex.diagnosis.plan import BRANCH_FRACTIONS, part_label
 from rvflex.geometry.formulas import ARCSEC_PER_RAD
 
-__all__ = ["draw_run", "gap_table", "json_document", "residual_orders", "verdict_grade", "where_list", "write_report"]
+__all__ = ["dependence", "draw_run", "gap_table", "json_document", "repeatability", "residual_orders", "verdict_grade", "where_list", "write_report"]
 
 
 def _run_meta(diag, r: int) -> tuple[str, float]:
@@ -29,7 +29,9 @@ def _run_keys(diag, r: int) -> dict:
     (°C, None when the bench did not record it); runs may share direction and load."""
     direction, load = _run_meta(diag, r)
     t = diag.plan[r].temperature_C
-    return {"run": r, "direction": direction, "load_Nm": load, "temperature_C": float(t) if math.isfinite(t) else None}
+    speed = getattr(diag.dataset.runs[r], "speed_out_rpm", math.nan) if diag.dataset is not None else math.nan
+    return {"run": r, "direction": direction, "load_Nm": load, "temperature_C": float(t) if math.isfinite(t) else None,
+            "speed_out_rpm": float(speed) if speed is not None and math.isfinite(speed) and speed > 0 else None}
 
 
 def _run_text(row: dict) -> str:
@@ -207,12 +209,75 @@ def residual_orders(diag, c: Candidate | None = None) -> list[dict]:
     for k in top:
         fl, r = peak[k]
         row = named[k]
+        per_run = [{**_run_keys(diag, q), "residual_arcsec": float(amp[q][k - 1]), "floors": float(floors[q][k - 1])}
+                   for q in lay.te_runs]
         out.append({"order": k, "residual_arcsec": float(amp[r][k - 1]), "floors": fl, **_run_keys(diag, r),
-                    "per_run": [{**_run_keys(diag, q), "residual_arcsec": float(amp[q][k - 1]),
-                                 "floors": float(floors[q][k - 1])} for q in lay.te_runs],
+                    "dependence": dependence(per_run),
+                    "per_run": per_run,
                     "parts": row["parts"], "sidebands": row["sidebands"], "candidates": row["candidates"],
                     "lacking": row["lacking"], "note": row["note"]})
     return out
+
+
+def repeatability(diag) -> list[dict]:
+    """TE runs under the same conditions (direction, load, temperature, speed): how far the bench repeats itself.
+    Per group of two or more such runs, the rms over orders 1 … K of each run's Fourier coefficients from the
+    group's mean (arcsec; the origin and offset are common to all TE runs) and the largest order difference: the
+    repeatability floor, below which no model difference is seen."""
+    lay = diag.layout
+    y = np.asarray(diag.measured, float)
+    groups = {}
+    for r in lay.te_runs:
+        k = _run_keys(diag, r)
+        groups.setdefault((k["direction"], k["load_Nm"], k["temperature_C"], k["speed_out_rpm"]), []).append(r)
+    out = []
+    for (d, load, t, v), runs in groups.items():
+        if len(runs) < 2:
+            continue
+        c = np.array([np.r_[y[lay.cos[r]], y[lay.sin[r]]] for r in runs])
+        dev = c - c.mean(axis=0)
+        amp = np.hypot(dev[:, :lay.max_order], dev[:, lay.max_order:])
+        worst = np.unravel_index(np.argmax(amp), amp.shape)
+        out.append({"runs": runs, "direction": d, "load_Nm": load, "temperature_C": t, "speed_out_rpm": v,
+                    "rms_arcsec": float(np.sqrt(np.mean(dev ** 2))), "largest_arcsec": float(amp[worst]),
+                    "largest_order": int(worst[1]) + 1})
+    return out
+
+
+DEPENDENCE_RATIO = 1.5  # a residual order "grows with" a condition when it is this much larger at its top value
+
+
+def dependence(per_run: list[dict]) -> dict:
+    """How a residual order's amplitude depends on the runs' conditions: per condition (``load_Nm``,
+    ``temperature_C``, ``speed_out_rpm``) that takes two or more values, the mean amplitude (arcsec) of the runs at
+    its lowest and at its highest value and their ratio, and ``"grows"`` when the amplitude there is at least
+    :data:`DEPENDENCE_RATIO` times larger and 2 floors above; a component that grows with speed is ``"dynamic"``:
+    outside a quasi-static replay."""
+    out = {}
+    for cond in ("load_Nm", "temperature_C", "speed_out_rpm"):
+        vals = sorted({p[cond] for p in per_run if p.get(cond) is not None})
+        if len(vals) < 2:
+            continue
+        lo = [p for p in per_run if p.get(cond) == vals[0]]
+        hi = [p for p in per_run if p.get(cond) == vals[-1]]
+        a_lo = float(np.mean([p["residual_arcsec"] for p in lo]))
+        a_hi = float(np.mean([p["residual_arcsec"] for p in hi]))
+        f_lo = float(np.mean([p["floors"] for p in lo]))
+        f_hi = float(np.mean([p["floors"] for p in hi]))
+        grows = a_hi >= DEPENDENCE_RATIO * a_lo and f_hi - f_lo >= 2.0
+        out[cond] = {"low": vals[0], "high": vals[-1], "residual_low_arcsec": a_lo, "residual_high_arcsec": a_hi,
+                     "ratio": a_hi / a_lo if a_lo > 0 else math.inf, "grows": bool(grows)}
+    if out.get("speed_out_rpm", {}).get("grows"):
+        out["dynamic"] = True
+    return out
+
+
+def _dependence_text(dep: dict) -> str:
+    words = {"load_Nm": "load", "temperature_C": "temperature", "speed_out_rpm": "speed"}
+    parts = [f"grows with {words[k]} ×{v['ratio']:.1f}" for k, v in dep.items() if k in words and v["grows"]]
+    if dep.get("dynamic"):
+        parts.append("dynamic: outside the quasi-static replay")
+    return "; ".join(parts) or "—"
 
 
 def _parts_text(row: dict) -> str:
@@ -302,7 +367,8 @@ def json_document(diag) -> dict:
             "origin_rad": float((chosen or diag.baseline).delta), "model_runs": diag.model_runs,
             "unavailable_effects": diag.unavailable, "failed_effects": diag.failed,
             "signature_size": diag.signature_size, "ties": list(diag.ties), "grade": verdict_grade(diag),
-            "residual_orders": residual_orders(diag), "part_ties": list(diag.part_ties)}
+            "residual_orders": residual_orders(diag), "part_ties": list(diag.part_ties),
+            "repeatability": repeatability(diag)}
 
 
 def verdict_grade(diag) -> str:
@@ -570,14 +636,19 @@ def markdown(diag, doc: dict, pngs: list[str]) -> str:
                "unit's kinematics: the parts that turn at the order (harmonic × part, relative to what), the candidate "
                "effects acting there and the part errors at that order no candidate models."), ""]
     if doc["residual_orders"]:
-        lines += ["| order | residual (″) | floors | run | residual per run (″) | parts that turn at it | candidates | "
-                  "lacking |", "|---:|---:|---:|---|---|---|---|---|"]
+        lines += ["| order | residual (″) | floors | run | residual per TE run (″) | conditions | parts that turn at it | "
+                  "candidates | lacking |", "|---:|---:|---:|---|---|---|---|---|---|"]
         for o in doc["residual_orders"]:
             per = ", ".join(f"{p['residual_arcsec']:.2f}" for p in o["per_run"])
             lines.append(f"| {o['order']} | {o['residual_arcsec']:.2f} | {o['floors']:.1f} | {_run_text(o)} | {per} | "
-                         f"{_parts_text(o)} | {', '.join(o['candidates']) or '—'} | {'; '.join(o['lacking']) or '—'} |")
+                         f"{_dependence_text(o['dependence'])} | {_parts_text(o)} | {', '.join(o['candidates']) or '—'} | {'; '.join(o['lacking']) or '—'} |")
     else:
         lines.append("No residual order reaches that.")
+    for g in doc["repeatability"]:
+        lines += ["", (f"Repeatability floor: runs {', '.join(str(r) for r in g['runs'])} ({g['direction']} "
+                       f"{g['load_Nm']:g} N·m, same temperature and speed) differ by {g['rms_arcsec']:.3f}″ rms over "
+                       f"the orders, most at order {g['largest_order']} ({g['largest_arcsec']:.3f}″): the bench repeats "
+                       "itself no better than that.")]
     lines += ["", (f"Weighted rms gap: {doc['gap_before']['weighted_rms']:.3f} before (nominal model), "
               f"{doc['gap_calibrated']['weighted_rms']:.3f} calibrated, "
               f"{doc['gap_after']['weighted_rms']:.3f} after ({doc['gap_after']['weighted_rms_shrink_pct']:.0f} % "

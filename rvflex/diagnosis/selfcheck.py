@@ -255,7 +255,6 @@ the warm-up (an RV reducer's case runs 15–25 K above ambient at rated load).""
 def _bench_plan(spec: ReducerSpec, gen: GeneratorModel) -> tuple[tuple[PlanRun, ...], list[dict]]:
     """The self-check's four runs (a realistic campaign: torque cycle cold, a quarter-load TE run at
     the start, rated-load TE runs forward and reverse after the warm-up) and their metadata."""
-    from rvflex.solve import hysteresis_cycle
 
     tr = spec.rated_torque_Nm
     t = BENCH_TEMPERATURES_C
@@ -266,16 +265,39 @@ def _bench_plan(spec: ReducerSpec, gen: GeneratorModel) -> tuple[tuple[PlanRun, 
             {"file": "te_fwd_quarter.csv", "kind": "te", "direction": "forward", "load_Nm": 0.25 * tr,
              "temperature_C": t["start"]},
             {"file": "hysteresis.csv", "kind": "hysteresis", "torque_max_Nm": tr, "temperature_C": t["cold"]}]
+    return _plan_of(runs, gen), runs
+
+
+def map_runs(spec: ReducerSpec, loads=(0.3, 0.6, 1.0), speeds_rpm=(5.0, 10.0, 15.0),
+             temperatures_C=(25.0, 40.0)) -> list[dict]:
+    """A map of conditions for :func:`generate_case` (``runs``): a TE run per share of rated torque in ``loads``,
+    output speed, temperature and direction (3 × 3 × 2 × 2 = 36 runs by default), no torque cycle."""
+    out = []
+    for share in loads:
+        for v in speeds_rpm:
+            for t in temperatures_C:
+                for d in ("forward", "reverse"):
+                    out.append({"file": f"te_{d[:3]}_{round(100 * share)}pct_{v:g}rpm_{t:g}C.csv", "kind": "te",
+                                "direction": d, "load_Nm": share * spec.rated_torque_Nm, "temperature_C": t,
+                                "speed_out_rpm": v})
+    return out
+
+
+def _plan_of(runs: list[dict], gen: GeneratorModel) -> tuple[PlanRun, ...]:
+    """The plan of a bench's run metadata (:func:`_bench_plan`'s, or :func:`map_runs`')."""
+    from rvflex.solve import hysteresis_cycle
+
     plan = []
     for r in runs:
         if r["kind"] == "te":
             plan.append(PlanRun("te", r["file"], 1 if r["direction"] == "forward" else -1, r["load_Nm"],
                                 temperature_C=r["temperature_C"]))
         else:
+            tr = r["torque_max_Nm"]
             path = hysteresis_cycle(tr, gen.hysteresis_steps)
             plan.append(PlanRun("hysteresis", r["file"], torque_max_Nm=tr, torque_path_Nm=tuple(map(float, path)),
                                 temperature_C=r["temperature_C"]))
-    return tuple(plan), runs
+    return tuple(plan)
 
 
 def campaign_plan(spec: ReducerSpec, hysteresis_steps: int = DiagnosisSettings.hysteresis_steps) -> tuple[PlanRun, ...]:
@@ -312,7 +334,8 @@ def beyond_the_class(truth: list, spec: ReducerSpec, nominal_clearance_m: float)
 
 def generate_case(folder: str | Path, truth_path: str | Path, spec: ReducerSpec, truth: list, rng: np.random.Generator,
                   realism: BenchRealism = BenchRealism(), gen: GeneratorModel = GeneratorModel(),
-                  reducer_name: str = "rv40e", realistic: RealisticMismatch | None = None) -> dict:
+                  reducer_name: str = "rv40e", realistic: RealisticMismatch | None = None,
+                  runs: list[dict] | None = None) -> dict:
     """Write one synthetic bench dataset to ``folder`` and its truth to ``truth_path``.
 
     With ``realistic`` the generator is of another model family (see :class:`RealisticMismatch`;
@@ -323,7 +346,7 @@ def generate_case(folder: str | Path, truth_path: str | Path, spec: ReducerSpec,
     """
     import exudyn as exu
 
-    plan, runs = _bench_plan(spec, gen)
+    plan, runs = _bench_plan(spec, gen) if runs is None else (_plan_of(runs, gen), runs)
     gs = DiagnosisSettings(positions_per_rev=gen.positions_per_rev, max_order=min(127, gen.positions_per_rev // 2 - 1),
                            hysteresis_steps=gen.hysteresis_steps, workers=1, eval_timeout_s=gen.timeout_s)
     before = exu.config.printToConsole
@@ -350,7 +373,7 @@ def generate_case(folder: str | Path, truth_path: str | Path, spec: ReducerSpec,
     bench_runs = []
     for r, (p, meta) in enumerate(zip(plan, runs)):
         if p.kind == "te":
-            speed = spec.rated_output_speed_rpm
+            speed = meta.get("speed_out_rpm", spec.rated_output_speed_rpm)
             omega = 2 * np.pi * speed / 60.0
             f = realism.ripple_hz
             if realistic is None:

@@ -1,0 +1,208 @@
+"""Graded verdicts, the ensemble's null distribution and the residual orders named by the parts that turn at
+them, each on a bench written by a model run (rigid generators at coarse settings for CI time)."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+
+import numpy as np
+import pytest
+
+from rvflex import catalog
+from rvflex.diagnosis.bench import read_bench
+from rvflex.diagnosis.effects import EFFECTS
+from rvflex.diagnosis.ensemble import EnsembleMismatch
+from rvflex.diagnosis.grade import CONSISTENT, ESTABLISHED
+from rvflex.diagnosis.null import NULL_PATH, load_null
+from rvflex.diagnosis.report import json_document
+from rvflex.diagnosis.selfcheck import GeneratorModel, generate_case
+from rvflex.diagnosis.settings import DiagnosisSettings
+from rvflex.units import ARCSEC
+
+# coarse for CI time: orders 1…95 (z_b and 2·z_b in), a 24-step cycle, rigid generators at 256 positions
+CI = DiagnosisSettings(max_order=95, hysteresis_steps=24, refine_top=2, refine_iterations=3, workers=2)
+GEN = GeneratorModel(positions_per_rev=256, hysteresis_steps=48)
+
+
+@pytest.fixture(scope="module")
+def thermal_bench(tmp_path_factory):
+    """A hidden 10 ppm/K thermal mismatch on the RV-40E (tens of floors above the noise at the campaign's
+    temperatures: 33 °C rated-load runs, 10 °C cycle)."""
+    tmp = tmp_path_factory.mktemp("thermal")
+    spec = catalog.load("rv40e")
+    generate_case(tmp / "bench", tmp / "truth.json", spec, [(EFFECTS["thermal_expansion"], np.array([10e-6]))],
+                  np.random.default_rng(5), gen=GEN)
+    return read_bench(tmp / "bench"), tmp / "cache"
+
+
+@pytest.mark.slow
+def test_a_finding_below_the_null_is_consistent_and_never_written_as_explaining_the_gap(thermal_bench, tmp_path):
+    """The same finding, established against the shipped null distribution, is only consistent against one whose
+    controls reach far more evidence: then it is not accepted, the verdict says why and names no effect, and
+    nowhere says "explains the gap"."""
+    from rvflex.diagnosis.fit import diagnose
+
+    ds, cache = thermal_bench
+    effects = ("thermal_expansion", "disc_modification_deviation")
+    found = diagnose(ds, settings=CI, effects=effects, cache_dir=cache)
+    assert found.chosen is not None and found.chosen.name == "thermal_expansion", found.verdict
+    assert found.chosen.grade["grade"] == ESTABLISHED and "thermal_expansion explains the gap" in found.verdict
+    assert found.chosen.grade["explained_where_pct"] >= 50.0
+    assert json_document(found)["grade"] == ESTABLISHED
+
+    strict = tmp_path / "null.json"
+    strict.write_text(json.dumps({"effects": {"thermal_expansion": {
+        "evidence_q95": 10 * found.chosen.score, "magnitude_q95": 0.0, "false_alarm_rate": 0.0, "controls": 40}}}))
+    held = diagnose(ds, settings=dataclasses.replace(CI, null_distribution=str(strict)), effects=effects,
+                    cache_dir=cache)
+    assert held.chosen is None, held.verdict
+    top = next(c for c in held.candidates if c.name == "thermal_expansion")
+    assert top.grade["grade"] == CONSISTENT and not top.accepted
+    assert any("healthy units of other model forms reach" in f for f in top.grade["fails"])
+    assert "explains the gap" not in held.verdict
+    assert "Consistent but not established: thermal_expansion" in held.verdict and "No effect is named" in held.verdict
+    doc = json_document(held)
+    assert doc["grade"] == CONSISTENT
+    row = next(e for e in doc["effects"] if e["name"] == "thermal_expansion")
+    assert row["grade"] == CONSISTENT and row["null_evidence_threshold"] == pytest.approx(10 * found.chosen.score)
+
+
+@pytest.mark.slow
+def test_an_ensemble_control_is_diagnosed_with_nothing_accepted(tmp_path):
+    """A healthy RV-80E of another model form, drawn from the ensemble with a seed the null distribution was
+    not made with (power-law contact, needle-bearing clearance, a series compliance, …): every candidate
+    diagnosed, nothing accepted, and the verdict states the unexplained gap and where it lies."""
+    from rvflex.diagnosis.fit import diagnose
+
+    assert load_null() is not None, f"no null distribution shipped at {NULL_PATH}"
+    spec = catalog.load("rv80e")
+    ens = EnsembleMismatch(flexible_share=0.0)  # a rigid generator for CI time
+    truth = generate_case(tmp_path / "bench", tmp_path / "truth.json", spec, [], np.random.default_rng(20261127),
+                          gen=GEN, reducer_name="rv80e", realistic=ens)
+    assert truth["effects"] == [] and truth["mismatch"] == "ensemble"
+    diag = diagnose(read_bench(tmp_path / "bench"), settings=CI, cache_dir=tmp_path / "cache")
+    assert diag.chosen is None, diag.verdict
+    assert "explains the gap" not in diag.verdict
+    doc = json_document(diag)
+    assert doc["grade"] != ESTABLISHED and not any(e["accepted"] for e in doc["effects"])
+
+
+@pytest.mark.slow
+def test_a_30_arcsec_order_1_component_is_tied_with_the_output_parts_no_candidate_models(tmp_path):
+    """A 30″ once-per-revolution TE component from an eccentric output encoder: established as the encoder's
+    eccentricity, and named as a tie with the once-per-revolution part errors of the output side the library
+    lacks (flange, coupling, main-bearing race), with the measurement that separates them."""
+    from rvflex.diagnosis.fit import diagnose
+
+    spec = catalog.load("rv40e")
+    a = 30 * ARCSEC
+    generate_case(tmp_path / "bench", tmp_path / "truth.json", spec,
+                  [(EFFECTS["output_encoder_eccentricity"], np.array([a * 0.6, a * 0.8]))],
+                  np.random.default_rng(11), gen=GEN)
+    diag = diagnose(read_bench(tmp_path / "bench"), settings=CI, cache_dir=tmp_path / "cache",
+                    effects=("output_encoder_eccentricity", "cycloid_pitch_error", "pin_ring_runout"))
+    assert diag.chosen is not None and diag.chosen.name == "output_encoder_eccentricity", diag.verdict
+    assert diag.chosen.magnitude_of("output_encoder_eccentricity") == pytest.approx(a, rel=0.1)
+    tie = next(t for t in diag.part_ties if t["effect"] == "output_encoder_eccentricity")
+    assert tie["order"] == 1 and any("output flange" in x for x in tie["lacking"])
+    assert "At order 1 output_encoder_eccentricity is tied with part errors no candidate models" in diag.verdict
+    assert "re-mounted" in diag.verdict and "second read head" in diag.verdict
+    assert json_document(diag)["part_ties"][0]["order"] == 1
+
+
+@pytest.mark.slow
+def test_a_residual_order_of_a_three_crank_unit_is_named_by_the_parts_that_turn_at_it(tmp_path):
+    """RV-160N (three cranks, z_b = 40, z_c = 39): a hidden 2nd-harmonic pin pattern (TE at 2·z_c = 78) that the
+    diagnosis is not offered. Its residual order is named by its parts (the load zone sweeping the pins twice per
+    its turn, a two-lobed pin ring), with pin_position_h2 among the candidates acting there."""
+    from rvflex.diagnosis.fit import diagnose
+
+    spec = catalog.load("rv160n")
+    generate_case(tmp_path / "bench", tmp_path / "truth.json", spec,
+                  [(EFFECTS["pin_position_h2"], np.array([4e-6, 2e-6]))], np.random.default_rng(3), gen=GEN,
+                  reducer_name="rv160n")
+    diag = diagnose(read_bench(tmp_path / "bench"), settings=CI, cache_dir=tmp_path / "cache",
+                    effects=("output_encoder_eccentricity",))
+    rows = {r["order"]: r for r in json_document(diag)["residual_orders"]}
+    assert 78 in rows, sorted(rows)
+    r = rows[78]
+    assert r["floors"] >= 3.0 and len(r["per_run"]) == 3
+    keys = {(p["key"], p["harmonic"]) for p in r["parts"]}
+    assert ("crank_housing", 2) in keys and ("pin_ring_lobing_2", 1) in keys
+    assert "pin_position_h2" in r["candidates"] and "pin_ring_runout" in r["candidates"]
+
+
+def test_a_residual_order_that_grows_with_speed_is_named_dynamic():
+    """The dependence of a residual order on the runs' conditions: at 3 speeds, 2 loads, one temperature, an
+    amplitude that doubles from 5 to 15 rpm at either load grows with speed (dynamic); one that does not change
+    with speed but triples with load grows with load only."""
+    from rvflex.diagnosis.report import dependence
+
+    def rows(amp):
+        return [{"load_Nm": load, "speed_out_rpm": v, "temperature_C": 25.0, "residual_arcsec": amp(load, v),
+                 "floors": amp(load, v) / 0.05} for load in (100.0, 400.0) for v in (5.0, 10.0, 15.0)]
+
+    dyn = dependence(rows(lambda load, v: 0.2 * v / 5.0))
+    assert dyn["speed_out_rpm"]["grows"] and dyn["dynamic"] and not dyn["load_Nm"]["grows"]
+    assert dyn["speed_out_rpm"]["ratio"] == pytest.approx(3.0)
+    assert "temperature_C" not in dyn  # one temperature: no dependence to state
+    loaded = dependence(rows(lambda load, v: 0.3 * load / 100.0))
+    assert loaded["load_Nm"]["grows"] and not loaded["speed_out_rpm"]["grows"] and "dynamic" not in loaded
+
+
+def test_runs_of_a_map_under_the_same_model_and_conditions_are_solved_once(monkeypatch):
+    """Two runs at the same load and direction (a map's other speeds; other temperatures where nothing reads the
+    temperature) are one quasi-static solve with the same response; another load is solved."""
+    import rvflex.solve as solve
+    from rvflex.diagnosis.plan import PlanRun
+    from rvflex.diagnosis.replay import ModelRun, run_model
+    from rvflex.options import ModelOptions
+    from rvflex.spec import ErrorSpec
+
+    calls = []
+    real = solve.quasi_static
+
+    def counted(*a, **k):
+        calls.append(a[2])
+        return real(*a, **k)
+
+    monkeypatch.setattr(solve, "quasi_static", counted)
+    spec = catalog.load("rv40e")
+    plan = (PlanRun("te", "a", 1, 200.0, temperature_C=25.0), PlanRun("te", "b", 1, 200.0, temperature_C=40.0),
+            PlanRun("te", "c", 1, 400.0, temperature_C=25.0))
+    resp = run_model(spec, ErrorSpec(), plan, DiagnosisSettings(max_order=31), ModelRun((), ModelOptions.rigid()))
+    assert calls == [200.0, 400.0]
+    np.testing.assert_array_equal(resp.te[0], resp.te[1])
+    assert np.mean(resp.te[2]) < np.mean(resp.te[0])  # twice the load: more wind-up (TE < 0 forward)
+
+
+def test_runs_that_disagree_on_the_same_conditions_are_read_and_give_the_repeatability_floor(tmp_path):
+    """Two forward TE runs at the same load, temperature and speed whose TE differs by 0.5″ at order 3 are read
+    (not refused) and reported as the bench's repeatability floor: 0.25″ from their mean at order 3."""
+    from types import SimpleNamespace
+
+    from rvflex.diagnosis.bench import BenchDataset, BenchRun, write_bench
+    from rvflex.diagnosis.features import measured_runs
+    from rvflex.diagnosis.plan import plan_from_dataset
+    from rvflex.diagnosis.report import repeatability
+
+    spec = catalog.load("rv40e")
+    ratio = spec.nominal_ratio
+
+    def run(extra_arcsec: float, file: str) -> BenchRun:
+        n = 2048
+        t = np.linspace(0.0, 4.1, n)
+        p = 2 * np.pi * 1.02 * t / 4.1
+        out = p + (1e-5 * np.sin(3 * p)) + extra_arcsec * ARCSEC * np.sin(3 * p)
+        return BenchRun(file, "te", t, ratio * p, out, np.full(n, 200.0), direction="forward", load_Nm=200.0,
+                        speed_out_rpm=15.0, temperature_C=25.0)
+
+    write_bench(tmp_path / "b", BenchDataset(spec, "rv40e", (run(0.0, "a.csv"), run(0.5, "b.csv"))))
+    ds = read_bench(tmp_path / "b")
+    settings = DiagnosisSettings(max_order=31).for_dataset(ds)
+    plan = plan_from_dataset(ds, settings)
+    y, lay, _ = measured_runs(ds, plan, settings)
+    rep = repeatability(SimpleNamespace(dataset=ds, plan=plan, layout=lay, measured=y))
+    assert len(rep) == 1 and rep[0]["runs"] == [0, 1]
+    assert rep[0]["largest_order"] == 3 and rep[0]["largest_arcsec"] == pytest.approx(0.25, abs=0.01)
