@@ -9,7 +9,9 @@ controls give
 
 - ``evidence_q95``: the 95th percentile over the controls of the best evidence of any candidate containing
   the effect (0 where it gained none);
-- ``magnitude_q95``: the 95th percentile of the effect's fitted size in that best candidate;
+- ``magnitude_q95``: the 95th percentile of the size the controls reach with evidence: the effect's fitted size
+  in that best candidate where its evidence is significant (``bic_threshold``), 0 where it is not (a fit without
+  evidence has a size set by noise, often at the bound of its range);
 - ``false_alarm_rate``: the share of controls in which a candidate with the effect was accepted by the
   other tests alone (before these thresholds).
 
@@ -67,9 +69,10 @@ def load_null(path: str | Path | None = None) -> NullDistribution | None:
     return NullDistribution(doc.get("effects", {}), doc.get("source", {}))
 
 
-def null_from_reports(reports: list[dict]) -> dict:
+def null_from_reports(reports: list[dict], significant: float = 10.0) -> dict:
     """Per effect: the ensemble controls' evidence and magnitude quantiles and false-alarm rate, from their
-    diagnosis documents (``rvflex diagnose --json``)."""
+    diagnosis documents (``rvflex diagnose --json``); a size counts where the evidence reaches ``significant``
+    (the diagnosis's ``bic_threshold``)."""
     names = sorted({n for d in reports for e in d["effects"] for n in e["name"].split(" + ")})
     out = {}
     for name in names:
@@ -80,7 +83,7 @@ def null_from_reports(reports: list[dict]) -> dict:
                 continue
             best = max(having, key=lambda e: e["score"])
             ev.append(max(float(best["score"]), 0.0))
-            mag.append(abs(float(best["magnitude"].get(name, 0.0))))
+            mag.append(abs(float(best["magnitude"].get(name, 0.0))) if best["score"] >= significant else 0.0)
             alarms += any(e["accepted"] for e in having)
         if ev:
             out[name] = {"evidence_q95": float(np.quantile(ev, QUANTILE)),
