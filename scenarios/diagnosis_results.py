@@ -221,7 +221,8 @@ def null_table(path: str | Path | None = None) -> str:
              "|---|---:|---:|---:|---:|---:|"]
     for name, v in sorted(doc["effects"].items(), key=lambda kv: (-kv[1]["false_alarm_rate"], kv[0])):
         e = EFFECTS.get(name)
-        size = (lambda m: fmt_mag(e, m)) if e is not None else (lambda m: f"{m:.3g}")
+        plain = e is None or e.params[0].unit == "1"  # a share or fraction: no unit to print
+        size = (lambda m: f"{m:.3g}") if plain else (lambda m: fmt_mag(e, m))
         n = v["controls"]
         lines.append(f"| {name} | {v['false_alarm_rate']:.2f} ({round(v['false_alarm_rate'] * n)}/{n}) | "
                      f"{v['evidence_q95']:.0f} | {v['evidence_max']:.0f} | {size(v['magnitude_q95'])} | "
