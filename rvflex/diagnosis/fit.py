@@ -38,19 +38,24 @@ import dataclasses as dc
 import itertools
 import math
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from rvflex.diagnosis.anchor import Anchor, anchor, scale_stiffness
+from rvflex.diagnosis.calibrate import (
+    anchored,
+    baseline_response,
+    calibrated,
+    calibration_parameters,
+    evaluated_each,
+    linearised_step,
+)
 from rvflex.diagnosis.calibration import (
     CALIBRATION_PREFERRED,
     calibration_lookalikes,
     calibration_sentence,
     calibration_ties,
     lookalike_sentence,
-    separable,
     undetermined,
 )
 from rvflex.diagnosis.discrepancy import Discrepancy, evidence, feature_groups
@@ -77,16 +82,16 @@ from rvflex.diagnosis.linear import (
     split_params,
     weights,
 )
-from rvflex.diagnosis.nominal import NOMINAL, REPLACES, nominal_parameters, within_spec_rules
+from rvflex.diagnosis.nominal import REPLACES, within_spec_rules
 from rvflex.diagnosis.null import load_null
-from rvflex.diagnosis.plan import Layout, PlanRun, plan_from_dataset
-from rvflex.diagnosis.refine import evaluate_sets, evaluated_candidate, refine
-from rvflex.diagnosis.replay import EvaluationFailed, Response, one_period
+from rvflex.diagnosis.plan import PlanRun, plan_from_dataset
+from rvflex.diagnosis.refine import evaluated_candidate, refine
+from rvflex.diagnosis.replay import one_period
+from rvflex.diagnosis.result import Diagnosis
 from rvflex.diagnosis.runs import ModelRunner
 from rvflex.diagnosis.sensitivity import (
     available_candidates,
     fidelity_sets,
-    rebase_fidelity,
     rebased_from,
     second_effect_adds,
     sensitivities,
@@ -109,173 +114,6 @@ from rvflex.spec import ErrorSpec, ReducerSpec
 
 __all__ = ["Candidate", "Diagnosis", "available_candidates", "diagnose", "restated", "second_effect_adds",
            "signature_sizes", "withheld_folds", "withheld_split"]
-
-
-@dataclass(frozen=True, eq=False)
-class Diagnosis:
-    """Everything a diagnosis found (see :func:`diagnose`); :mod:`rvflex.diagnosis.report` turns it
-    into the report and the JSON document. ``baseline`` is the *calibrated* nominal model (its
-    ``calibrated`` parameters), the reference of every candidate's score; ``nominal_model`` the
-    model as specified."""
-
-    dataset: object
-    settings: DiagnosisSettings
-    plan: tuple[PlanRun, ...]
-    layout: Layout
-    weights: np.ndarray
-    measured: np.ndarray
-    baseline: Candidate
-    baseline_response: Response
-    candidates: tuple[Candidate, ...]
-    chosen: Candidate | None
-    withheld_runs: tuple  # the folds: (fitted, predicted) run parts (run, side), see withheld_folds
-    unavailable: dict
-    failed: dict
-    signature_size: dict
-    verdict: str
-    model_runs: int
-    wall_s: float
-    ties: tuple[str, ...] = ()
-    nominal_model: Candidate | None = None  # the uncalibrated nominal model (the gap before calibration)
-    windows: dict = dc.field(default_factory=dict)  # per TE run: the analysed window and its fit figures
-    calibration_ties: tuple[str, ...] = ()  # nominal parameters that can mimic the accepted effect
-    separating_runs: tuple[str, ...] = ()  # runs that would separate such a tie
-    undetermined: dict = dc.field(default_factory=dict)  # nominal parameters the runs do not determine: why
-    anchor: Anchor = dc.field(default_factory=Anchor)  # the global stiffness scale the calibration starts from
-    discrepancy: Discrepancy | None = None  # what the calibrated model leaves, per order band and run
-    lookalikes: dict = dc.field(default_factory=dict)  # effects the calibration can stand in for (see calibration_lookalikes)
-    sensitivities: Sensitivities | None = None  # the secants the candidates were fitted with (about the anchored model)
-    part_ties: tuple = ()  # part errors no candidate models that TE cannot tell from the accepted effect (grade.part_ties)
-
-    def observability(self, name: str, x) -> tuple[float, float]:
-        """How well these runs can see candidate effect ``name`` at parameters ``x``.
-
-        Measured on the self-checks' misses (docs/diagnosis.md, session 18): a hidden series compliance
-        mostly leaves under 7 floor units separable, a modification deviation drawn along its
-        near-cancelling direction 9 to 21.
-
-        Parameters
-        ----------
-        name : str
-            A candidate effect of this diagnosis.
-        x : array_like
-            Its parameters, in their units (m, rad, 1/K, …).
-
-        Returns
-        -------
-        tuple of float
-            Its linearised signature in floor units (the weighted norm of the feature change by its
-            secants) and the part of it the calibrated nominal parameters cannot reproduce within their
-            prior ranges (:func:`~rvflex.diagnosis.calibration.separable`): the part these runs can tell
-            from a calibration. NaN, NaN for an effect without sensitivities here.
-
-        Raises
-        ------
-        ValueError
-            ``x`` does not have the effect's number of parameters.
-        """
-        if self.sensitivities is None or name not in self.sensitivities:
-            return math.nan, math.nan
-        x = np.asarray(x, float)
-        k = self.sensitivities.plus[name].shape[1]
-        if x.shape != (k,):
-            raise ValueError(f"x = {x.tolist()}: {name} has {k} parameters")
-        return separable(self.sensitivities.change_at(name, x), self.baseline, self.sensitivities, self.weights)
-
-    def to_dataframe(self, table: str = "ranking"):
-        """One of the diagnosis's tables as a tidy pandas DataFrame.
-
-        Parameters
-        ----------
-        table : {"ranking", "gap", "calibration"}, optional
-            ``"ranking"`` (default): one row per candidate effect, best first: name, score (BIC
-            improvement), gap shrink (%), withheld improvement (%), accepted, refined, and each
-            parameter in SI (unit in the column name). ``"gap"``: per run and metric, the measured
-            value, the nominal model's, the calibrated model's and the model's with the accepted
-            effect (unit in the ``unit`` column). ``"calibration"``: the calibrated nominal
-            parameters with their intervals.
-
-        Returns
-        -------
-        pandas.DataFrame
-            The table.
-        """
-        import pandas as pd
-
-        from rvflex.diagnosis.report import json_document
-
-        if table == "ranking":
-            rows = []
-            for c in self.candidates:
-                row = {"effect": c.name, "score": c.score, "gap_shrink_pct": c.gap_shrink_pct,
-                       "withheld_improvement_pct": c.withheld.get("improvement_pct"), "accepted": c.accepted,
-                       "refined": c.refined}
-                row.update({f"{n} [{u}]": float(v) for n, u, v in zip(c.param_names, c.units, c.x)})
-                rows.append(row)
-            return pd.DataFrame(rows)
-        doc = json_document(self)
-        if table == "calibration":
-            return pd.DataFrame(doc["calibration"])
-        if table == "gap":
-            rows = []
-            for b, cal, a in zip(doc["gap_before"]["metrics"], doc["gap_calibrated"]["metrics"],
-                                 doc["gap_after"]["metrics"]):
-                rows.append({k: b[k] for k in ("run", "direction", "load_Nm", "temperature_C", "metric", "unit",
-                                               "measured")}
-                            | {"nominal_model": b["model"], "calibrated": cal["model"], "after": a["model"]})
-            return pd.DataFrame(rows)
-        raise ValueError(f"table = {table!r}: must be 'ranking', 'gap' or 'calibration'")
-
-    def plot(self, ax=None, run: int | None = None):
-        """Plot one bench run against the model, as the report's figures do.
-
-        Parameters
-        ----------
-        ax : matplotlib.axes.Axes, optional
-            Where to draw (default: a new :class:`matplotlib.figure.Figure`; pyplot is not used).
-        run : int, optional
-            Index of the bench run (``dataset.runs``; default: the first TE run, else the first
-            torque cycle). A TE run is drawn as TE (arcsec) over the output position (°):
-            measured, with the fitted offset and encoder origin removed, the calibrated model and
-            the model with the accepted effect; a torque cycle as torque (N·m) over the output
-            angle (arcmin).
-
-        Returns
-        -------
-        matplotlib.axes.Axes
-            The axes drawn on.
-        """
-        from rvflex.diagnosis.report import draw_run
-
-        if run is None:
-            run = self.layout.te_runs[0] if self.layout.te_runs else min(self.layout.hyst)
-        if not (isinstance(run, int) and 0 <= run < len(self.plan)):
-            raise ValueError(f"run = {run!r}: must be a run index, 0 … {len(self.plan) - 1}")
-        if ax is None:
-            from matplotlib.figure import Figure
-
-            ax = Figure(figsize=(8, 3.2), layout="constrained").subplots()
-        draw_run(ax, self, run)
-        ax.legend(fontsize=8)
-        return ax
-
-    def write(self, out: str | Path) -> list[Path]:
-        """Write the report of ``rvflex diagnose --out``: report.md, diagnosis.json and the plots (PNG).
-
-        Parameters
-        ----------
-        out : str or os.PathLike
-            The folder (created when missing); every file is computed first and written
-            through a temporary name.
-
-        Returns
-        -------
-        list of pathlib.Path
-            The files written.
-        """
-        from rvflex.diagnosis.report import write_report
-
-        return write_report(self, out)
 
 
 def withheld_split(plan: tuple[PlanRun, ...]) -> tuple[tuple[int, ...], tuple[int, ...]]:
@@ -363,7 +201,7 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
     plan = plan_from_dataset(dataset, settings)
     y, lay, windows = measured_runs(dataset, plan, settings)
     cands, unavailable = available_candidates(effects, plan)
-    cal = _calibration_parameters(nominal, spec, plan, unavailable)
+    cal = calibration_parameters(nominal, spec, plan, unavailable)
     replaced = {REPLACES[c.name] for c in cal if c.name in REPLACES}
     cands = tuple(e for e in cands if e.name not in replaced)
     cache = Path(cache_dir) if cache_dir else None
@@ -371,11 +209,11 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
 
     # --- the data anchor: the unit's torsional stiffness against the nominal model's; far off, every stiffness
     # is scaled and calibration starts there (f_spec, resp_spec: the model as specified, the gap before)
-    anc, runner, f_spec, resp_spec = _anchored(runner, cal, y, lay, plan)
+    anc, runner, f_spec, resp_spec = anchored(runner, cal, y, lay, plan)
     spec = runner.spec
     cal = within_spec_rules(cal, spec)
     runner.run([()] + sensitivity_runs(cands + cal))  # the baseline alongside the sensitivities' runs
-    f0, resp0 = _baseline(runner)
+    f0, resp0 = baseline_response(runner)
     w = weights(f0, y, lay, settings, spec.cycloid.pin_count)
     nuis = nuisance_columns(lay)
     prob = Problem.build(y, lay, w, nuis)
@@ -398,7 +236,7 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
 
     # --- stage 1, calibration: the nominal parameters alone, refined with the model in the loop
     sens_nominal = sens  # the secants about the anchored nominal model (the rebase replaces the fidelity ones)
-    calib, sens = _calibrated(prob, runner, sens, cal, f0, resp0, lay, settings, failed, n_nuis)
+    calib, sens = calibrated(prob, runner, sens, cal, f0, resp0, lay, settings, failed, n_nuis)
     x_cal = calib.x
     f_cal = calib.model_features
     J_cal = calib.jacobian
@@ -679,40 +517,6 @@ def _null_of(settings: DiagnosisSettings):
     return load_null(None if settings.null_distribution == "builtin" else settings.null_distribution)
 
 
-def _calibration_parameters(nominal, spec: ReducerSpec, plan: tuple[PlanRun, ...], unavailable: dict) -> tuple:
-    """The nominal parameters to calibrate (:func:`~rvflex.diagnosis.nominal.nominal_parameters`): one the
-    spec leaves no room for or the model cannot evaluate under ``plan`` is named in ``unavailable``
-    (name → "not calibrated: why", for the verdict) instead."""
-    nominal_all, no_room = nominal_parameters(nominal, spec)
-    unavailable.update({n: f"not calibrated: {why}" for n, why in no_room.items()})
-    cal = []
-    for c in nominal_all:
-        why = c.available()[1] or c.available_for(plan)[1]
-        if why:
-            unavailable[c.name] = f"not calibrated: {reason_line(why)}"
-        else:
-            cal.append(c)
-    return tuple(cal)
-
-
-def _anchored(runner: ModelRunner, cal: tuple, y: np.ndarray, lay: Layout, plan: tuple[PlanRun, ...]):
-    """The data anchor (:func:`~rvflex.diagnosis.anchor.anchor`): the unit's torsional stiffness from the
-    bench against the nominal model's (rigid plus the elastic discs when the disc flexibility is calibrated:
-    the calibration's nominal point). Returns the anchor, the runner of the model the diagnosis goes on with
-    (every stiffness scaled when the anchor applies; the model runs counted on), and the features and
-    response of the model as specified."""
-    flexed = [((NOMINAL["disc_flexibility"], np.array([1.0])),)] if "disc_flexibility" in {c.name for c in cal} else []
-    flex = runner.run([()] + flexed)[-1][0] if flexed else None  # the baseline's run alongside
-    f0, resp0 = _baseline(runner)
-    anc = anchor(y, f0 if flex is None else flex, lay, plan)
-    if anc.applied:
-        runs_before = runner.model_runs
-        runner = ModelRunner(scale_stiffness(runner.spec, anc.scale), runner.errors, runner.plan, runner.settings,
-                             runner.law, runner.cache_dir, runner.progress)
-        runner.model_runs = runs_before
-    return anc, runner, f0, resp0
-
-
 def _accepted(ranked: list[Candidate], settings: DiagnosisSettings, failed: dict):
     """Walk down ``ranked`` (by score) as the verdict does: the first refined candidate that passes every
     acceptance test is chosen (a copy marked accepted), unless a candidate above it with evidence could
@@ -747,174 +551,6 @@ def _singles_of_refuted_pair(ranked: list[Candidate], settings: DiagnosisSetting
     return singles if against in {c.name for c in singles} else []
 
 
-def _calibrated(prob: Problem, runner: ModelRunner, sens: Sensitivities, cal: tuple, f0: np.ndarray, resp0: Response,
-                lay: Layout, settings: DiagnosisSettings, failed: dict, n_nuis: int) -> tuple[Candidate, Sensitivities]:
-    """Stage 1: the nominal parameters ``cal`` alone, on every feature (the wind-ups' load and direction
-    dependence, the torque cycles' slope and free play, the orders the contact-law form and the disc flexibility
-    shape), with their priors, from the free start and the fixed ones (:func:`_law_starts`), refined with the
-    model in the loop; the fidelity effects measured again about the result (:func:`_rebased`) and the
-    calibration continued from there. Returns the calibrated candidate and the sensitivities with the
-    fidelity effects' secants about it (``sens`` itself when none were measured again); refinements that
-    failed are added to ``failed``."""
-    n = prob.lay.n
-    starts = [_calibrate(prob, f0, sens, cal, n, n_nuis)]
-    starts += [_calibrate(prob, f0, sens, cal, n, n_nuis, fix=f) for f in _law_starts(cal)]
-    cal_ref = refine(starts, prob, runner, sens, f0, resp0, settings, failed, n_nuis)
-    calib = min(cal_ref, key=lambda c: c.rss) if cal_ref else starts[0]
-    # the fidelity effects (the contact-law form, the elastic discs) act as the difference their model makes,
-    # measured first about the nominal model; far from it that difference is wrong (see rebase_fidelity), so it is
-    # measured again about the calibration, and the calibration goes on from there
-    for rebase in range(FIDELITY_REBASES + 1):
-        if rebase:
-            if not cal_ref or calib.jacobian is None:
-                break
-            sens_b, _ = _rebased(runner, sens, cal, calib, resp0, lay)
-            if sens_b is sens:
-                break
-            sens = sens_b
-            at = _evaluated(prob, runner, sens, cal, calib, f0, resp0, n_nuis)
-            if at is None:
-                break
-            calib = at
-        # the calibration goes on while a step of the nominal parameters, linearised about it (its model run and
-        # Broyden Jacobian), still pays with the model in the loop. Stopped short, every candidate's joint fit took
-        # that step too and was credited with it (measured: a far-mismatch control in which each single effect, at
-        # zero size, "removed" 41 % of what calibration left, and a 15 µm main-bearing clearance was accepted)
-        for _ in range(CALIBRATION_CONTINUATIONS):
-            if not cal_ref or calib.jacobian is None or not calib.jacobian.shape[1]:
-                break
-            step = _step(prob, calib, n_nuis, "calibration")
-            if step.rss >= (1.0 - settings.refine_min_gain) * calib.rss:
-                break
-            more = refine([step], prob, runner, sens, f0, resp0, settings, {}, n_nuis)
-            if not more or more[0].rss >= (1.0 - settings.refine_min_gain) * calib.rss:
-                break
-            calib = more[0]
-    return calib, sens
-
-
-def _baseline(runner: ModelRunner) -> tuple[np.ndarray, Response]:
-    """Features and response of the runner's model without any effect."""
-    out = runner.run([()])[0]
-    if out[0] is None:
-        raise EvaluationFailed(f"the baseline model does not converge under the bench conditions: {out[2]}")
-    return out[0], out[1]
-
-
-CALIBRATION_CONTINUATIONS = 2
-"""Most further refinements of the calibration from a linearised step about it (each while the step pays
-by ``refine_min_gain`` with the model in the loop)."""
-
-
-LAW_STARTS = {"contact_law_form": (1.0,)}
-"""Further starts of the calibration, refined alongside the nominal one, the lower real residual
-kept: a point contact (F ∝ x^1.5) besides the nominal line contact. Along the valley of equal
-wind-up the contact stiffness and the law form trade against each other, and the refinement from
-one start can stop short of the other's basin (measured, realistic self-check seed 3, case 8: RSS
-1454 from the line contact, 1387 from the point contact; only from the latter was the hidden pitch
-error found, 54 % of the gap)."""
-
-CLEARANCE_STARTS = (1 / 3, 2 / 3)
-"""Further starts of the calibration's crank-bearing clearance, as shares of its range, each with every
-law start: free play and compliance trade against each other too (a clearance softens the start of the
-wind-up as a softer contact does), and the refinement from one start can stay in the other's basin
-(measured, far self-check seed 3, control case 7, drawn clearance 5.6 µm: refined from the line and the
-point contact with the clearance free it stopped at a real RSS of 8535 and 8319, from the clearance starts
-at 2397 … 2666)."""
-
-
-def _law_starts(cal) -> list[dict]:
-    """The fixed starts of the calibration besides the free one (name → value): every combination of a
-    law start (:data:`LAW_STARTS`) or none and a clearance start (:data:`CLEARANCE_STARTS`) or none."""
-    by = {c.name: c for c in cal}
-    options = [[None] + [(k, v) for v in vals] for k, vals in LAW_STARTS.items() if k in by]
-    if "crank_bearing_clearance" in by:
-        p = by["crank_bearing_clearance"].params[0]
-        options.append([None] + [("crank_bearing_clearance", p.low + f * (p.high - p.low)) for f in CLEARANCE_STARTS])
-    out = [dict(kv for kv in combo if kv is not None) for combo in itertools.product(*options)]
-    return [d for d in out if d]
-
-
-def _calibrate(prob: Problem, f0, sens, cal, n, n_nuis, fix: dict | None = None) -> Candidate:
-    """Stage 1: the nominal parameters alone, linearised about the nominal model; ``fix`` holds
-    some (name → value of their first parameter) at a start point for the refinement."""
-    if not cal:
-        return make_candidate((), np.zeros(0), np.zeros(0), 0.0, 0.0, np.zeros((n, 0)), n, n_nuis, f0,
-                              refined=True, jacobian=np.zeros((n, 0)))
-    idx, i = {}, 0
-    for c in cal:
-        idx[c.name] = i
-        i += c.n
-    best = None
-    for J, lo, hi in sens.orthants(cal):
-        for name, v in (fix or {}).items():
-            lo, hi = lo.copy(), hi.copy()
-            lo[idx[name]], hi[idx[name]] = v, v + 1e-9 * max(1.0, abs(v))
-        fit_ = lin_fit(prob, f0, J, np.zeros(J.shape[1]), lo, hi, prior=prior_of(cal))
-        if best is None or fit_[3] < best[0][3]:
-            best = (fit_, J, lo, hi)
-    (x, nu, d, rss, A), J, lo, hi = best
-    return make_candidate(cal, x, nu, d, rss, A, n, n_nuis, f0 + J @ x, refined=False, note="calibration",
-                          jacobian=J, box=(lo, hi))
-
-
-FIDELITY_REBASES = 2
-"""How often the fidelity effects' differences are measured again about the calibration (each followed by
-the calibration's continuation). Twice since the candidates alike at every pin have theirs measured about their
-own point (``_about_themselves``): the calibrated model, every candidate's reference, is given a second one
-(measured, far self-check seed 3, control case 19: after one the calibrated model left a weighted RSS of 785, a
-modification deviation measured about itself 500, accepted; after two the calibrated model leaves 546 and no
-effect is accepted)."""
-
-
-def _rebased(runner, sens, cal, calib: Candidate, resp0, lay):
-    """``sens`` with the fidelity effects of ``cal`` measured about ``calib``'s model parameters (``sens``
-    itself when there is nothing to measure or the model run at that point fails)."""
-    base = tuple((e, x) for e, x in split_params(cal, calib.x) if e.kind != "fidelity")
-    if not base or not any(e.kind == "fidelity" for e in cal):
-        return sens, {}
-    fb, rb, _ = runner.run([base])[0]
-    if fb is None:
-        return sens, {}
-    return rebase_fidelity(runner, sens, cal, base, fb, rb, resp0, lay)
-
-
-def _evaluated(prob: Problem, runner, sens, cal, calib: Candidate, f0, resp0, n_nuis: int) -> Candidate | None:
-    """``calib`` evaluated again with ``sens`` (its model run, the fidelity effects' new columns in its
-    Jacobian); None when the run fails."""
-    return _evaluated_each(prob, runner, [sens], [dc.replace(calib, effects=cal)], f0, resp0, n_nuis)[0]
-
-
-def _evaluated_each(prob: Problem, runner, each: list[Sensitivities], cands: list[Candidate], f0, resp0,
-                    n_nuis: int) -> list[Candidate | None]:
-    """Each of ``cands`` evaluated again with its own sensitivities (one batch of model runs; the fidelity
-    effects' new columns in its Jacobian); None where the run fails."""
-    out = []
-    evaluated = evaluate_sets(runner, each, resp0, [tuple(split_params(c.effects, c.x)) for c in cands], f0, prob.lay)
-    for c, sens, (f, r, _) in zip(cands, each, evaluated):
-        if f is None:
-            out.append(None)
-            continue
-        J = c.jacobian.copy()
-        i = 0
-        for e in c.effects:
-            if e.kind == "fidelity":
-                J[:, i:i + e.n] = sens.plus[e.name]
-            i += e.n
-        out.append(evaluated_candidate(prob, c.effects, c.x, f, r, J, n_nuis))
-    return out
-
-
-def _step(prob: Problem, c: Candidate, n_nuis: int, note: str) -> Candidate:
-    """The linearised step from the evaluated candidate ``c`` (its model run and Jacobian, within its effects'
-    bounds and priors), to be refined from ``c`` (its base)."""
-    lo, hi = bounds(c.effects)
-    f, J = c.model_features, c.jacobian
-    x, nu, d, rss, A = lin_fit(prob, f, J, c.x, lo, hi, prior=prior_of(c.effects))
-    return make_candidate(c.effects, x, nu, d, rss, A, prob.lay.n, n_nuis, f + J @ (x - c.x), refined=False,
-                          note=note, jacobian=J, box=(lo, hi), base=(c.x, f))
-
-
 def _alike_at_every_pin(runner: ModelRunner, c: Candidate) -> bool:
     """Whether the model of ``c`` (the runner's with its model effects applied) is alike at every pin
     (:func:`~rvflex.diagnosis.replay.one_period`): its errors change every contact the same way."""
@@ -943,9 +579,9 @@ def _about_themselves(prob: Problem, runner: ModelRunner, sens: Sensitivities, c
             sens_c, _ = rebased_from(sens, c.effects, b, fb, rb, mine, resp0, prob.lay)
             kept.append(c)
             each.append(sens_c)
-    done = [(at, sens_c) for at, sens_c in zip(_evaluated_each(prob, runner, each, kept, f0, resp0, n_nuis), each)
+    done = [(at, sens_c) for at, sens_c in zip(evaluated_each(prob, runner, each, kept, f0, resp0, n_nuis), each)
             if at is not None]
-    steps = [_step(prob, at, n_nuis, "fidelity differences about itself") for at, _ in done]
+    steps = [linearised_step(prob, at, n_nuis, "fidelity differences about itself") for at, _ in done]
     return [at for at, _ in done] + (refine(steps, prob, runner, [sn for _, sn in done], f0, resp0, settings, {},
                                             n_nuis) if steps else [])
 

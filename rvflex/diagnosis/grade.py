@@ -28,8 +28,7 @@ from rvflex.diagnosis.linear import Candidate, Problem
 from rvflex.diagnosis.verdict import fmt_mag, fmt_pct, is_significant, undetermined_effect, withheld_confirms
 
 __all__ = ["CONSISTENT", "ESTABLISHED", "MOST", "NOT_SIGNIFICANT", "SIGNATURE_SHARE", "consistent_sentence",
-           "explained_where_it_lies", "part_ties", "part_ties_sentence",
-           "gap_sentence", "grade"]
+           "explained_where_it_lies", "gap_sentence", "grade", "own_change", "part_ties", "part_ties_sentence"]
 
 ESTABLISHED, CONSISTENT, NOT_SIGNIFICANT = "established", "consistent but not established", "not significant"
 MOST = 0.5  # "explains most": at least half of what calibration left where the signature lies

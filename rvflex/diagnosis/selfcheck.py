@@ -21,7 +21,7 @@ Scoring (per effect case; the dominant hidden effect is the first one drawn):
 - controls: a control is correct when no effect is accepted;
 - observability (reported beside top-1, never instead of it): the dominant effect's linearised signature at
   its drawn parameters and the part of it the calibrated nominal parameters cannot reproduce within their
-  prior ranges (:meth:`~rvflex.diagnosis.fit.Diagnosis.observability`), in floor units; a case is
+  prior ranges (:meth:`~rvflex.diagnosis.result.Diagnosis.observability`), in floor units; a case is
   ``observable`` when that separable part reaches :data:`MIN_SIGNATURE`, the rule that decides which effects
   are drawn at all (there taken at typical size, before calibration). ``top1_rate_observable`` is the top-1
   rate over the observable effect cases: what the diagnosis finds of what a diagnosis that calibrates first
