@@ -206,3 +206,22 @@ def test_runs_that_disagree_on_the_same_conditions_are_read_and_give_the_repeata
     rep = repeatability(SimpleNamespace(dataset=ds, plan=plan, layout=lay, measured=y))
     assert len(rep) == 1 and rep[0]["runs"] == [0, 1]
     assert rep[0]["largest_order"] == 3 and rep[0]["largest_arcsec"] == pytest.approx(0.25, abs=0.01)
+
+
+def test_a_pool_part_holds_every_run_under_the_same_conditions():
+    """In a pool a model run is split into parts; the runs of a map under the same conditions go into one part
+    (so it solves them once), other temperatures only where an effect reads the temperature."""
+    from rvflex.diagnosis.plan import PlanRun
+    from rvflex.diagnosis.replay import ModelRun
+    from rvflex.diagnosis.runs import ModelRunner
+    from rvflex.options import ModelOptions
+    from rvflex.spec import ErrorSpec
+
+    spec = catalog.load("rv40e")
+    plan = tuple(PlanRun("te", f"r{i}", d, load, temperature_C=t)
+                 for i, (d, load, t) in enumerate([(1, 100.0, 25.0), (1, 100.0, 40.0), (-1, 100.0, 25.0),
+                                                   (1, 400.0, 25.0), (1, 100.0, 25.0)]))
+    runner = ModelRunner(spec, ErrorSpec(), plan, DiagnosisSettings(max_order=31, workers=2), None, None)
+    assert runner._parts(ModelRun((), ModelOptions.rigid())) == [(0, 1, 4), (2,), (3,)]
+    thermal = ModelRun(((EFFECTS["thermal_expansion"], np.array([5e-6])),), ModelOptions.rigid())
+    assert runner._parts(thermal) == [(0, 4), (1,), (2,), (3,)]

@@ -194,10 +194,19 @@ class ModelRunner:
         return [o if o is not None else self._load(k) for o, k in zip(out, keys)]
 
     def _parts(self, run: ModelRun) -> list[tuple[int, ...]]:
-        """The plan runs of ``run`` in the parts a pool runs separately (:data:`PLAN_RUNS_PER_PART`)."""
+        """The plan runs of ``run`` in the parts a pool runs separately (:data:`PLAN_RUNS_PER_PART` groups each).
+        Plan runs under the same conditions (a map's other speeds; its other temperatures when no effect of the
+        run reads the temperature) form one group, so that one part solves them once
+        (:func:`~rvflex.diagnosis.replay.run_model`)."""
         per = PLAN_RUNS_PER_PART["rigid" if run.options == ModelOptions.rigid() else "elastic"]
-        idx = list(range(len(self.plan)))
-        return [tuple(idx[i:i + per]) for i in range(0, len(idx), per)]
+        reads_temperature = any(e.run_fields for e, _ in run.active)
+        groups: dict[tuple, list[int]] = {}
+        for i, p in enumerate(self.plan):
+            same = (p.kind, p.direction, p.load_Nm, p.torque_path_Nm, p.torque_eff_Nm,
+                    p.temperature_C if reads_temperature else None)
+            groups.setdefault(same, []).append(i)
+        g = list(groups.values())
+        return [tuple(sorted(i for grp in g[k:k + per] for i in grp)) for k in range(0, len(g), per)]
 
     def _run_key(self, run: ModelRun) -> str:
         if run.plain:
