@@ -509,7 +509,8 @@ def lacking_lookalikes(spec: ReducerSpec, effect: str, max_order: int | None = N
     """
     top = max_order or 2 * spec.cycloid.pin_count
     for k in range(1, top + 1):
+        if effect not in effects_at(spec, k, candidates=(effect,)):  # the parts alone: cheaper than name_orders
+            continue
         row = name_orders(spec, [k], candidates=(effect,))[0]
-        if effect in row["candidates"]:
-            return {"order": k, "lacking": row["lacking"]} if row["lacking"] else {}
+        return {"order": k, "lacking": row["lacking"]} if row["lacking"] else {}
     return {}
