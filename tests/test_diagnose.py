@@ -528,7 +528,7 @@ def test_a_pair_whose_second_effect_does_not_predict_the_withheld_runs_is_not_co
     two folds each predicted better with evidence ≥ 10, not the pooled share that one fold dominates. A pair
     that the withheld runs confirm against the calibrated model — its first effect does that — but not its
     second effect against the single is not accepted, and the verdict says why (fold evidences as measured on
-    session 16's self-checks: a spurious series compliance beside a clearance [62, 0, 0] at pooled +21 %, the
+    the self-checks: a spurious series compliance beside a clearance [62, 0, 0] at pooled +21 %, the
     real pin friction beside a pin pattern [340, 28, 75])."""
     from types import SimpleNamespace
 

@@ -376,7 +376,7 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
 
     # --- model in the loop: the candidates the verdict will rank first, by the same score (their linearised
     # fits), and the best single by the linearised BIC. Chosen by the BIC alone, the leader by the evidence was
-    # often left linearised and so could not be accepted (measured on session 12's 80 self-check and foreign
+    # often left linearised and so could not be accepted (measured on 80 self-check and foreign
     # benches: 22 leaders unrefined, among them hidden thermal mismatches at score 639 and 72 and a series
     # compliance at 36, each reported as "its model-in-the-loop evaluation failed")
     by_score = sorted(ranked, key=lambda c: -score_of(c))

@@ -65,7 +65,7 @@ class Diagnosis:
     def observability(self, name: str, x) -> tuple[float, float]:
         """How well these runs can see candidate effect ``name`` at parameters ``x``.
 
-        Measured on the self-checks' misses (docs/diagnosis.md, session 18): a hidden series compliance
+        Measured on the self-checks' misses: a hidden series compliance
         mostly leaves under 7 floor units separable, a modification deviation drawn along its
         near-cancelling direction 9 to 21.
 

@@ -49,7 +49,7 @@ class DiagnosisSettings:
         A candidate without evidence about the calibrated model is linearised also about the anchored
         nominal model, where that linearisation does not promise the calibration alone more than its model
         run gave; the fit is kept when it is better by ``bic_threshold`` and refined beside the other (True,
-        default). False: about the calibrated model alone (the rule before session 18; docs/diagnosis.md).
+        default). False: about the calibrated model alone.
     evidence_model : {"discrepancy", "bic"}
         How an effect's evidence is measured against the calibrated model. "discrepancy" (default):
         against a model discrepancy with its own variance per order band and run, profiled

@@ -259,7 +259,7 @@ def withheld_confirms(wh: dict, settings, replicated: bool = False) -> bool:
     With ``replicated`` only the second way counts: the second effect of a pair, checked against its better
     single. The pooled share is dominated by the fold with the most model-form residual (the TE runs' ripple
     and wind-ups), so a second effect that only soaks up a model-form difference between the runs passes it
-    from one fold (measured, session 16: four single hidden effects gained a series compliance as second
+    from one fold (measured on the self-checks: four single hidden effects gained a series compliance as second
     effect, fold evidence [10, 7, 7], [62, 0, 0], [528, 1, −3] and [59, 8, 8]; the real second effects found,
     [340, 28, 75], [507, 39, 39] and [476, 23, 23])."""
     pct = wh.get("improvement_pct")
