@@ -1,4 +1,6 @@
-"""Alternative model forms of a healthy unit: the ensemble the diagnosis's false alarms are held against.
+"""Units of other model forms the self-check writes its benches from: :class:`RealisticMismatch` (another model
+family, ``--mismatch realistic`` and ``far``) and :class:`EnsembleMismatch`, the ensemble of healthy units
+the diagnosis's false alarms are held against (``--mismatch ensemble``, the null distribution).
 
 A unit from another maker, or a real one, is never the rvflex model: its contact law, bearing laws, first
 stage, carrier and thermal behaviour are of other forms, and a diagnosis that names a cause on such a healthy
@@ -35,13 +37,72 @@ from rvflex.options import ModelOptions
 from rvflex.spec import ErrorSpec, ReducerSpec
 from rvflex.units import ARCSEC
 
-__all__ = ["CLEARANCE_MAX_M", "EnsembleMismatch", "SERIES_LINEAR_MAX_RAD", "SERIES_STIFFENING_MAX_RAD",
+__all__ = ["CLEARANCE_MAX_M", "EnsembleMismatch", "RealisticMismatch", "SERIES_LINEAR_MAX_RAD", "SERIES_STIFFENING_MAX_RAD",
            "THERMAL_MISMATCH_MAX_PER_K"]
 
 CLEARANCE_MAX_M = 4e-6  # a healthy unit's needle-bearing radial clearance: 0 … 4 µm
 SERIES_LINEAR_MAX_RAD = 25 * ARCSEC  # a carrier flange or coupling: up to 25″ of linear twist at rated torque
 SERIES_STIFFENING_MAX_RAD = 10 * ARCSEC  # and up to 10″ stiffening with load (∝ T^(2/3))
 THERMAL_MISMATCH_MAX_PER_K = 1e-6  # a steel housing around steel parts: within ±1 ppm/K
+
+
+@dataclass(frozen=True)
+class RealisticMismatch:
+    """A generator of another model family than the diagnosing one (``--mismatch realistic``), drawn
+    per case: a power-law contact F = k·x^1.5 with k within ±``stiffness_spread`` of the line
+    contact's equivalent, needle-bearing and mesh stiffness scaled within ±``stiffness_spread``, a
+    nominal crank-bearing clearance up to ``clearance_max_m``, FE-reduced flexible discs, and TE
+    encoders sampled ``samples_per_rev`` points per revolution over [0, 2π). ``global_range``: an overall
+    stiffness scale g drawn log-uniformly in it multiplies the three drawn stiffnesses (``--mismatch far``:
+    ×0.5 … ×2, a unit as far from its catalogue model as real ones are; the crank-support and main bearings
+    are scaled by g too, so the rigid unit is g times stiffer at the drawn components' means; the FE discs keep
+    their modulus, since an FE reduction per case would dominate the self-check's time)."""
+
+    stiffness_spread: float = 0.4
+    clearance_max_m: float = 5e-6
+    global_range: tuple[float, float] = (1.0, 1.0)
+    options: ModelOptions = field(default_factory=ModelOptions.flexible_discs)
+    samples_per_rev: int = 1024
+    fixed: tuple[tuple[str, float], ...] = ()  # (key, value) pairs taken instead of drawn (tests)
+
+    def draw(self, rng: np.random.Generator) -> dict:
+        """The case's drawn nominal parameters (scales of the diagnosing model's values; keys
+        ``contact_scale``, ``needle_bearing_scale``, ``mesh_scale``, ``clearance_m``)."""
+        if self.fixed:
+            return dict(self.fixed)
+        a, b = 1.0 - self.stiffness_spread, 1.0 + self.stiffness_spread
+        lo, hi = self.global_range
+        g = float(math.exp(rng.uniform(math.log(lo), math.log(hi)))) if hi > lo else float(lo)
+        out = {"contact_scale": g * float(rng.uniform(a, b)), "needle_bearing_scale": g * float(rng.uniform(a, b)),
+               "mesh_scale": g * float(rng.uniform(a, b)), "clearance_m": float(rng.uniform(0.0, self.clearance_max_m))}
+        return out | ({"global_scale": g} if hi > lo else {})
+
+    def model(self, spec: ReducerSpec, drawn: dict):
+        """(spec, errors, law) of the generator for the drawn parameters."""
+        from rvflex.contact.cycloid_pin import ContactLaw
+        from rvflex.diagnosis.nominal import power_law_equivalent
+
+        b, st = spec.bearings, spec.input_stage
+        g = drawn.get("global_scale", 1.0)  # the other bearings follow the overall scale (far mismatch)
+        b = dc.replace(b, crank_support=dc.replace(b.crank_support,
+                                                   radial_stiffness_N_m=b.crank_support.radial_stiffness_N_m * g),
+                       main=dc.replace(b.main, radial_stiffness_N_m=b.main.radial_stiffness_N_m * g))
+        spec_g = dc.replace(spec, bearings=dc.replace(b, eccentric=dc.replace(
+            b.eccentric, radial_stiffness_N_m=b.eccentric.radial_stiffness_N_m * drawn["needle_bearing_scale"])),
+            input_stage=dc.replace(st, mesh_stiffness_mean_N_m=st.mesh_stiffness_mean_N_m * drawn["mesh_scale"],
+                                   mesh_stiffness_amplitude_N_m=st.mesh_stiffness_amplitude_N_m * drawn["mesh_scale"]))
+        n = spec.cranks.count * spec.cycloid.disc_count
+        errors = ErrorSpec(eccentric_bearing_clearance_m=(drawn["clearance_m"],) * n)
+        law = ContactLaw.hertz(power_law_equivalent(spec) * drawn["contact_scale"], 1.5, damping_Ns_m=500.0)
+        return spec_g, errors, law
+
+    def options_for(self, drawn: dict) -> ModelOptions:
+        """The generator model's fidelity (the same for every case)."""
+        return self.options
+
+    def model_form(self, drawn: dict) -> tuple:
+        """Registered effects the generator applies as its own model form: none."""
+        return ()
 
 
 @dataclass(frozen=True)

@@ -47,12 +47,11 @@ import numpy as np
 from rvflex.choices import Mismatch, check_choice
 from rvflex.diagnosis.bench import BenchDataset, BenchRun, read_bench, write_bench
 from rvflex.diagnosis.effects import Effect, available_effects
-from rvflex.diagnosis.ensemble import EnsembleMismatch
+from rvflex.diagnosis.ensemble import EnsembleMismatch, RealisticMismatch
 from rvflex.diagnosis.nominal import CLEARANCE_HIGH, SAME_QUANTITY
 from rvflex.diagnosis.plan import PlanRun
 from rvflex.diagnosis.replay import evaluate
 from rvflex.diagnosis.settings import DiagnosisSettings
-from rvflex.options import ModelOptions
 from rvflex.parallel import map_warm
 from rvflex.spec import ErrorSpec, ReducerSpec
 from rvflex.units import ARCSEC
@@ -112,65 +111,6 @@ class GeneratorModel:
         law = default_contact_law(spec)
         return dc.replace(law, disc_compliance_1_Pa=law.disc_compliance_1_Pa / self.stiffness_scale,
                           pin_compliance_1_Pa=law.pin_compliance_1_Pa / self.stiffness_scale)
-
-
-@dataclass(frozen=True)
-class RealisticMismatch:
-    """A generator of another model family than the diagnosing one (``--mismatch realistic``), drawn
-    per case: a power-law contact F = k·x^1.5 with k within ±``stiffness_spread`` of the line
-    contact's equivalent, needle-bearing and mesh stiffness scaled within ±``stiffness_spread``, a
-    nominal crank-bearing clearance up to ``clearance_max_m``, FE-reduced flexible discs, and TE
-    encoders sampled ``samples_per_rev`` points per revolution over [0, 2π). ``global_range``: an overall
-    stiffness scale g drawn log-uniformly in it multiplies the three drawn stiffnesses (``--mismatch far``:
-    ×0.5 … ×2, a unit as far from its catalogue model as real ones are; the crank-support and main bearings
-    are scaled by g too, so the rigid unit is g times stiffer at the drawn components' means; the FE discs keep
-    their modulus, since an FE reduction per case would dominate the self-check's time)."""
-
-    stiffness_spread: float = 0.4
-    clearance_max_m: float = 5e-6
-    global_range: tuple[float, float] = (1.0, 1.0)
-    options: ModelOptions = field(default_factory=ModelOptions.flexible_discs)
-    samples_per_rev: int = 1024
-    fixed: tuple[tuple[str, float], ...] = ()  # (key, value) pairs taken instead of drawn (tests)
-
-    def draw(self, rng: np.random.Generator) -> dict:
-        """The case's drawn nominal parameters (scales of the diagnosing model's values; keys
-        ``contact_scale``, ``needle_bearing_scale``, ``mesh_scale``, ``clearance_m``)."""
-        if self.fixed:
-            return dict(self.fixed)
-        a, b = 1.0 - self.stiffness_spread, 1.0 + self.stiffness_spread
-        lo, hi = self.global_range
-        g = float(math.exp(rng.uniform(math.log(lo), math.log(hi)))) if hi > lo else float(lo)
-        out = {"contact_scale": g * float(rng.uniform(a, b)), "needle_bearing_scale": g * float(rng.uniform(a, b)),
-               "mesh_scale": g * float(rng.uniform(a, b)), "clearance_m": float(rng.uniform(0.0, self.clearance_max_m))}
-        return out | ({"global_scale": g} if hi > lo else {})
-
-    def model(self, spec: ReducerSpec, drawn: dict):
-        """(spec, errors, law) of the generator for the drawn parameters."""
-        from rvflex.contact.cycloid_pin import ContactLaw
-        from rvflex.diagnosis.nominal import power_law_equivalent
-
-        b, st = spec.bearings, spec.input_stage
-        g = drawn.get("global_scale", 1.0)  # the other bearings follow the overall scale (far mismatch)
-        b = dc.replace(b, crank_support=dc.replace(b.crank_support,
-                                                   radial_stiffness_N_m=b.crank_support.radial_stiffness_N_m * g),
-                       main=dc.replace(b.main, radial_stiffness_N_m=b.main.radial_stiffness_N_m * g))
-        spec_g = dc.replace(spec, bearings=dc.replace(b, eccentric=dc.replace(
-            b.eccentric, radial_stiffness_N_m=b.eccentric.radial_stiffness_N_m * drawn["needle_bearing_scale"])),
-            input_stage=dc.replace(st, mesh_stiffness_mean_N_m=st.mesh_stiffness_mean_N_m * drawn["mesh_scale"],
-                                   mesh_stiffness_amplitude_N_m=st.mesh_stiffness_amplitude_N_m * drawn["mesh_scale"]))
-        n = spec.cranks.count * spec.cycloid.disc_count
-        errors = ErrorSpec(eccentric_bearing_clearance_m=(drawn["clearance_m"],) * n)
-        law = ContactLaw.hertz(power_law_equivalent(spec) * drawn["contact_scale"], 1.5, damping_Ns_m=500.0)
-        return spec_g, errors, law
-
-    def options_for(self, drawn: dict) -> ModelOptions:
-        """The generator model's fidelity (the same for every case)."""
-        return self.options
-
-    def model_form(self, drawn: dict) -> tuple:
-        """Registered effects the generator applies as its own model form: none."""
-        return ()
 
 
 @dataclass(frozen=True)
