@@ -225,3 +225,19 @@ def test_a_pool_part_holds_every_run_under_the_same_conditions():
     assert runner._parts(ModelRun((), ModelOptions.rigid())) == [(0, 1, 4), (2,), (3,)]
     thermal = ModelRun(((EFFECTS["thermal_expansion"], np.array([5e-6])),), ModelOptions.rigid())
     assert runner._parts(thermal) == [(0, 4), (1,), (2,), (3,)]
+
+
+def test_a_unit_is_judged_against_the_ensemble_of_its_own_nominal_unit():
+    """The shipped null distribution keeps its thresholds per unit: a variant of a built-in unit (other name,
+    other stiffnesses, same cycloid geometry) takes that unit's, another geometry the pooled ones; the RV-80E's
+    healthy units reach a larger pin-ring runout than the RV-40E's."""
+    null = load_null()
+    assert null is not None and {"rv40e", "rv80e", "rv160n"} <= set(null.per_unit)
+    spec = catalog.load("rv40e")
+    variant = dataclasses.replace(spec, name="rv40e_bench_matched", bearings=dataclasses.replace(
+        spec.bearings, eccentric=dataclasses.replace(spec.bearings.eccentric, radial_stiffness_N_m=9e8)))
+    assert null.for_spec(variant).unit == "rv40e"
+    other = dataclasses.replace(spec, cycloid=dataclasses.replace(spec.cycloid, pin_circle_radius_m=0.07))
+    assert null.for_spec(other).unit is None and null.for_spec(other).effects == null.effects
+    r40, r80 = (null.for_spec(catalog.load(u)).magnitude_threshold("pin_ring_runout") for u in ("rv40e", "rv80e"))
+    assert r80 > r40

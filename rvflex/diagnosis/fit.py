@@ -453,7 +453,7 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
     # --- grades: a candidate that passes the tests is established only beyond what healthy units of other model
     # forms make of it (the null distribution) and when it explains most of what calibration left where its
     # signature lies; the others that pass are consistent but not established
-    null = _null_of(settings)
+    null = _null_of(settings, spec)
     out = [dc.replace(c, grade=grade(c, settings, null, explained_where_it_lies(prob, c, none, disc))) for c in out]
     chosen, final, blocked = _accepted(out, settings, failed)
     # calibrate first: an effect that the nominal parameters reproduce within their prior ranges is not
@@ -510,11 +510,13 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
                      lookalikes, sens, tuple(ties_to_parts))
 
 
-def _null_of(settings: DiagnosisSettings):
-    """The null distribution ``settings.null_distribution`` names (None: none)."""
+def _null_of(settings: DiagnosisSettings, spec: ReducerSpec):
+    """The null distribution ``settings.null_distribution`` names (None: none), for the unit ``spec`` is a
+    variant of (:meth:`~rvflex.diagnosis.null.NullDistribution.for_spec`)."""
     if settings.null_distribution is None:
         return None
-    return load_null(None if settings.null_distribution == "builtin" else settings.null_distribution)
+    null = load_null(None if settings.null_distribution == "builtin" else settings.null_distribution)
+    return null.for_spec(spec) if null is not None else None
 
 
 def _accepted(ranked: list[Candidate], settings: DiagnosisSettings, failed: dict):

@@ -100,19 +100,21 @@ def grade(c: Candidate, settings, null, local: dict) -> dict:
     names = [e.name for e in c.attributed]
     ev_t = null.evidence_threshold(names) if null is not None else None
     mag_t = {n: null.magnitude_threshold(n) for n in names} if null is not None else {}
+    whose = f" ({null.unit} ensemble)" if null is not None and null.unit else ""
     out = {"evidence_threshold": ev_t, "magnitude_thresholds": mag_t,
+           "null_unit": (null.unit or "all units") if null is not None else None,
            "explained_where_pct": local.get("explained_pct"), "signature_groups": local.get("groups", [])}
     if not is_significant(c, settings):
         return out | {"grade": NOT_SIGNIFICANT, "fails": [f"its evidence {c.score:.0f} is below {settings.bic_threshold:g}"]}
     fails = _failed_tests(c, settings)
     if ev_t is not None and c.score <= ev_t:
         fails.append(f"its evidence {c.score:.0f} does not exceed the {ev_t:.0f} that healthy units of other model "
-                     "forms reach for it")
+                     f"forms reach for it{whose}")
     for e, m in zip(c.effects, c.magnitude):
         t = mag_t.get(e.name)
         if not e.nominal and t is not None and abs(m) <= t:
             fails.append(f"its {e.name} of {fmt_mag(e, abs(m))} is within the {fmt_mag(e, t)} healthy units of other "
-                         "model forms reach")
+                         f"model forms reach{whose}")
     pct = local.get("explained_pct")
     if pct is None or pct < 100 * MOST:
         where = ", ".join(local.get("groups", [])[:3]) or "its signature's features"

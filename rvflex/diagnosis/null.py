@@ -15,6 +15,9 @@ controls give
 - ``false_alarm_rate``: the share of controls in which a candidate with the effect was accepted by the
   other tests alone (before these thresholds).
 
+The same figures are kept per unit; a diagnosis takes those of the built-in unit its spec is a variant of
+(:meth:`NullDistribution.for_spec`), the pooled ones for any other unit.
+
 A finding is established only when its evidence exceeds its effects' ``evidence_q95`` and each effect's size
 exceeds its ``magnitude_q95`` (:func:`rvflex.diagnosis.grade.grade`). The distribution ships with the package
 (:data:`NULL_PATH`) and names the commit-independent settings it was made with.
@@ -40,10 +43,33 @@ QUANTILE = 0.95
 class NullDistribution:
     """Per candidate effect: ``evidence_q95``, ``magnitude_q95`` (the effect's magnitude unit: m, rad,
     1/K, …), ``false_alarm_rate`` and ``controls`` (how many controls it was taken over); ``source``: how
-    it was made (units, cases, seeds)."""
+    it was made (units, cases, seeds); ``per_unit``: the same per built-in unit, ``unit`` the one
+    :meth:`for_spec` chose (None: all units pooled)."""
 
     effects: dict = field(default_factory=dict)
     source: dict = field(default_factory=dict)
+    per_unit: dict = field(default_factory=dict)
+    unit: str | None = None
+
+    def for_spec(self, spec) -> NullDistribution:
+        """The distribution of the built-in unit ``spec`` is a variant of, else of all units pooled. How a model
+        form projects onto a candidate depends on the unit's geometry (the RV-80E's healthy controls reach a 20 µm
+        pin-ring runout, the RV-40E's 0.25 µm), so a unit is judged against the ensemble of its own nominal unit:
+        the built-in unit with the same pin and tooth counts and, within 1 %, the same pin-circle radius and
+        eccentricity, whatever its name or its stiffnesses."""
+        from rvflex import catalog
+
+        c = spec.cycloid
+        for name, effects in self.per_unit.items():
+            try:
+                u = catalog.load(name).cycloid
+            except Exception:  # a unit no longer in the catalogue: not matched
+                continue
+            if (u.pin_count, u.disc_teeth) == (c.pin_count, c.disc_teeth) and all(
+                    abs(a / b - 1.0) <= 0.01 for a, b in ((c.pin_circle_radius_m, u.pin_circle_radius_m),
+                                                          (c.eccentricity_m, u.eccentricity_m))):
+                return NullDistribution(effects, self.source, self.per_unit, name)
+        return self
 
     def evidence_threshold(self, names) -> float | None:
         """The evidence a candidate with effects ``names`` must exceed (the largest of its effects'); None when
@@ -66,7 +92,7 @@ def load_null(path: str | Path | None = None) -> NullDistribution | None:
     if not p.is_file():
         return None
     doc = json.loads(p.read_text(encoding="utf-8"))
-    return NullDistribution(doc.get("effects", {}), doc.get("source", {}))
+    return NullDistribution(doc.get("effects", {}), doc.get("source", {}), doc.get("per_unit", {}))
 
 
 def null_from_reports(reports: list[dict], significant: float = 10.0) -> dict:

@@ -337,6 +337,7 @@ def json_document(diag) -> dict:
             "signature_groups": list(c.grade.get("signature_groups", [])),
             "null_evidence_threshold": c.grade.get("evidence_threshold"),
             "null_magnitude_thresholds": c.grade.get("magnitude_thresholds") or {},
+            "null_unit": c.grade.get("null_unit"),
         })
     ref = chosen or (diag.candidates[0] if diag.candidates else None)
     wh = dict(ref.withheld) if ref is not None else {}
