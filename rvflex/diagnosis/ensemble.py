@@ -117,7 +117,6 @@ class EnsembleMismatch:
     line_share: float = 1.0 / 3.0  # share of units with the spec's own (line) contact law
     flexible_share: float = 0.5  # share of units with FE-reduced discs
     samples_per_rev: int = 1024
-    options: ModelOptions = field(default_factory=ModelOptions.rigid)  # unused: options_for decides per case
     name: str = "ensemble"
 
     def draw(self, rng: np.random.Generator) -> dict:

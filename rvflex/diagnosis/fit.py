@@ -58,7 +58,7 @@ from rvflex.diagnosis.calibration import (
     lookalike_sentence,
     undetermined,
 )
-from rvflex.diagnosis.discrepancy import Discrepancy, evidence, feature_groups
+from rvflex.diagnosis.discrepancy import Discrepancy, evidence, feature_groups, residual
 from rvflex.diagnosis.features import measured_runs
 from rvflex.diagnosis.grade import (
     CONSISTENT,
@@ -454,7 +454,8 @@ def _diagnose(dataset, settings, effects, nominal, law, cache_dir, progress, err
     # forms make of it (the null distribution) and when it explains most of what calibration left where its
     # signature lies; the others that pass are consistent but not established
     null = _null_of(settings, spec)
-    out = [dc.replace(c, grade=grade(c, settings, null, explained_where_it_lies(prob, c, none, disc))) for c in out]
+    r_cal = residual(prob, none)  # what calibration left, once for every candidate
+    out = [dc.replace(c, grade=grade(c, settings, null, explained_where_it_lies(prob, c, r_cal, disc))) for c in out]
     chosen, final, blocked = _accepted(out, settings, failed)
     # calibrate first: an effect that the nominal parameters reproduce within their prior ranges is not
     # needed — the nominal explanation is expected, the effect is extra; it is reported as a tie

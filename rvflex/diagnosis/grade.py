@@ -49,8 +49,9 @@ def own_change(c: Candidate) -> np.ndarray:
     return out
 
 
-def explained_where_it_lies(prob: Problem, c: Candidate, base: Candidate, disc: Discrepancy) -> dict:
-    """Where ``c``'s signature lies and how much of the calibrated model's (``base``) residual there it removes.
+def explained_where_it_lies(prob: Problem, c: Candidate, base_residual: np.ndarray, disc: Discrepancy) -> dict:
+    """Where ``c``'s signature lies and how much of the calibrated model's residual there it removes
+    (``base_residual``: that model's weighted residual, :func:`~rvflex.diagnosis.discrepancy.residual`).
 
     Returns
     -------
@@ -68,7 +69,7 @@ def explained_where_it_lies(prob: Problem, c: Candidate, base: Candidate, disc: 
     order = np.argsort(-e)
     cum = np.cumsum(e[order]) / e.sum()
     where = order[:int(np.searchsorted(cum, SIGNATURE_SHARE)) + 1]
-    rb, rc = residual(prob, base), residual(prob, c)
+    rb, rc = base_residual, residual(prob, c)
     rows = np.concatenate([groups[i].rows for i in where])
     before, after = float(rb[rows] @ rb[rows]), float(rc[rows] @ rc[rows])
     left = rc[rows] / prob.w[rows]

@@ -82,9 +82,6 @@ class NullDistribution:
         e = self.effects.get(name)
         return None if e is None else e["magnitude_q95"]
 
-    def to_json(self) -> dict:
-        return {"quantile": QUANTILE, "effects": self.effects, "source": self.source}
-
 
 def load_null(path: str | Path | None = None) -> NullDistribution | None:
     """The null distribution at ``path`` (default :data:`NULL_PATH`); None when there is none."""
