@@ -30,14 +30,18 @@ class CrankHandles:
 
 def eccentric_offsets(spec: ReducerSpec, errors: ErrorSpec) -> np.ndarray:
     """Eccentric centres in each crank's frame, (cranks, discs, 2) (m): eccentricity plus the
-    per-shaft eccentricity error, at the disc phase plus the per-shaft phase error."""
+    per-shaft eccentricity error, at the disc phase plus the per-shaft phase error, all shifted by
+    the shaft's runout (``crank_runout_m`` at ``crank_runout_phase_rad``: the eccentrics off the
+    journal axis the crank turns about, alike for every disc)."""
     c, cy = spec.cranks, spec.cycloid
     out = np.empty((c.count, cy.disc_count, 2))
     for k in range(c.count):
         e = cy.eccentricity_m + (errors.crank_eccentricity_error_m[k] if errors.crank_eccentricity_error_m else 0.0)
         dphi = errors.crank_phase_error_rad[k] if errors.crank_phase_error_rad else 0.0
+        r = errors.crank_runout_m[k] if errors.crank_runout_m else 0.0
+        psi = errors.crank_runout_phase_rad[k] if errors.crank_runout_phase_rad else 0.0
         for d, ph in enumerate(cy.disc_phase_rad):
-            out[k, d] = e * math.cos(ph + dphi), e * math.sin(ph + dphi)
+            out[k, d] = e * math.cos(ph + dphi) + r * math.cos(psi), e * math.sin(ph + dphi) + r * math.sin(psi)
     return out
 
 

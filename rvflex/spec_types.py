@@ -497,6 +497,11 @@ class ErrorSpec:
         Radial runout of the sun (m) and its phase (rad).
     sun_pitch_radius_error_m : float
         Pitch-radius error of the sun, m.
+    input_shaft_angle_error_rad, input_shaft_angle_error_phase_rad : float
+        Once-per-revolution angle error of the sun against the input angle θ_in at which the input is
+        driven and read: the sun's teeth stand at θ_in + a·cos(θ_in − ψ), amplitude a (rad, 0 to 10 mrad)
+        and phase ψ (rad). An input shaft driven off-centre (a parallel offset e to the motor at a drive
+        radius R gives a ≈ e/R) or an input encoder mounted off-centre.
     planet_base_eccentricity_m, planet_base_eccentricity_phase_rad : tuple of float
         Per planet: base-circle eccentricity (m) and its phase (rad).
     planet_runout_m, planet_pitch_radius_error_m, planet_base_pitch_error_m : tuple of float
@@ -519,6 +524,9 @@ class ErrorSpec:
         Crank-hole distance errors of the input and output carrier plates, m.
     crank_eccentricity_error_m, crank_phase_error_rad : tuple of float
         Per crank: eccentricity error (m) and phase error (rad).
+    crank_runout_m, crank_runout_phase_rad : tuple of float
+        Per crank: runout of its eccentrics (both alike) relative to its journal axis, turning with the
+        crank (m), and its phase in the crank's frame from the first disc's eccentric (rad).
     crank_support_clearance_m, eccentric_bearing_clearance_m : tuple of float
         Radial clearance added to the nominal one of each crank support bearing (per crank) and
         each eccentric (needle) bearing (per crank and disc, crank-major), m.
@@ -538,6 +546,8 @@ class ErrorSpec:
     sun_runout_m: float = 0.0
     sun_runout_phase_rad: float = 0.0
     sun_pitch_radius_error_m: float = 0.0
+    input_shaft_angle_error_rad: float = 0.0
+    input_shaft_angle_error_phase_rad: float = 0.0
     planet_base_eccentricity_m: tuple[float, ...] = ()
     planet_base_eccentricity_phase_rad: tuple[float, ...] = ()
     planet_runout_m: tuple[float, ...] = ()
@@ -561,6 +571,8 @@ class ErrorSpec:
     # cranks
     crank_eccentricity_error_m: tuple[float, ...] = ()
     crank_phase_error_rad: tuple[float, ...] = ()
+    crank_runout_m: tuple[float, ...] = ()
+    crank_runout_phase_rad: tuple[float, ...] = ()
     # bearings (radial clearance added to the nominal clearance of each bearing)
     crank_support_clearance_m: tuple[float, ...] = ()
     eccentric_bearing_clearance_m: tuple[float, ...] = ()
@@ -589,6 +601,9 @@ class ErrorSpec:
                 _range(name, x, -limit, limit, rule)
                 if f.name.endswith("_clearance_m"):
                     _range(name, x, 0.0, limit, "a clearance cannot be negative")
+        # an angle error of µrad–mrad scale; the sun's angle θ + a·cos(θ − ψ) must still rise with θ (a < 1)
+        _range("input_shaft_angle_error_rad", self.input_shaft_angle_error_rad, 0.0, 0.01,
+               "expected an amplitude in radians, 0 to 10 mrad (the phase goes in input_shaft_angle_error_phase_rad)")
 
     def check_against(self, spec: ReducerSpec) -> None:
         """Raise :class:`SpecError` if a per-item tuple does not match ``spec``'s item counts.
@@ -606,6 +621,7 @@ class ErrorSpec:
             "planet_base_pitch_error_m": (nc, "crank"),
             "carrier_bore_eccentricity_m": (nc, "crank"), "carrier_bore_eccentricity_phase_rad": (nc, "crank"),
             "crank_eccentricity_error_m": (nc, "crank"), "crank_phase_error_rad": (nc, "crank"),
+            "crank_runout_m": (nc, "crank"), "crank_runout_phase_rad": (nc, "crank"),
             "crank_support_clearance_m": (nc, "crank"), "eccentric_bearing_clearance_m": (nc * nd, "crank×disc"),
             "disc_bore_distance_error_m": (nd, "disc"),
         }, spec.name)

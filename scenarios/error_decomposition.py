@@ -18,10 +18,10 @@ from rvflex.spec import ErrorSpec, ReducerSpec
 __all__ = ["ERROR_GROUPS", "GroupTE", "decompose", "split_errors"]
 
 ERROR_GROUPS = {
-    "first stage": ("sun_", "planet_"),
+    "first stage": ("sun_", "planet_", "input_shaft_"),
     "pin ring": ("pin_",),
     "carrier": ("carrier_", "input_carrier_", "output_carrier_"),
-    "cranks": ("crank_eccentricity", "crank_phase"),
+    "cranks": ("crank_eccentricity", "crank_phase", "crank_runout"),
     "bearing clearances": ("crank_support_clearance", "eccentric_bearing_clearance", "main_bearing_clearance"),
     "discs": ("disc_",),
 }

@@ -439,12 +439,13 @@ def _states(stage):
 def test_analytic_jacobian_matches_finite_differences(stage):
     """∂f/∂q and ∂f/∂q̇ against 4th-order central differences of f, relative 1e-6 of the
     largest entry, at states on both flanks, in the smoothing zone and the dead zone, with
-    errors, stiffness variation and velocities (damping). Steps 1 nm / 0.1 µrad: small
+    errors (the input-shaft angle error's chain rule included), stiffness variation and velocities (damping). Steps 1 nm / 0.1 µrad: small
     against the 10 nm smoothing, large against rounding."""
     errors = ErrorSpec(sun_base_eccentricity_m=10 * UM, sun_base_eccentricity_phase_rad=0.4, sun_runout_m=5 * UM,
                        planet_base_eccentricity_m=(10 * UM,), planet_base_eccentricity_phase_rad=(2.0,),
                        planet_runout_m=(3 * UM,), sun_pitch_radius_error_m=-5 * UM,
-                       planet_base_pitch_error_m=(4 * UM,))
+                       planet_base_pitch_error_m=(4 * UM,), input_shaft_angle_error_rad=2e-3,
+                       input_shaft_angle_error_phase_rad=0.7)
     sc = exu.SystemContainer()
     mbs = sc.AddSystem()
     a0 = stage.centre_distance_m

@@ -241,3 +241,40 @@ def test_a_unit_is_judged_against_the_ensemble_of_its_own_nominal_unit():
     assert null.for_spec(other).unit is None and null.for_spec(other).effects == null.effects
     r40, r80 = (null.for_spec(catalog.load(u)).magnitude_threshold("pin_ring_runout") for u in ("rv40e", "rv80e"))
     assert r80 > r40
+
+
+def _fitted(name: str, size: float, score: float = 500.0):
+    """A refined single-effect candidate that passes every acceptance test: evidence ``score``, ``size`` (its
+    magnitude unit) with a 95 % interval of ±25 %, the withheld runs' prediction 80 % better."""
+    from rvflex.diagnosis.linear import Candidate
+
+    e = EFFECTS[name]
+    x = np.zeros(e.n)
+    x[0] = size
+    return Candidate(effects=(e,), x=x, interval=np.column_stack([x - 0.25 * size, x + 0.25 * size]),
+                     magnitude=(size,), magnitude_interval=((0.75 * size, 1.25 * size),), delta=0.0,
+                     nuisance=np.zeros(0), rss=10.0, k=e.n, bic=0.0, refined=True, at_bound=(),
+                     model_features=np.zeros(4), score=score, gap_shrink_pct=80.0, withheld={"improvement_pct": 80.0})
+
+
+def test_an_effect_the_null_distribution_has_not_seen_is_never_established():
+    """Against a null distribution, a finding whose effect the healthy controls were never diagnosed with is only
+    consistent, with the phrase that says so and how to settle it; the same finding of an effect the controls
+    saw, beyond their thresholds, is established; without any null distribution the rule does not apply."""
+    from rvflex.diagnosis.grade import grade
+    from rvflex.diagnosis.null import NullDistribution
+
+    settings = DiagnosisSettings()
+    local = {"explained_pct": 90.0, "groups": ["TE order 40"]}
+    null = NullDistribution({"pin_ring_runout": {"evidence_q95": 50.0, "magnitude_q95": 1e-6,
+                                                 "false_alarm_rate": 0.0, "controls": 14}}, unit="rv160n")
+    seen = grade(_fitted("pin_ring_runout", 5e-6), settings, null, local)
+    assert seen["grade"] == ESTABLISHED and seen["fails"] == []
+    for name in ("crank_runout", "input_shaft_eccentricity", "pin_position_h4"):
+        unseen = grade(_fitted(name, 1e-3 if name == "input_shaft_eccentricity" else 5e-6), settings, null, local)
+        assert unseen["grade"] == CONSISTENT
+        assert unseen["fails"] == [f"healthy units of other model forms have not been diagnosed with {name} (rv160n "
+                                   "ensemble) (rebuild the null distribution: rvflex null-distribution)"]
+        assert unseen["magnitude_thresholds"] == {name: None}
+        alone = grade(_fitted(name, 5e-6), settings, None, local)
+        assert alone["grade"] == ESTABLISHED and "no null distribution" in alone["note"]

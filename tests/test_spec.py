@@ -88,10 +88,25 @@ def test_error_toml_round_trip_is_exact(rv40e):
         crank_eccentricity_error_m=(-2e-6, 2e-6), eccentric_bearing_clearance_m=(12e-6,) * 4,
         disc_pitch_error_m=(tuple(1e-6 * k / zc for k in range(zc)),) * 2,
         disc_profile_error_m=(tuple(0.3e-6 for _ in range(zc)), tuple(-0.1e-6 for _ in range(zc))),
+        input_shaft_angle_error_rad=3e-4, input_shaft_angle_error_phase_rad=-1.2,
+        crank_runout_m=(3e-6, 0.0), crank_runout_phase_rad=(0.5, 0.0),
     )
     again = loads_errors(dumps_errors(errors), spec=rv40e)
     assert again == errors
     assert loads_errors("", spec=rv40e) == ErrorSpec()
+
+
+@pytest.mark.parametrize(("text", "field", "rule"), [
+    ("input_shaft_angle_error_rad = 0.3", "input_shaft_angle_error_rad", "0 to 10 mrad"),
+    ("input_shaft_angle_error_rad = -1e-4", "input_shaft_angle_error_rad", "0 to 10 mrad"),
+    ("crank_runout_m = [3e-6, 3e-6, 3e-6]", "crank_runout_m", "needs 2 values (one per crank of"),
+    ("crank_runout_m = [3e-3, 0.0]", "crank_runout_m[0]", "expected metres"),
+    ("crank_runout_phase_rad = [7.0, 0.0]", "crank_runout_phase_rad[0]", "radians within ±2π"),
+])
+def test_bad_input_shaft_and_crank_runout_errors_are_refused_naming_the_field(rv40e, text, field, rule):
+    with pytest.raises(SpecError) as info:
+        loads_errors(text, spec=rv40e)
+    assert info.value.field == field and rule in str(info.value), str(info.value)
 
 
 # ------------------------------------------------------------------------------ bad input

@@ -56,6 +56,12 @@ Errors (``ErrorSpec``), all exact geometry; first-order effect on the flank over
 * Pitch-radius errors Δr_s, Δr_p (positive = larger gear) act as tooth-thickness changes,
   like a profile shift: each flank stands proud by Δr·sin α, so both overlaps grow by
   (Δr_s + Δr_p)·sin α (backlash shrinks by twice that; a constant mesh shift under load).
+* Input-shaft angle error a at phase ψ (``input_shaft_angle_error_rad``): the sun's teeth stand at
+  θ_s + a·cos(θ_s − ψ) while its node (the input as driven and read) is at θ_s, as when the input
+  shaft runs off-centre to the motor or an off-centre input encoder reads it. It moves every
+  planet's flanks alike, by r_bs·a·cos(θ_s − ψ) along the line of action, so unlike a radial
+  offset of the sun (whose projections on the planets' lines of action sum to zero) it turns the
+  output: TE a/i·cos(θ_in − ψ), once per input revolution.
 * Base-pitch error f_pb of the planet (seed 002's E_bp, ``planet_base_pitch_error_m``):
   a once-per-tooth mesh displacement along the line of action, e_pb = ½·f_pb·cos φ with the
   mesh phase φ = z_s(θ_s − γ): the tooth-transfer step of a single-pair mesh reduced to its
@@ -124,14 +130,15 @@ __all__ = [
     "mesh_state",
     "base_radii",
     "normal_backlash_m",
+    "mesh_kernel",
 ]
 
 SMOOTHING_M = 1e-8  # m; ≪ the 20 nm geometry budget of DESIGN.md, ≫ Newton's length resolution
 
 # parameter vector of the kernel
 (P_RBS, P_RBP, P_RB, P_INV_A, P_RHO0, P_HALF_B, P_KM, P_KA, P_ZS, P_C, P_W,
- P_XS0, P_YS0, P_TS0, P_XP0, P_YP0, P_TP0, P_G0, P_ESX, P_ESY, P_EPX, P_EPY, P_EPB) = range(23)
-N_PAR = 23
+ P_XS0, P_YS0, P_TS0, P_XP0, P_YP0, P_TP0, P_G0, P_ESX, P_ESY, P_EPX, P_EPY, P_EPB, P_UC, P_US) = range(25)
+N_PAR = 25
 # kernel state vector (see MeshState)
 (S_DELTA, S_GP, S_GM, S_FP, S_FM, S_K, S_PHI, S_A, S_GAMMA, S_ALPHA) = range(10)
 N_STATE = 10
@@ -154,7 +161,45 @@ def _ramp(g, w):
 @_jit
 def _kernel(q, qt, par, f, dfdq, dfdqt, state, with_jacobian):
     """Generalized force ``f`` (6) on [x_s, y_s, θ_s, x_p, y_p, θ_p] and, if ``with_jacobian``,
-    ∂f/∂q and ∂f/∂q̇ (6×6). ``q``, ``qt`` are displacements from the nodes' reference values."""
+    ∂f/∂q and ∂f/∂q̇ (6×6). ``q``, ``qt`` are displacements from the nodes' reference values.
+
+    The sun's teeth stand at θ_s + u(θ_s), u = u_c·cos θ_s + u_s·sin θ_s (the input-shaft angle
+    error): the mesh is evaluated at that angle and its force and derivatives are carried back to
+    θ_s by the chain rule (∂u/∂θ_s and ∂²u/∂θ_s² exact), so the Jacobian stays the exact Hessian."""
+    uc = par[P_UC]
+    us = par[P_US]
+    if uc == 0.0 and us == 0.0:
+        _mesh_kernel(q, qt, par, f, dfdq, dfdqt, state, with_jacobian)
+        return
+    ths = par[P_TS0] + q[2]
+    u = uc * math.cos(ths) + us * math.sin(ths)
+    u1 = -uc * math.sin(ths) + us * math.cos(ths)  # du/dθ_s
+    u2 = -u  # d²u/dθ_s²
+    kap = 1.0 + u1  # dθ_teeth/dθ_s
+    qe = q.copy()
+    qe[2] += u
+    qte = qt.copy()
+    qte[2] *= kap
+    _mesh_kernel(qe, qte, par, f, dfdq, dfdqt, state, with_jacobian)
+    if with_jacobian:
+        # f = Tᵀ·f_e(q_e(q), q̇_e(q, q̇)), T = diag(1, 1, κ, 1, 1, 1), ∂q̇_e2/∂q_2 = u''·q̇_2, ∂κ/∂q_2 = u''
+        for i in range(6):
+            dfdq[i, 2] = dfdq[i, 2] * kap + dfdqt[i, 2] * u2 * qt[2]
+            dfdqt[i, 2] *= kap
+        for j in range(6):
+            dfdq[2, j] *= kap
+            dfdqt[2, j] *= kap
+        dfdq[2, 2] += u2 * f[2]
+    f[2] *= kap
+
+
+mesh_kernel = _kernel
+"""The mesh kernel, for compiled callers that evaluate a mesh without its Exudyn element (rvflex.engine)."""
+
+
+@_jit
+def _mesh_kernel(q, qt, par, f, dfdq, dfdqt, state, with_jacobian):
+    """:func:`_kernel` of gears whose teeth turn with their nodes (no input-shaft angle error)."""
     rbs = par[P_RBS]
     rbp = par[P_RBP]
     rb = par[P_RB]
@@ -500,6 +545,9 @@ def add_gear_mesh(mbs, sun_node: int, planet_node: int, stage: InputStage, *, pl
     par[P_G0] = math.atan2(ref_p[1] - ref_s[1], ref_p[0] - ref_s[0])
     par[P_ESX], par[P_ESY] = es
     par[P_EPX], par[P_EPY] = ep
+    # the sun's teeth at θ_s + a·cos(θ_s − ψ) = θ_s + u_c·cos θ_s + u_s·sin θ_s
+    a_in, psi_in = errors.input_shaft_angle_error_rad, errors.input_shaft_angle_error_phase_rad
+    par[P_UC], par[P_US] = a_in * math.cos(psi_in), a_in * math.sin(psi_in)
 
     def force(mbs_, t, item, q, q_t):
         return _force(np.asarray(q, dtype=np.float64), np.asarray(q_t, dtype=np.float64), par)

@@ -234,11 +234,24 @@ def _errors_field(spec: ReducerSpec, errors: ErrorSpec, x, *, field: str, per: s
     return spec, dc.replace(errors, **{field: value})
 
 
-def _runout(spec, errors, x, *, field: str, angle_multiple: int = 1):
-    """A runout of magnitude |x| (m) at the angle atan2(x[1], x[0]) / ``angle_multiple``."""
+def _runout(spec, errors, x, *, field: str, angle_multiple: int = 1, phase_field: str = ""):
+    """A runout of magnitude |x| (the field's unit) at the angle atan2(x[1], x[0]) / ``angle_multiple``, in
+    ``phase_field`` (default: ``field`` with ``_m`` replaced by ``_phase_rad``)."""
     m = float(math.hypot(x[0], x[1]))
     phase = float(math.atan2(x[1], x[0])) / angle_multiple
-    return spec, dc.replace(errors, **{field: m, field.replace("_m", "_phase_rad"): phase})
+    return spec, dc.replace(errors, **{field: m, (phase_field or field.replace("_m", "_phase_rad")): phase})
+
+
+def _crank_runout(spec, errors, x):
+    """A runout (x[0], x[1]) (m, in the crank's frame) of crank 0's eccentrics relative to its journal axis, added
+    to the runouts the errors already have; the other cranks unchanged."""
+    n = spec.cranks.count
+    r = np.asarray(errors.crank_runout_m or (0.0,) * n, float)
+    phase = np.asarray(errors.crank_runout_phase_rad or (0.0,) * n, float)
+    z = r * np.exp(1j * phase)
+    z[0] += complex(float(x[0]), float(x[1]))
+    return spec, dc.replace(errors, crank_runout_m=tuple(float(v) for v in np.abs(z)),
+                            crank_runout_phase_rad=tuple(float(v) for v in np.angle(z)))
 
 
 def _pin_harmonic(spec, errors, x, *, harmonic: int, angle_multiple: int = 1):
@@ -377,6 +390,14 @@ def _builtin() -> tuple[Effect, ...]:
                "as (a cos 2ψ, a sin 2ψ); a pattern and its negative look alike, so only 2ψ is observable",
                polar(10 * um, 4 * um, ("cos2psi_m", "sin2psi_m")),
                apply=partial(_pin_harmonic, harmonic=3, angle_multiple=2), polar=True),
+        # a 4-lobed pin ring (a housing bore clamped out of round): 4·z_c = 156 is the lobing's first harmonic with
+        # the discs' phases adding (4·π), so a pattern and its negative (turned 45°) give opposite order-156 TE
+        # (measured to 1e-11; the mean alike), and cos/sin amplitudes serve as for 2 lobes. Bound as 2 and 3 lobes:
+        # a pin pushed in by more than the profile's working clearance (equidistant − moved modification, 8 µm on
+        # the catalogue units) preloads the mesh; step 2 µm: the RV-160N at rated load no longer converged at 4 µm
+        Effect("pin_position_h4", "per-pin radial position error, 4th harmonic around the ring (cos/sin amplitudes)",
+               polar(10 * um, 2 * um, ("cos_m", "sin_m")), apply=partial(_pin_harmonic, harmonic=4), polar=True,
+               central=True),
         # common and differential parts: both cranks off alike change the drive's eccentricity (clearance
         # opens on one sign, preload on the other), which the sum of two one-crank secants missed (measured:
         # a −3.4/−3.2 µm pair fitted at the bounds, removing 4 % of a gap it had made)
@@ -387,6 +408,14 @@ def _builtin() -> tuple[Effect, ...]:
         Effect("crank_phase_error", "eccentric phase error of cranks 0 and 1 (of a third crank: relative to it)",
                tuple(Param(f"crank{k}_rad", "rad", -2e-3, 2e-3, 5e-4) for k in range(2)),
                apply=partial(_per_crank, field="crank_phase_error_rad")),
+        # the eccentrics off the journal axis of one crank, turning with it: the cranks pull the discs apart once per
+        # crank turn, TE at z_b (measured 5 µm: 13.9″ RV-40E, 6.7″ RV-160N; nothing at 2·z_b). The same runout on
+        # every crank moves the discs without a fight and shows at no order (mean only), and to first order only the
+        # cranks' runouts relative to each other act, through one resultant vector: one crank's runout (x/y in the
+        # crank's frame) stands for any pattern. Bound 10 µm (28″ at z_b on an RV-40E, beyond any working unit)
+        Effect("crank_runout", "runout of crank 0's eccentrics relative to its journal axis (x/y in the crank's frame), "
+               "turning with the crank: it stands for the cranks' runouts relative to each other",
+               polar(10 * um, 2 * um), apply=_crank_runout, polar=True),
         # two-sided: a negative deviation takes clearance away (towards preload), a positive one adds it.
         # A pin radius error +δ of all pins is the equidistant deviation −δ: the pin–profile gap depends
         # on the generating pin radius minus the pin radius only (features agree to 0.001″, test), so no run can tell
@@ -408,6 +437,17 @@ def _builtin() -> tuple[Effect, ...]:
                per_run=True, run_fields=("temperature_C",), two_sided=True),
         Effect("input_stage_runout", "sun (input shaft) runout, x/y components",
                polar(20 * um, 5 * um), apply=partial(_runout, field="sun_runout_m"), polar=True),
+        # a radial sun runout turns no output (its projections on the planets' lines of action sum to zero); an angle
+        # error of the sun against the input as driven and read does: TE a/i at order i exactly (measured: 0.3 mrad →
+        # 0.511″ at 121 on the RV-40E, 0.764″ at 81 on the RV-160N). Bound 3 mrad: a 30 µm parallel offset to the
+        # motor at a 10 mm drive radius, or an input encoder 30 µm off-centre at a 10 mm read radius
+        Effect("input_shaft_eccentricity", "input shaft off-centre to the motor or input encoder: the sun's angle "
+               "error a·cos(θ_in − ψ) against the input angle θ_in, as (a cos ψ, a sin ψ)",
+               polar(3e-3, 3e-4, ("cos_rad", "sin_rad"), "rad"),
+               apply=partial(_runout, field="input_shaft_angle_error_rad",
+                             phase_field="input_shaft_angle_error_phase_rad"), polar=True,
+               separating_runs="the input angle read at the reducer's input shaft as well as at the motor (a coupling "
+                               "offset turns the shaft against the motor) or the motor re-centred"),
         Effect("pin_contact_friction", "Coulomb friction at the pin contacts as a torque opposing the motion "
                "(fraction of rated torque)", (Param("friction_torque_fraction", "1", 0.0, 0.08, 0.02),),
                kind="conditions", conditions=_friction_conditions, same_as=("output_friction", (0, None))),

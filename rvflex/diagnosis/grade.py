@@ -8,7 +8,8 @@ only when, besides those tests,
 
 1. it is beyond what healthy units of other model forms make of it (:mod:`rvflex.diagnosis.null`): its
    evidence exceeds the ensemble controls' 95th percentile for its effects and each effect's size exceeds the
-   size the controls reach;
+   size the controls reach; an effect the controls were not diagnosed with (absent from the distribution) is
+   never established while a distribution is in use;
 2. it explains most (:data:`MOST`) of what calibration left where its own signature lies: in the discrepancy
    groups (:mod:`rvflex.diagnosis.discrepancy`) that hold :data:`SIGNATURE_SHARE` of its signature, the
    calibrated residual falls by at least half. An effect that is the cause leaves model-form residue only;
@@ -116,6 +117,9 @@ def grade(c: Candidate, settings, null, local: dict) -> dict:
         if not e.nominal and t is not None and abs(m) <= t:
             fails.append(f"its {e.name} of {fmt_mag(e, abs(m))} is within the {fmt_mag(e, t)} healthy units of other "
                          f"model forms reach{whose}")
+    if null is not None:  # no controls were diagnosed with it: nothing says how far healthy units take it
+        fails += [f"healthy units of other model forms have not been diagnosed with {e.name}{whose} (rebuild the null "
+                  f"distribution: rvflex null-distribution)" for e in c.attributed if null.magnitude_threshold(e.name) is None]
     pct = local.get("explained_pct")
     if pct is None or pct < 100 * MOST:
         where = ", ".join(local.get("groups", [])[:3]) or "its signature's features"

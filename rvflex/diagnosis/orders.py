@@ -40,7 +40,8 @@ positions per output revolution; amplitudes per typical step of the effect):
   ``carrier_runout_m``, which offsets the main-bearing seat in the housing) show at n·z_c, and the
   discs' eccentric phases (0°, 180°) cancel odd n: pin-ring runout 5 µm → 78 (0.105″ RV-40E,
   0.059″ RV-160N), nothing at 39; 2-lobed pins 5 µm → 78 (9.9″), 156, 234; 3-lobed → 234 = 6·z_c
-  (1.44″), nothing at 117; 4-lobed → 156 (3.2″);
+  (1.44″), nothing at 117; 4-lobed (``pin_position_h4``) → 156 = 4·z_c (2.54″ for 4 µm RV-40E, 0.47″ for
+  2 µm RV-160N), 312;
 - errors on the discs swept by the load zone show at m·z_b: a once-per-disc pitch error
   (``cycloid_pitch_error``) → 40 (6.9″ on one disc, 0.56″ alike on both; 0.08″ at 80), nothing at
   order 1; one tooth's profile error → 40, 80, 120, …;
@@ -49,14 +50,23 @@ positions per output revolution; amplitudes per typical step of the effect):
 - eccentric-bearing clearance alike on every bearing (8 µm) → the harmonics of z_b that are
   multiples of n_c and even: RV-40E 80 (5.4″), 160 (0.62″); RV-160N 240 (0.057″), nothing at 40,
   80, 120;
-- planet runout on one crank (10 µm) → 40 (1.0″ RV-40E, 0.55″ RV-160N);
+- planet runout on one crank (10 µm) → 40 (1.0″ RV-40E, 0.55″ RV-160N); the same runout on every planet
+  → nothing at any order (≤ 1e-4″ RV-160N);
+- one crank's eccentrics off its journal axis (``crank_runout``, 5 µm, turning with the crank) → z_b = 40
+  (13.9″ RV-40E, 6.7″ RV-160N), ≤ 1e-4 of it at 80; the same runout on every crank moves the discs
+  without a fight: the mean only (0.21″ RV-40E, 0.11″ RV-160N, < 0.004″ at any order);
 - a planet base-pitch error → the first-stage mesh 1440 (RV-40E), 1760 (RV-160N);
 - the sun's runout is second order (the sun is held on the axis and the planets' meshes cancel its
   first harmonic): 20 µm → 0.002″ at 2·(i − 1) = 240 on the RV-40E, ≤ 2e-4″ on the RV-160N;
   nothing at the input's own order i;
+- an angle error a of the sun against the input as driven and read (``input_shaft_eccentricity``: the
+  input shaft off-centre to the motor, or an off-centre input encoder) turns every planet alike: TE
+  a/i at order i exactly (0.3 mrad → 0.511″ at 121 RV-40E, 0.764″ at 81 RV-160N; < 1e-3 of it at
+  any other order);
 - crank eccentricity errors, modification deviations, the pin-circle growth of
   ``thermal_expansion``, uniform pin radius errors: the mean (wind-up) and the amplitude of the
-  tooth-mesh order z_c·z_b (0.07–0.15″ RV-40E) only, no crank-order TE;
+  tooth-mesh order z_c·z_b (0.07–0.15″ RV-40E) only, no crank-order TE (RV-160N alike: a common −3 µm
+  crank eccentricity error ≤ 1e-4″ at any order, a differential 3 µm one 0.001″ at 80);
 - ``crank_phase_error``, ``carrier_hole_position``, ``main_bearing_clearance``, friction (a load
   change) and ``output_series_compliance`` move the mean only (≤ 0.002″ at any order): they are
   named at no order (:data:`MEAN_ONLY`);
@@ -155,8 +165,8 @@ class PartRotation:
 # the RV-40E; thermal_expansion as a 2 µm pin-circle growth); disc_carrier_flexibility is placed here by its physics
 # (contact and disc compliance), not measured
 _TOOTH_MESH_EFFECTS = ("disc_modification_deviation", "thermal_expansion", "crank_eccentricity_error",
-                       "pin_ring_runout", "pin_position_h2", "pin_position_h3", "eccentric_bearing_clearance",
-                       "cycloid_pitch_error", "disc_carrier_flexibility")
+                       "pin_ring_runout", "pin_position_h2", "pin_position_h3", "pin_position_h4",
+                       "eccentric_bearing_clearance", "cycloid_pitch_error", "disc_carrier_flexibility")
 
 PART_ERRORS: dict[str, PartError] = {e.key: e for e in (
     PartError("output_encoder_eccentricity", "output encoder eccentricity (a measurement artefact)",
@@ -167,13 +177,14 @@ PART_ERRORS: dict[str, PartError] = {e.key: e for e in (
               "cranks)", ()),
     PartError("pillar_pattern", "a carrier error with the pillars' pattern", ()),
     PartError("input_runout_housing", "input shaft runout relative to the housing at the ratio order (input encoder "
-              "or motor-coupling eccentricity)", ()),
+              "or motor-coupling eccentricity)", ("input_shaft_eccentricity",), "first"),
     PartError("sun_runout", "sun (input shaft) runout or eccentricity against the planets (second order: the "
               "planets' meshes cancel its first harmonic)", ("input_stage_runout",), "planets"),
     PartError("first_stage_mesh", "first-stage mesh error (sun/planet tooth pitch or profile errors, mesh-stiffness "
               "variation)", ()),
     PartError("planet_runout", "planet gear runout or eccentricity per crank", ()),
-    PartError("crank_journal_runout", "crank eccentric runout per crank (the crank's journals off its axis)", ()),
+    PartError("crank_journal_runout", "crank eccentric runout per crank (the crank's journals off its axis)",
+              ("crank_runout",), "first"),
     PartError("disc_tooth_errors", "disc tooth pitch or profile errors (the load zone sweeps the disc's teeth)",
               ("cycloid_pitch_error",)),
     PartError("carrier_runout_turning", "carrier runout turning with the carrier (the crank bores off the "
@@ -188,7 +199,7 @@ PART_ERRORS: dict[str, PartError] = {e.key: e for e in (
               ("pin_ring_runout",), "discs_housing"),
     PartError("pin_ring_lobing_2", "pin-ring lobing (2 lobes)", ("pin_position_h2",), "discs_housing"),
     PartError("pin_ring_lobing_3", "pin-ring lobing (3 lobes)", ("pin_position_h3",), "discs_housing"),
-    PartError("pin_ring_lobing_4", "pin-ring lobing (4 lobes)", (), "discs_housing"),
+    PartError("pin_ring_lobing_4", "pin-ring lobing (4 lobes)", ("pin_position_h4",), "discs_housing"),
     PartError("tooth_mesh", "cycloid–pin mesh ripple (profile modification, pin-circle and pin-radius deviations, "
               "crank eccentricity, contact compliance)", _TOOTH_MESH_EFFECTS),
 )}

@@ -131,7 +131,7 @@ PERIODIC_ERRORS = frozenset({
     # revolution), and what is the same at every pin or bearing
     "crank_support_clearance_m", "eccentric_bearing_clearance_m", "main_bearing_clearance_m",
     "pin_radius_error_m", "pin_circle_radius_error_m", "sun_pitch_radius_error_m",
-    "crank_eccentricity_error_m", "crank_phase_error_rad",
+    "crank_eccentricity_error_m", "crank_phase_error_rad", "crank_runout_m",
     "planet_base_eccentricity_m", "planet_runout_m",
     "planet_pitch_radius_error_m", "planet_base_pitch_error_m",
     "input_carrier_hole_distance_error_m", "output_carrier_hole_distance_error_m",
