@@ -259,6 +259,35 @@ def _cmd_bench_contact(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_bench_te(args: argparse.Namespace) -> int:
+    from rvflex.bench_te import bench_te
+
+    if args.positions < 16 or args.flexible_positions < 16:
+        raise SpecError("--positions", min(args.positions, args.flexible_positions), "needs at least 16 positions")
+    res = bench_te(tuple(args.units), tuple(args.cases), args.positions, args.flexible_positions,
+                   progress=lambda msg: print(msg, file=sys.stderr))
+    print(f"{'unit':8s} {'case':17s} {'solver':12s} {'ms/step':>8s} {'contact evals':>13s} {'target':>7s} "
+          f"{'Newton evals':>12s} {'contact':>8s} {'assembly':>8s} {'solve':>6s} {'Exudyn':>7s} {'Python':>7s}")
+    for r in res["rows"]:
+        sp = r["split"]
+        goal = "" if r["target_contact_evaluations"] is None else \
+            f"≤{r['target_contact_evaluations']}{'' if r['target_met'] else '!'}"
+        ne = "" if r["newton_evaluations_per_step"] is None else f"{r['newton_evaluations_per_step']:.2f}"
+        print(f"{r['unit']:8s} {r['case']:17s} {r['solver']:12s} {r['per_step_ms']:8.3f} "
+              f"{r['per_step_contact_evaluations']:13.1f} {goal:>7s} {ne:>12s} "
+              + " ".join(f"{100 * sp[k]:7.0f}%" for k in ("contact", "assembly", "linear_solve", "exudyn", "python")))
+    print("contact evals: wall per step / one evaluation of every disc's contact kernel, measured in the same run; "
+          "split: shares of a profiled run of the same case ('!' : target not met)")
+    if args.json:
+        write_json(Path(args.json), res)
+    if args.md:
+        from rvflex.bench_te import table_md
+        from rvflex.io import write_atomic
+
+        write_atomic(Path(args.md), table_md(res).encode())
+    return 0
+
+
 def _cmd_bench_diagnosis(args: argparse.Namespace) -> int:
     from rvflex.diagnosis.runcost import bench_model_runs
 
@@ -403,6 +432,24 @@ def build_parser() -> argparse.ArgumentParser:
     bc.add_argument("--json", help="write the results as JSON to this path")
     bc.add_argument("--segments", type=int, default=8000, help="polygon segments of the Exudyn contact (default 8000)")
     bc.set_defaults(func=_cmd_bench_contact)
+    bt = bsub.add_parser("te", help="cost of one quasi-static TE step per unit and fidelity, in contact evaluations",
+                         description="Each built-in unit and case (rigid; rigid with seed 001's errors and 12 µm "
+                                     "crank-bearing clearances; FE discs; FE discs and carrier; FE discs, carrier and "
+                                     "housing): one loaded TE run over one output revolution, its wall time per step "
+                                     "and the same divided by one evaluation of every disc's contact kernel measured "
+                                     "in the same run, with the split of a profiled run (rvflex.bench_te).")
+    bt.add_argument("--units", nargs="+", default=["rv40e", "rv80e", "rv160n"], metavar="NAME",
+                    help="built-in reducers (default all three)")
+    bt.add_argument("--cases", nargs="+", default=["rigid", "rigid-clearance", "flexible", "flexible-carrier",
+                                                   "flexible-all"],
+                    choices=["rigid", "rigid-clearance", "flexible", "flexible-carrier", "flexible-all"],
+                    help="cases (default all)")
+    bt.add_argument("--positions", type=int, default=2048, help="positions per output revolution, rigid (default 2048)")
+    bt.add_argument("--flexible-positions", type=int, default=512,
+                    help="positions per output revolution with FE parts (default 512)")
+    bt.add_argument("--json", help="write the results as JSON to this path")
+    bt.add_argument("--md", help="write the table as Markdown to this path (docs/results/bench_te.md)")
+    bt.set_defaults(func=_cmd_bench_te)
     bd = bsub.add_parser("diagnosis", help="one model run of a diagnosis on each unit, side by side",
                          description="One diagnosis model run of each kind (rigid; rigid + flexible: the disc-"
                                      "flexibility share; rigid + two flexible: the contact-law form) on each unit, "

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rvflex.engine import compiled_step
 from rvflex.model import ReducerModel
 from rvflex.numerics import OUTPUT_REGULARISER_NM_RAD, generalized_alpha_settings
 
@@ -101,6 +102,25 @@ def solve_at(model: ReducerModel, ss, theta_in: float, q_abs: np.ndarray) -> np.
         c.check_penetration()
     return np.asarray(mbs.systemData.GetODE2Coordinates()) + model.reference
 
+
+
+SOLVER_ENV = "RVFLEX_SOLVER"
+"""Environment variable choosing the static solver of the quasi-static and torque stepping: ``compiled``
+(default: :mod:`rvflex.engine` where it replicates the system) or ``exudyn`` (Exudyn's own solver throughout,
+the model of record: for comparisons, or a run to check against)."""
+
+
+def _compiled(model: ReducerModel):
+    """The compiled step of ``model`` unless :data:`SOLVER_ENV` asks for Exudyn's solver (None then, and for a
+    system the compiled step does not replicate)."""
+    import os
+
+    from rvflex.spec import SpecError
+
+    choice = os.environ.get(SOLVER_ENV, "compiled").strip().lower() or "compiled"
+    if choice not in ("compiled", "exudyn"):
+        raise SpecError(SOLVER_ENV, choice, "must be 'compiled' (default) or 'exudyn'")
+    return compiled_step(model) if choice == "compiled" else None
 
 
 SUBSTEP_LEVELS = 3  # a step that fails is retried in 2, 4, then 8 sub-steps from the last converged state
@@ -405,10 +425,13 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
     steps += [(th, k_work, 1.0, True) for th in theta_in]
     prev_th = theta_in[0]
     fe = bool(model.modal_nodes)
-    switch = chord_newton is None and not fe  # rigid default: Exudyn's solver until it bisects
+    # rigid default: the compiled step (rvflex.engine) where it replicates the system, else Exudyn's solver
+    # until it bisects
+    compiled = _compiled(model) if chord_newton is None and not fe else None
+    switch = chord_newton is None and not fe and compiled is None
     if chord_newton is None:
-        chord_newton = fe
-    newton = _ChordNewton(model) if chord_newton or switch else None
+        chord_newton = fe or compiled is not None
+    newton = compiled or (_ChordNewton(model) if chord_newton or switch else None)
     kept = _KeptNewton(model) if switch else None  # rigid: Exudyn's Newton from the extrapolation, see KEPT_FALLBACKS
     bisected = []  # recorded steps Exudyn's solver had to bisect (``switch``: the chord Newton takes over)
     history: list[tuple[float, np.ndarray]] = []  # (θ_in, elastic part) of the last converged recorded steps
@@ -475,12 +498,19 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
             last_te = q[car] - th / model.ratio
             out[done] = q[car]
             for d, c in enumerate(model.discs.contacts if contact_states else ()):
+                if compiled is not None and compiled.solved:  # the system's state is not the step's
+                    forces[done, d], gaps[done, d] = compiled.pin_outputs(d)
+                    continue
                 st = c.pin_state(mbs)
                 forces[done, d] = st.force_N
                 gaps[done, d] = st.gap_m
             done += 1
             if progress is not None:
                 progress(done, n)
+    if compiled is not None:  # leave the system at the run's last state, as Exudyn's solver does
+        import exudyn as exu
+
+        mbs.systemData.SetODE2Coordinates(q - model.reference, configuration=exu.ConfigurationType.Current)
     return result()
 
 
@@ -585,7 +615,8 @@ def torque_stepping(model: ReducerModel, torques_Nm: np.ndarray, *, progress=Non
     t0 = time.perf_counter()
     q_kin = model.kinematic_coordinates(0.0)
     mbs.SetObjectParameter(model.carrier.regulariser, "stiffness", OUTPUT_REGULARISER_NM_RAD)
-    newton = _ChordNewton(model) if chord_newton else None
+    # the compiled step (rvflex.engine) where it replicates the system, else the chord Newton on Exudyn's residual
+    newton = (_compiled(model) or _ChordNewton(model)) if chord_newton else None
 
     class _Abort(Exception):
         pass

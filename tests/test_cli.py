@@ -180,14 +180,16 @@ def test_a_failing_fe_build_is_one_message_and_exit_1(tmp_path, monkeypatch, cap
     assert (info.value.unit, info.value.failure.split(":")[0]) == ("rv40e", "meshing/assembly of the disc (maxh 6 mm, order 2, 12 modes) failed")
 
 
-def test_a_non_converging_run_is_one_message_and_exit_1():
-    """A unit whose hysteresis cycle does not converge at its ±3 % step (an equilibrium where a
-    contact begins, measured in the seed-3 self-check; tests/fixtures/rv40e_kinked_free_play*.toml):
-    the real command in its own process prints one line on stderr, nothing on stdout (Exudyn's
-    banners are for --debug), and exits 1. ``rvflex.run`` raises RunError with the SolveError as cause."""
+def test_a_non_converging_run_is_one_message_and_exit_1(monkeypatch):
+    """A unit whose hysteresis cycle does not converge at its ±3 % step under Exudyn's solver (an equilibrium
+    where a contact begins, measured in the seed-3 self-check; tests/fixtures/rv40e_kinked_free_play*.toml;
+    the compiled step, with its exact Jacobian, takes it): with ``RVFLEX_SOLVER=exudyn`` the real command in
+    its own process prints one line on stderr, nothing on stdout (Exudyn's banners are for --debug), and exits
+    1. ``rvflex.run`` raises RunError with the SolveError as cause."""
     import rvflex
-    from rvflex.solve import SolveError
+    from rvflex.solve import SOLVER_ENV, SolveError
 
+    monkeypatch.setenv(SOLVER_ENV, "exudyn")
     args = ["lost-motion", "--reducer", str(FIXTURES / "rv40e_kinked_free_play.toml"),
             "--errors", str(FIXTURES / "rv40e_kinked_free_play.errors.toml"), "--steps", "40"]
     proc = subprocess.run([sys.executable, "-m", "rvflex.cli", *args], capture_output=True, text=True)

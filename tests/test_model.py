@@ -68,8 +68,31 @@ def test_chord_newton_finds_the_equilibria_of_exudyns_static_solver(rv40e):
     assert np.abs(chord - exudyn).max() * ARCSEC_PER_RAD < 1e-4
 
 
-def test_the_rigid_default_steps_by_exudyns_kept_newton_to_the_equilibria_of_its_static_solver(rv40e, monkeypatch):
-    """The rigid default takes its steps by Exudyn's Newton kept from step to step, from the extrapolated
+def test_the_rigid_default_steps_by_the_compiled_step_to_the_equilibria_of_exudyns_static_solver(rv40e, monkeypatch):
+    """The rigid default takes its steps by the compiled Newton of :mod:`rvflex.engine` from the extrapolated
+    guess: the nominal unit and seed 001's errors with their 12 µm clearances at rated load over 96 positions
+    give the TE of Exudyn's static solver from the kinematic guess at every step (``chord_newton=False``) to
+    1e-4″ (both stop at ~1e-10 rad), every step taken by the compiled step (a step that fell back to Exudyn
+    would not show in the TE), and the pin forces of the same equilibria."""
+    from rvflex import engine, solve
+    from rvflex.model import build_reducer
+
+    made = []
+    monkeypatch.setattr(solve, "compiled_step", lambda m: made.append(engine.compiled_step(m)) or made[-1])
+    for errors in (ErrorSpec(), seed001_errors(rv40e)):
+        model = build_reducer(rv40e, errors, "rigid")
+        theta = np.linspace(0.0, 4 * np.pi * model.ratio / rv40e.cycloid.pin_count, 96, endpoint=False)
+        fast = solve.quasi_static(model, theta, 412.0)
+        exudyn = solve.quasi_static(model, theta, 412.0, chord_newton=False)
+        assert np.ptp(fast.te_rad) * ARCSEC_PER_RAD > 0.1  # a loaded, varying TE, not a trivial one
+        assert np.abs(fast.te_rad - exudyn.te_rad).max() * ARCSEC_PER_RAD < 1e-4
+        # 1e-10 m of convergence against ~1e8–1e9 N/m of contact stiffness: well below 1 N
+        assert np.abs(fast.pin_force_N - exudyn.pin_force_N).max() < 1.0
+        assert made[-1] is not None and made[-1].fallbacks == 0 and made[-1].evaluations >= len(theta)
+
+
+def test_a_rigid_system_the_compiled_step_cannot_replicate_steps_by_exudyns_kept_newton(rv40e, monkeypatch):
+    """Where the compiled step declines a system (``engine.compiled_step`` returns None), the rigid default takes its steps by Exudyn's Newton kept from step to step, from the extrapolated
     guess (``solve._KeptNewton``): the nominal unit at rated load over 96 positions gives the TE of Exudyn's
     static solver from the kinematic guess at every step (``chord_newton=False``) to 1e-4″ (both stop at
     Exudyn's tolerances, ~1e-10 rad), and the kept Newton took every step (a step that fell back would
@@ -79,6 +102,7 @@ def test_the_rigid_default_steps_by_exudyns_kept_newton_to_the_equilibria_of_its
     from rvflex import solve
     from rvflex.model import build_reducer
 
+    monkeypatch.setattr(solve, "compiled_step", lambda m: None)
     solved, kept_newtons = [], []
     kept_solve, kept_init = solve._KeptNewton.solve, solve._KeptNewton.__init__
     monkeypatch.setattr(solve._KeptNewton, "solve", lambda self, q: solved.append(1) or kept_solve(self, q))

@@ -33,11 +33,17 @@ from rvflex.geometry.profile import CurveKey, CycloidProfile, build_profile
 from rvflex.spec import CycloidStage, ErrorSpec, Material
 
 __all__ = ["ContactError", "ContactLaw", "CycloidPinContact", "PinState", "add_cycloid_pin_contact",
-           "concave_zones", "install_penetration_guard", "DEFAULT_MAX_PENETRATION_M", "MAX_POINTS"]
+           "concave_zones", "install_penetration_guard", "DEFAULT_MAX_PENETRATION_M", "MAX_POINTS", "N_OUT", "O_FORCE",
+           "O_GAP", "empty_points", "evaluate_kernel"]
 
 DEFAULT_MAX_PENETRATION_M = 50e-6  # beyond any elastic approach of steel pins (a few µm): a run gone wrong
 DEFAULT_INITIAL_INTERFERENCE_M = 1e-6
 MAX_POINTS = K.MAX_POINTS
+# the kernel, for compiled callers that evaluate a rigid disc without its Exudyn element (rvflex.engine), and
+# the layout of its per-pin outputs
+evaluate_kernel = K.evaluate
+empty_points = K.empty_points
+N_OUT, O_GAP, O_FORCE = K.N_OUT, K.O_GAP, K.O_FORCE
 ZONE_SAMPLES_PER_TOOTH = 4096  # curvature samples of the concave-zone search: 0.09° of tooth phase
 ZONE_PAD_SAMPLES = 2  # each zone widened by this many samples per side, so sampling cannot clip it
 ZONE_FINE_SAMPLES = 1025  # curvature samples across one zone when placing its slope samples
