@@ -1,6 +1,6 @@
 """The calibration stage of a diagnosis: the nominal parameters to calibrate, the data anchor, and the
 calibration itself (several starts, refined with the model in the loop, its fidelity differences measured
-again about it), from which the attribution starts (:mod:`rvflex.diagnosis.fit`)."""
+again about it), from which the attribution starts (:mod:`rvflex.diagnosis.stages.candidates`)."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """The plan of a diagnosis: every bench run becomes a :class:`PlanRun` (direction, load, torque cycle,
 temperature) that the model is run under, and the :class:`Layout` of the feature vector both sides are
-reduced to (:mod:`rvflex.diagnosis.features`)."""
+reduced to (:mod:`rvflex.diagnosis.features`), and the folds of the withheld check (:func:`withheld_folds`)."""
 
 from __future__ import annotations
 
@@ -12,7 +12,8 @@ import numpy as np
 from rvflex.choices import RunKind
 from rvflex.diagnosis.settings import DiagnosisSettings
 
-__all__ = ["BRANCH_FRACTIONS", "HYST_FRACTIONS", "Layout", "PlanRun", "feature_layout", "part_label", "plan_from_dataset"]
+__all__ = ["BRANCH_FRACTIONS", "HYST_FRACTIONS", "Layout", "PlanRun", "feature_layout", "part_label", "plan_from_dataset",
+           "withheld_folds", "withheld_split"]
 
 HYST_FRACTIONS = np.array([0.02, 0.05, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.97])
 BRANCH_FRACTIONS = np.concatenate([-HYST_FRACTIONS[::-1], HYST_FRACTIONS])
@@ -112,3 +113,38 @@ def feature_layout(plan: tuple[PlanRun, ...], max_order: int) -> Layout:
             hyst[r] = slice(i, i + 4 * len(HYST_FRACTIONS))
             i += 4 * len(HYST_FRACTIONS)
     return Layout(i, dcs, cos, sin, hyst, max_order)
+
+
+def withheld_split(plan: tuple[PlanRun, ...]) -> tuple[tuple[int, ...], tuple[int, ...]]:
+    """Runs fitted and runs predicted in the withheld check: fit on the forward TE runs at the
+    highest load and on the torque cycles, predict every other run (other directions, other
+    loads). With no TE run forward at the highest load the first TE run takes its place."""
+    te = [r for r, p in enumerate(plan) if p.kind == "te"]
+    hyst = [r for r, p in enumerate(plan) if p.kind != "te"]
+    if not te:
+        return tuple(hyst), ()
+    fwd = [r for r in te if plan[r].direction > 0]
+    pool = fwd or te
+    top = max(plan[r].load_Nm for r in pool)
+    fit_te = [r for r in pool if plan[r].load_Nm == top][:1]
+    fitted = tuple(sorted(fit_te + hyst))
+    return fitted, tuple(r for r in range(len(plan)) if r not in fitted)
+
+
+def withheld_folds(plan: tuple[PlanRun, ...]) -> tuple[tuple[tuple[tuple[int, int], ...], tuple[tuple[int, int], ...]], ...]:
+    """The folds of the withheld check, each (fitted parts, predicted parts) of runs (run, side: 0 the whole
+    run, ±1 a torque cycle's positive / negative-torque half, :meth:`Layout.part_rows`);
+    nothing is predicted twice. Fold 1 is :func:`withheld_split` (the other TE runs predicted from the forward
+    TE run at the highest load and the torque cycles); then each torque cycle's halves predict each other, with
+    the TE runs fitted too: an effect whose evidence lies in the torque cycle (friction's loop, a clearance's
+    free play, the curve's stiffening) is confirmed on the half it was not fitted on, and one read from the
+    TE runs must predict both halves. Folds with nothing to fit or to predict are left out."""
+    folds = []
+    fitted, predicted = withheld_split(plan)
+    if fitted and predicted:
+        folds.append((tuple((r, 0) for r in fitted), tuple((r, 0) for r in predicted)))
+    te = tuple((r, 0) for r, p in enumerate(plan) if p.kind == "te")
+    for h in (r for r, p in enumerate(plan) if p.kind != "te"):
+        for side in (1, -1):
+            folds.append((te + ((h, side),), ((h, -side),)))
+    return tuple(folds)
