@@ -340,6 +340,12 @@ def _marker_point(mbs, marker: int, body_start: dict) -> tuple[int, np.ndarray] 
     return body_start[b], lp[:2]
 
 
+def _current():
+    import exudyn as exu
+
+    return exu.ConfigurationType.Current
+
+
 class CompiledStep:
     """The compiled static step of one rigid reducer model (build with :func:`compiled_step`).
 
@@ -410,6 +416,9 @@ class CompiledStep:
             c._work.penetration = pen
         for c in contacts:
             c.check_penetration()
+        # the system holds the state, as after Exudyn's solver: whatever reads it next (a pin state, the
+        # loaded state a torque stepping hands on, Exudyn's solver taking the next step) sees this one
+        self.model.mbs.systemData.SetODE2Coordinates(x, configuration=_current())
         self.solved = True
         return x + self.model.reference
 

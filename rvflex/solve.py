@@ -498,7 +498,7 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
             last_te = q[car] - th / model.ratio
             out[done] = q[car]
             for d, c in enumerate(model.discs.contacts if contact_states else ()):
-                if compiled is not None and compiled.solved:  # the system's state is not the step's
+                if compiled is not None and compiled.solved:  # its last evaluation is the step's
                     forces[done, d], gaps[done, d] = compiled.pin_outputs(d)
                     continue
                 st = c.pin_state(mbs)
@@ -507,10 +507,6 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
             done += 1
             if progress is not None:
                 progress(done, n)
-    if compiled is not None:  # leave the system at the run's last state, as Exudyn's solver does
-        import exudyn as exu
-
-        mbs.systemData.SetODE2Coordinates(q - model.reference, configuration=exu.ConfigurationType.Current)
     return result()
 
 

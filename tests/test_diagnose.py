@@ -370,8 +370,8 @@ def test_the_fidelity_differences_are_measured_again_about_candidates_alike_at_e
     runs take the whole revolution). Decided by the replay's own test of a model that repeats every pin pitch."""
     from types import SimpleNamespace
 
-    from rvflex.diagnosis.fit import _alike_at_every_pin
     from rvflex.diagnosis.runs import ModelRunner
+    from rvflex.diagnosis.stages.candidates import _alike_at_every_pin
 
     plan = (PlanRun("te", "a", 1, 412.0, temperature_C=40.0),)
     runner = ModelRunner(SPEC, ErrorSpec(), plan, DiagnosisSettings(), None, None)
@@ -439,12 +439,12 @@ def test_a_pin_friction_fit_and_an_output_friction_fit_without_load_part_are_one
 
 
 def test_a_pair_restated_in_the_rankings_name_order_is_the_same_fit():
-    """``fit._ordered``: a pair refined as (b, a) and ranked as "a + b" is given the ranking's order. Its
+    """``stages.candidates._ordered``: a pair refined as (b, a) and ranked as "a + b" is given the ranking's order. Its
     parameters, intervals, Jacobian columns, magnitudes and bounds move together (the nominal parameters stay
     first), so it is the same fit: the same model features from its Jacobian, the same residual."""
-    from rvflex.diagnosis.fit import _ordered
     from rvflex.diagnosis.linear import Problem, bounds, lin_fit, make_candidate, nuisance_columns
     from rvflex.diagnosis.nominal import NOMINAL
+    from rvflex.diagnosis.stages.candidates import _ordered
 
     cal, a, b = NOMINAL["contact_stiffness"], EFFECTS["thermal_expansion"], EFFECTS["pin_ring_runout"]
     assert (cal.n, a.n, b.n) == (1, 1, 2)
@@ -563,7 +563,7 @@ def test_a_refined_pair_refuted_against_a_linearised_single_has_its_singles_refi
     at 97). Not when the single it was judged against is refined, nor under a single or an unrefined leader."""
     from types import SimpleNamespace
 
-    from rvflex.diagnosis.fit import _singles_of_refuted_pair
+    from rvflex.diagnosis.stages.evidence import _singles_of_refuted_pair
 
     a, b, c = EFFECTS["eccentric_bearing_clearance"], EFFECTS["thermal_expansion"], EFFECTS["pin_ring_runout"]
     s = DiagnosisSettings()
@@ -752,16 +752,21 @@ def test_a_unit_the_one_shot_loading_cannot_load_is_loaded_step_by_step():
     assert abs(stepped - direct) / ARCSEC < 1e-3
 
 
-def test_a_cycle_step_on_a_contact_onset_is_left_out_and_interpolated():
-    """Inside the free play an equilibrium can sit where a contact begins, and Newton cycles there
+def test_a_cycle_step_on_a_contact_onset_is_left_out_and_interpolated(monkeypatch):
+    """Inside the free play an equilibrium can sit where a contact begins, and Exudyn's Newton cycles there
     (seed 3, case 16: 12.4 N·m). The engine leaves such a step out (NaN) when the next one converges;
     the replay interpolates over it in torque. Up to the first such step the strict engine gives the same
-    angles."""
+    angles. The compiled step, with its exact Jacobian, takes every step of that cycle, at the angles of
+    Exudyn's solver wherever that converged (1e-4″, both solvers' tolerance)."""
     from rvflex.diagnosis.replay import evaluate
     from rvflex.model import build_reducer
-    from rvflex.solve import SolveError, hysteresis_cycle, torque_stepping
+    from rvflex.solve import SOLVER_ENV, SolveError, hysteresis_cycle, torque_stepping
+    from rvflex.units import ARCSEC
 
     path = hysteresis_cycle(SPEC.rated_torque_Nm, 40)
+    run = PlanRun("hysteresis", "cycle", torque_max_Nm=SPEC.rated_torque_Nm, torque_path_Nm=tuple(path))
+    compiled = torque_stepping(build_reducer(*_variant(KINKED_FREE_PLAY, run)), path).theta_out
+    monkeypatch.setenv(SOLVER_ENV, "exudyn")
     run = PlanRun("hysteresis", "cycle", torque_max_Nm=SPEC.rated_torque_Nm, torque_path_Nm=tuple(path))
     model = build_reducer(*_variant(KINKED_FREE_PLAY, run))
     with pytest.raises(SolveError) as err:
@@ -776,6 +781,7 @@ def test_a_cycle_step_on_a_contact_onset_is_left_out_and_interpolated():
     np.testing.assert_array_equal(replayed[~bad], loose.theta_out[~bad])
     angles = branch_angles(path, replayed, SPEC.rated_torque_Nm)
     assert np.all(np.isfinite(angles)) and np.all(np.diff(angles[:12]) > 0)  # the output turns with the torque
+    assert np.all(np.isfinite(compiled)) and np.abs(compiled[~bad] - loose.theta_out[~bad]).max() / ARCSEC < 1e-4
 
 
 # measured in the far self-check (seed 1, case 18: a hidden 5.1 µm pin-ring runout, the clearance calibrated at
