@@ -188,30 +188,46 @@ class ReducerModel:
         numpy.ndarray
             The coordinates (m, rad; modal coordinates zero).
         """
+        k = self._kinematics
         q = self.reference.copy()
-        sl = self.planar_index()
         th_c = theta_in / self.ratio
         alpha = -self.spec.cycloid.pin_count * th_c  # crank angle relative to the carrier
-        rot = np.array([[math.cos(th_c), -math.sin(th_c)], [math.sin(th_c), math.cos(th_c)]])
-        q[sl["sun"][2]] = theta_in
-        q[sl["carrier"][2]] = th_c
-        for k in range(len(self.cranks.nodes)):
-            s = sl[f"crank{k}"]
-            q[s[:2]] = rot @ self.crank_axes[k]
-            q[s[2]] = th_c + alpha
-        cy = self.spec.cycloid
-        for d in range(len(self.discs.nodes)):
-            s = sl[f"disc{d}"]
-            ecc = cy.eccentricity_m * np.array([math.cos(alpha + cy.disc_phase_rad[d]),
-                                                math.sin(alpha + cy.disc_phase_rad[d])])
-            base = self.disc_centres[d] - cy.eccentricity_m * np.array([math.cos(cy.disc_phase_rad[d]),
-                                                                        math.sin(cy.disc_phase_rad[d])])
-            q[s[:2]] = rot @ (base + ecc)
-            q[s[2]] = self.reference[s[2]] + th_c  # a flexible disc may sit turned by a half turn
-        for n in self.modal_nodes:
-            i = self.mbs.GetNodeODE2Index(n)
-            q[i:i + self.mbs.GetNode(n)["numberOfODE2Coordinates"]] = 0.0
+        c, s = math.cos(th_c), math.sin(th_c)
+        q[k["sun"]] = theta_in
+        q[k["carrier"]] = th_c
+        ax = k["crank_axes"]
+        q[k["crank_x"]] = c * ax[:, 0] - s * ax[:, 1]
+        q[k["crank_y"]] = s * ax[:, 0] + c * ax[:, 1]
+        q[k["crank_th"]] = th_c + alpha
+        v = k["disc_base"] + k["eccentricity"] * np.stack([np.cos(alpha + k["disc_phase"]),
+                                                           np.sin(alpha + k["disc_phase"])], axis=1)
+        q[k["disc_x"]] = c * v[:, 0] - s * v[:, 1]
+        q[k["disc_y"]] = s * v[:, 0] + c * v[:, 1]
+        q[k["disc_th"]] += th_c  # a flexible disc may sit turned by a half turn (its reference angle)
+        q[k["modal"]] = 0.0
         return q
+
+    @functools.cached_property
+    def _kinematics(self) -> dict:
+        # index arrays and constants of kinematic_coordinates, computed once (it runs every quasi-static step)
+        sl = self.planar_index()
+        cy = self.spec.cycloid
+        nk, nd = len(self.cranks.nodes), len(self.discs.nodes)
+        phase = np.asarray(cy.disc_phase_rad[:nd], float)
+        base = np.asarray(self.disc_centres, float)[:nd] - cy.eccentricity_m * np.stack([np.cos(phase), np.sin(phase)],
+                                                                                       axis=1)
+        modal = [np.arange(self.mbs.GetNodeODE2Index(n), self.mbs.GetNodeODE2Index(n)
+                           + self.mbs.GetNode(n)["numberOfODE2Coordinates"]) for n in self.modal_nodes]
+        return {"sun": sl["sun"][2], "carrier": sl["carrier"][2],
+                "crank_axes": np.asarray(self.crank_axes, float)[:nk],
+                "crank_x": np.array([sl[f"crank{i}"][0] for i in range(nk)]),
+                "crank_y": np.array([sl[f"crank{i}"][1] for i in range(nk)]),
+                "crank_th": np.array([sl[f"crank{i}"][2] for i in range(nk)]),
+                "disc_x": np.array([sl[f"disc{d}"][0] for d in range(nd)]),
+                "disc_y": np.array([sl[f"disc{d}"][1] for d in range(nd)]),
+                "disc_th": np.array([sl[f"disc{d}"][2] for d in range(nd)]),
+                "disc_base": base, "disc_phase": phase, "eccentricity": cy.eccentricity_m,
+                "modal": np.concatenate(modal) if modal else np.zeros(0, dtype=int)}
 
 
 def disc_mesh_spec(spec: ReducerSpec, modification=None) -> ReducerSpec:

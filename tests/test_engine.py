@@ -64,7 +64,7 @@ def test_the_compiled_residual_and_jacobian_are_exudyns(unit):
 def test_the_compiled_steps_reach_exudyns_equilibria(unit):
     """Seed 001's errors sized for the unit (12 µm crank-bearing clearances, runouts, pin errors) at rated
     load over two crank turns relative to the carrier (64 positions, contact sets changing): the default
-    run (compiled steps) gives the TE of Exudyn's static solver at every step within 1e-4″ (both converge
+    run (compiled steps; a first-pose continuation step they cannot take goes to Exudyn) gives the TE of Exudyn's static solver at every step within 1e-4″ (both converge
     to ~1e-10 rad) and the same pin forces within 1 N (1e-10 m against ~1e9 N/m)."""
     from rvflex import engine, solve
 
@@ -80,7 +80,10 @@ def test_the_compiled_steps_reach_exudyns_equilibria(unit):
         solve.compiled_step = orig
     exudyn = solve.quasi_static(build_reducer(spec, clearance_errors(spec), "rigid"), theta,
                                 spec.rated_torque_Nm, chord_newton=False)
-    assert made and made[0] is not None and made[0].fallbacks == 0
+    # the compiled step took the run: at most the loading continuation's first-pose steps fell back to Exudyn
+    continuation = len(solve.REGULARISER_CONTINUATION_NM_RAD) + len(solve.LOAD_CONTINUATION)
+    assert made and made[0] is not None and made[0].fallbacks <= continuation
+    assert made[0].evaluations >= 2 * len(theta)
     assert np.ptp(fast.te_rad) * ARCSEC_PER_RAD > 1.0
     assert np.abs(fast.te_rad - exudyn.te_rad).max() * ARCSEC_PER_RAD < 1e-4
     assert np.abs(fast.pin_force_N - exudyn.pin_force_N).max() < 1.0

@@ -88,7 +88,9 @@ def test_the_rigid_default_steps_by_the_compiled_step_to_the_equilibria_of_exudy
         assert np.abs(fast.te_rad - exudyn.te_rad).max() * ARCSEC_PER_RAD < 1e-4
         # 1e-10 m of convergence against ~1e8–1e9 N/m of contact stiffness: well below 1 N
         assert np.abs(fast.pin_force_N - exudyn.pin_force_N).max() < 1.0
-        assert made[-1] is not None and made[-1].fallbacks == 0 and made[-1].evaluations >= len(theta)
+        # the compiled step took the run: at most the loading continuation's first-pose steps fell back to Exudyn
+        continuation = len(solve.REGULARISER_CONTINUATION_NM_RAD) + len(solve.LOAD_CONTINUATION)
+        assert made[-1] is not None and made[-1].fallbacks <= continuation and made[-1].evaluations >= 2 * len(theta)
 
 
 def test_a_rigid_system_the_compiled_step_cannot_replicate_steps_by_exudyns_kept_newton(rv40e, monkeypatch):
