@@ -1,8 +1,10 @@
 """Solvers on an assembled :class:`~rvflex.model.ReducerModel`.
 
 Quasi-static stepping: the input angle is prescribed step by step with the output torque
-applied; each step is a static equilibrium (Exudyn's static solver) started from the
-previous one advanced by the ideal kinematics. The first loaded step is reached by
+applied; each step is a static equilibrium started from the previous one advanced by the ideal
+kinematics: by the compiled step of :mod:`rvflex.engine` for a rigid model (Exudyn's static
+solver where it fails, or throughout with ``RVFLEX_SOLVER=exudyn``), by a chord Newton on
+Exudyn's residual for FE parts. The first loaded step is reached by
 continuation from a stiffly held output (DESIGN.md: clearances make the bodies float; weak
 springs carry a negligible share — see :mod:`rvflex.parts.bearings` and
 :data:`rvflex.numerics.OUTPUT_REGULARISER_NM_RAD`).
@@ -366,8 +368,10 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
     decreasing runs reverse) under the output torque ``torque_out_Nm`` (N·m, ≥ 0) resisting
     the motion. With ``chord_newton`` the steps are solved by :class:`_ChordNewton` from an
     extrapolated guess, else by Exudyn's static solver from the kinematic guess. The default
-    (None) takes the chord Newton for FE bodies, whose Jacobian is dear (2.3× faster), and for
-    rigid ones Exudyn's Newton (:class:`_KeptNewton`, from the extrapolated guess, until
+    (None) takes the compiled step (:func:`rvflex.engine.compiled_step`, the first pose's
+    continuation included) for a rigid model it replicates, Exudyn's static solver for a step it
+    cannot take; the chord Newton for FE bodies, whose Jacobian is dear (2.3× faster); and for
+    other rigid ones (or with ``RVFLEX_SOLVER=exudyn``) Exudyn's Newton (:class:`_KeptNewton`, from the extrapolated guess, until
     :data:`KEPT_FALLBACKS` steps have fallen back to Exudyn's static solver from the kinematic guess;
     their Jacobian costs about a residual; with the chord Newton for every rigid run the realistic
     self-check took 975 s instead of 852 s) until a recorded step has to be bisected, then the chord
@@ -568,8 +572,8 @@ def torque_stepping(model: ReducerModel, torques_Nm: np.ndarray, *, progress=Non
     hysteresis test of the catalogues, and the diagnosis's replay of a bench torque cycle (one
     engine, so both reach the same equilibria).
 
-    Each step is a static equilibrium from the previous one, by :class:`_ChordNewton` unless
-    ``chord_newton=False`` (Exudyn's static solver when it stalls, with a 1e-3 smallest load
+    Each step is a static equilibrium from the previous one, by the compiled step of a rigid model
+    (:mod:`rvflex.engine`) or else :class:`_ChordNewton` unless ``chord_newton=False`` (Exudyn's static solver when it stalls, with a 1e-3 smallest load
     increment so a hopeless step fails fast). The free play needs more, in this order:
 
     1. a failing step is bisected (up to 3 levels) from the last converged state, through zero
