@@ -116,6 +116,11 @@ class Effect:
     before any effect is attributed, with a regulariser ‖(x − c)/σ‖² toward its nominal value c
     (``prior_center``, default 0);
     ``separating_runs`` names the bench runs that tell it from look-alike effects.
+    ``unjudged_by`` names model forms that act where the effect acts and that the null distribution's
+    ensemble (:mod:`rvflex.diagnosis.ensemble`) cannot draw yet: a healthy unit of such a form is fitted by
+    the effect at sizes no control reached, so the effect is never established while its look-alikes are
+    missing from the ensemble (:func:`rvflex.diagnosis.grade.grade`); it is still ranked and reported as
+    consistent.
     ``coupled_to`` (kind ``"model"``): the name of a fidelity effect whose model changes this
     effect's signature (the contact stiffness shapes the elastic discs' pin-mesh orders): the
     effect's secant is taken on that model too, and the difference from the rigid one enters in
@@ -140,6 +145,7 @@ class Effect:
     prior_sigma: tuple[float, ...] = ()
     prior_center: tuple[float, ...] = ()
     separating_runs: str = ""
+    unjudged_by: str = ""
     coupled_to: str | None = None
     series: Callable | None = None  # kind "measurement": output twist (rad) of a series compliance at a torque
     same_as: tuple[str, tuple[int | None, ...]] | None = None
@@ -413,9 +419,13 @@ def _builtin() -> tuple[Effect, ...]:
         # every crank moves the discs without a fight and shows at no order (mean only), and to first order only the
         # cranks' runouts relative to each other act, through one resultant vector: one crank's runout (x/y in the
         # crank's frame) stands for any pattern. Bound 10 µm (28″ at z_b on an RV-40E, beyond any working unit)
+        # a crank seat that moves in the carrier, or supports stiffer one way than the other, also shifts the cranks
+        # once per crank turn: a healthy unit of that form is fitted with a runout of a tenth of a µm at an evidence
+        # far above the ensemble's (which has isotropic, fixed seats)
         Effect("crank_runout", "runout of crank 0's eccentrics relative to its journal axis (x/y in the crank's frame), "
                "turning with the crank: it stands for the cranks' runouts relative to each other",
-               polar(10 * um, 2 * um), apply=_crank_runout, polar=True),
+               polar(10 * um, 2 * um), apply=_crank_runout, polar=True,
+               unjudged_by="crank seats that move in the carrier and anisotropic crank supports"),
         # two-sided: a negative deviation takes clearance away (towards preload), a positive one adds it.
         # A pin radius error +δ of all pins is the equidistant deviation −δ: the pin–profile gap depends
         # on the generating pin radius minus the pin radius only (features agree to 0.001″, test), so no run can tell

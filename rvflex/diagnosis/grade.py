@@ -8,8 +8,9 @@ only when, besides those tests,
 
 1. it is beyond what healthy units of other model forms make of it (:mod:`rvflex.diagnosis.null`): its
    evidence exceeds the ensemble controls' 95th percentile for its effects and each effect's size exceeds the
-   size the controls reach; an effect the controls were not diagnosed with (absent from the distribution) is
-   never established while a distribution is in use;
+   size the controls reach; an effect the controls were not diagnosed with (absent from the distribution), or
+   one with look-alike model forms the ensemble cannot draw yet (``Effect.unjudged_by``), is never established
+   while a distribution is in use;
 2. it explains most (:data:`MOST`) of what calibration left where its own signature lies: in the discrepancy
    groups (:mod:`rvflex.diagnosis.discrepancy`) that hold :data:`SIGNATURE_SHARE` of its signature, the
    calibrated residual falls by at least half. An effect that is the cause leaves model-form residue only;
@@ -117,6 +118,10 @@ def grade(c: Candidate, settings, null, local: dict) -> dict:
         if not e.nominal and t is not None and abs(m) <= t:
             fails.append(f"its {e.name} of {fmt_mag(e, abs(m))} is within the {fmt_mag(e, t)} healthy units of other "
                          f"model forms reach{whose}")
+    if null is not None:  # look-alike model forms the ensemble cannot draw: its thresholds do not bound them
+        fails += [f"healthy units with {e.unjudged_by}, model forms the ensemble cannot draw yet, act where {e.name} "
+                  "acts: the null distribution does not bound what they make of it" for e in c.attributed
+                  if e.unjudged_by]
     if null is not None:  # no controls were diagnosed with it: nothing says how far healthy units take it
         fails += [f"healthy units of other model forms have not been diagnosed with {e.name}{whose} (rebuild the null "
                   f"distribution: rvflex null-distribution)" for e in c.attributed if null.magnitude_threshold(e.name) is None]
