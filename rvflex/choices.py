@@ -77,9 +77,10 @@ EvidenceModel = Literal["discrepancy", "bic"]
 """How a diagnosis weighs an effect's evidence: against a model discrepancy per order band and run, or with
 one variance for all features (the plain BIC, with the fixed gap-shrink rule)."""
 
-DiscrepancyKind = Literal["orders", "mesh orders", "wind-up", "torque cycle"]
+DiscrepancyKind = Literal["orders", "mesh orders", "wind-up", "loading curve", "hysteresis"]
 """Kinds of the diagnosis' discrepancy groups: a TE run's octave band of orders, its pin-mesh orders, the
-wind-ups of the TE runs, a torque cycle."""
+wind-ups of the TE runs, a torque cycle's loading curve (its branches' midline) and hysteresis (their
+half-width)."""
 
 Mismatch = Literal["none", "realistic", "far", "ensemble"]
 """Self-check generators: the diagnosing model's family, another one per case, or another one whose

@@ -361,10 +361,13 @@ class CompiledStep:
         self.iterations = 0
         self.evaluations = 0
         self.solved = False  # the last solve converged (its pin outputs are the step's)
+        self.backup = None  # the caller's Newton to try when this one fails (rvflex.solve sets its chord Newton)
 
     def reset(self) -> None:
         """Forget the last solve (interface of rvflex.solve's Newtons: Exudyn's solver takes the step)."""
         self.solved = False
+        if self.backup is not None:
+            self.backup.reset()
 
     def _runtime(self) -> None:
         """Read what a run changes between steps: the prescribed coordinates, the regulariser and the load."""

@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
 from rvflex.diagnosis.discrepancy import Discrepancy, evidence, feature_groups, residual
 from rvflex.diagnosis.effects import EFFECTS
@@ -65,14 +66,29 @@ def _fit(prob, J, effects):
 def test_the_groups_partition_the_features_by_run_band_and_kind():
     lay = feature_layout(PLAN, MAX_ORDER)
     groups = feature_groups(lay, PLAN, Z_B)
-    rows = np.concatenate([g.rows for g in groups])
-    assert np.array_equal(np.sort(rows), np.arange(lay.n))  # every feature in exactly one group
+    # every feature's energy in exactly one group: the groups split any vector's squared norm without overlap
+    r = np.random.default_rng(0).normal(size=lay.n)
+    assert sum(g.energy(r) for g in groups) == pytest.approx(float(r @ r), rel=1e-12)
+    assert sum(g.size for g in groups) == lay.n
     mesh = [g for g in groups if g.kind == "mesh orders"]
-    assert len(mesh) == 2 and all(len(g.rows) == 2 * 3 for g in mesh)  # orders 40, 80, 120: cos and sin
+    assert len(mesh) == 2 and all(g.size == 2 * 3 for g in mesh)  # orders 40, 80, 120: cos and sin
     first = [g for g in groups if g.orders == (1, 1)]
-    assert len(first) == 2 and all(len(g.rows) == 2 for g in first)
-    assert [g.kind for g in groups][-2:] == ["wind-up", "torque cycle"]
-    assert len(groups[-1].rows) == 4 * len(HYST_FRACTIONS)
+    assert len(first) == 2 and all(g.size == 2 for g in first)
+    assert [g.kind for g in groups][-3:] == ["wind-up", "loading curve", "hysteresis"]
+    assert groups[-1].size == groups[-2].size == 2 * len(HYST_FRACTIONS)
+
+
+def test_a_torque_cycle_splits_into_its_loading_curve_and_its_hysteresis():
+    # an offset of both branches (a softer unit's same twist both ways) lies in the loading curve alone; branches
+    # opened apart symmetrically (friction) in the hysteresis alone
+    lay = feature_layout(PLAN, MAX_ORDER)
+    curve, loop = feature_groups(lay, PLAN, Z_B)[-2:]
+    m = curve.size
+    same, opened = np.zeros(lay.n), np.zeros(lay.n)
+    same[curve.rows] = 1.0
+    opened[curve.rows[:m]], opened[curve.rows[m:]] = 1.0, -1.0
+    assert curve.energy(same) == pytest.approx(2 * m) and loop.energy(same) == pytest.approx(0.0, abs=1e-12)
+    assert loop.energy(opened) == pytest.approx(2 * m) and curve.energy(opened) == pytest.approx(0.0, abs=1e-12)
 
 
 def test_the_residual_reproduces_the_fits_weighted_rss():

@@ -104,3 +104,36 @@ def test_a_system_with_an_item_the_compiled_step_does_not_replicate_is_left_to_e
     mbs.AddObject(ObjectConnectorCoordinateSpringDamper(markerNumbers=[a, b], stiffness=1.0))
     mbs.Assemble()
     assert compiled_step(model) is None
+
+
+def test_a_torque_cycle_the_compiled_newton_cannot_take_is_taken_by_the_chord_newton(monkeypatch):
+    """Stiff supports, 3 µm needle-bearing clearance and a 5 µm pitch error: out of zero torque, floating in the
+    free play, the compiled full Newton cycles where a contact sets in (and Exudyn's solver from the kinematic
+    guess diverges). The chord Newton behind it takes those steps, and the cycle equals the one Exudyn's own
+    solver makes within 1e-3″ (the engine's tolerance against the model of record)."""
+    import dataclasses as dc
+
+    from rvflex import solve
+    from rvflex.diagnosis.effects import EFFECTS
+    from rvflex.spec import ErrorSpec
+
+    spec = load_reducer("rv40e")
+    b = spec.bearings
+    spec = dc.replace(spec, bearings=dc.replace(
+        b, crank_support=dc.replace(b.crank_support, radial_stiffness_N_m=1e11),
+        main=dc.replace(b.main, radial_stiffness_N_m=1e11),
+        eccentric=dc.replace(b.eccentric, radial_stiffness_N_m=3e8, clearance_m=3e-6)))
+    spec, errors = EFFECTS["cycloid_pitch_error"].apply(spec, ErrorSpec(), np.array([5e-6, 0.0]))
+    path = solve.hysteresis_cycle(spec.rated_torque_Nm, 400)
+    angles = {}
+    for choice in ("compiled", "exudyn"):
+        monkeypatch.setenv(solve.SOLVER_ENV, choice)
+        model = build_reducer(spec, errors)
+        step = solve._compiled(model)
+        monkeypatch.setattr(solve, "_compiled", lambda m, step=step: step)
+        angles[choice] = solve.torque_stepping(model, path).theta_out * ARCSEC_PER_RAD
+        monkeypatch.undo()
+        if choice == "compiled":
+            assert step is not None and step.fallbacks >= 1 and step.backup.newton is not None
+    assert np.all(np.isfinite(angles["compiled"]))
+    assert np.max(np.abs(angles["compiled"] - angles["exudyn"])) < 1e-3

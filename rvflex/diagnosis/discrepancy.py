@@ -7,7 +7,10 @@ of its size. Kennedy and O'Hagan (2001) write the measurement as model + discrep
 the discrepancy a Gaussian process of its own. Here the discrepancy is a set of independent
 variance components, one per *group* of features that share a model-form error: per TE run, each
 octave band of orders (1, 2–3, 4–7, …, 128–255) without the pin-mesh orders, and the pin-mesh
-orders (multiples of z_b) as a band of their own; the wind-ups of all TE runs; each torque cycle.
+orders (multiples of z_b) as a band of their own; the wind-ups of all TE runs; each torque cycle's
+loading curve (the midline of its two branches) and its hysteresis (their half-width), apart because
+they have different causes: a stiffness law of another form bends the midline, friction and free play
+open the loop.
 The weighted features (in units of their floors, see :func:`rvflex.diagnosis.linear.weights`) of a
 group g have discrepancy variance σ²_g ≥ 1 (the floor: below it is noise), estimated by maximum
 likelihood under each hypothesis (profiled, σ²_g = max(RSS_g / n_g, 1)), optionally shrunk toward the
@@ -46,13 +49,26 @@ ORDER_BANDS = ((1, 1), (2, 3), (4, 7), (8, 15), (16, 31), (32, 63), (64, 127), (
 @dataclass(frozen=True, eq=False)
 class DiscrepancyGroup:
     """Features that share one discrepancy variance: ``rows`` of the feature vector; ``run`` the
-    run index (None for the wind-ups of all TE runs); ``orders`` the band (first, last) for TE orders."""
+    run index (None for the wind-ups of all TE runs); ``orders`` the band (first, last) for TE orders;
+    ``basis`` (None: the rows themselves) orthonormal combinations of the rows that make the group (a torque
+    cycle's midline and half-width)."""
 
     label: str
     kind: DiscrepancyKind
     run: int | None
     rows: np.ndarray
     orders: tuple[int, int] | None = None
+    basis: np.ndarray | None = None
+
+    @property
+    def size(self) -> int:
+        """Number of features (combinations) in the group."""
+        return len(self.rows) if self.basis is None else self.basis.shape[0]
+
+    def energy(self, r: np.ndarray) -> float:
+        """Sum of squares of ``r`` (a full feature vector) over the group's features."""
+        v = r[self.rows] if self.basis is None else self.basis @ r[self.rows]
+        return float(v @ v)
 
 
 def feature_groups(lay: Layout, plan, pin_count: int) -> tuple[DiscrepancyGroup, ...]:
@@ -77,8 +93,13 @@ def feature_groups(lay: Layout, plan, pin_count: int) -> tuple[DiscrepancyGroup,
         out.append(DiscrepancyGroup("wind-ups of the TE runs", "wind-up", None,
                                     np.array([lay.dc[r] for r in lay.te_runs])))
     for r in sorted(lay.hyst):
-        sl = lay.hyst[r]
-        out.append(DiscrepancyGroup(f"{plan[r].label}: torque cycle", "torque cycle", r, np.arange(sl.start, sl.stop)))
+        rows = np.arange(lay.hyst[r].start, lay.hyst[r].stop)  # descending branch, then ascending, same torques
+        m = len(rows) // 2
+        eye = np.eye(m) / math.sqrt(2.0)
+        out.append(DiscrepancyGroup(f"{plan[r].label}: loading curve", "loading curve", r, rows,
+                                    basis=np.hstack([eye, eye])))
+        out.append(DiscrepancyGroup(f"{plan[r].label}: hysteresis", "hysteresis", r, rows,
+                                    basis=np.hstack([eye, -eye])))
     return tuple(out)
 
 
@@ -131,16 +152,16 @@ class Discrepancy:
     def describe(self) -> list[dict]:
         """One JSON row per group: label, kind, run, orders, features, rms (arcsec), σ (floors)."""
         return [{"group": g.label, "kind": g.kind, "run": g.run, "orders": list(g.orders) if g.orders else None,
-                 "features": len(g.rows), "rms_arcsec": float(a), "sigma_floors": float(s)}
+                 "features": g.size, "rms_arcsec": float(a), "sigma_floors": float(s)}
                 for g, a, s in zip(self.groups, self.rms_arcsec, self.sigma)]
 
 
 def _sizes(groups) -> np.ndarray:
-    return np.array([len(g.rows) for g in groups], float)
+    return np.array([g.size for g in groups], float)
 
 
 def _group_rss(groups, r: np.ndarray) -> np.ndarray:
-    return np.array([float(r[g.rows] @ r[g.rows]) for g in groups])
+    return np.array([g.energy(r) for g in groups])
 
 
 def _neg2_loglik(n: np.ndarray, rss: np.ndarray, pool: float, nu: float | None) -> float:

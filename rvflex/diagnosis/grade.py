@@ -65,19 +65,18 @@ def explained_where_it_lies(prob: Problem, c: Candidate, base_residual: np.ndarr
     """
     groups = disc.groups
     s = own_change(c) * prob.w
-    e = np.array([float(s[g.rows] @ s[g.rows]) for g in groups])
+    e = np.array([g.energy(s) for g in groups])
     if not e.sum() > 0:
         return {}
     order = np.argsort(-e)
     cum = np.cumsum(e[order]) / e.sum()
-    where = order[:int(np.searchsorted(cum, SIGNATURE_SHARE)) + 1]
+    where = [groups[i] for i in order[:int(np.searchsorted(cum, SIGNATURE_SHARE)) + 1]]
     rb, rc = base_residual, residual(prob, c)
-    rows = np.concatenate([groups[i].rows for i in where])
-    before, after = float(rb[rows] @ rb[rows]), float(rc[rows] @ rc[rows])
-    left = rc[rows] / prob.w[rows]
-    return {"groups": [groups[i].label for i in where],
+    before, after = sum(g.energy(rb) for g in where), sum(g.energy(rc) for g in where)
+    left = sum(g.energy(rc / prob.w) for g in where) / sum(g.size for g in where)
+    return {"groups": [g.label for g in where],
             "explained_pct": 100.0 * (before - after) / before if before > 0 else 0.0,
-            "left_rms_arcsec": float(np.sqrt(np.mean(left ** 2)))}
+            "left_rms_arcsec": float(np.sqrt(left))}
 
 
 def grade(c: Candidate, settings, null, local: dict) -> dict:

@@ -128,9 +128,8 @@ class Problem:
     w: np.ndarray  # weights (1/floor) per feature
     nuis: np.ndarray
     has_te: bool
-    # the weighted measured features shifted by every origin of the coarse δ grid (n × DELTA_GRID) and
-    # their squared column norms, shared by every δ search over all rows
-    shifted_w: np.ndarray | None = None
+    # the squared norms of the weighted measured features shifted by every origin of the coarse δ grid
+    # (DELTA_GRID), shared by every δ search over all rows
     shifted_w_sq: np.ndarray | None = None
     memo: dict = field(default_factory=dict)  # δ of the offsets-only search by linearisation point
 
@@ -141,7 +140,24 @@ class Problem:
             return cls(y, lay, w, nuis, has_te)
         grid = np.linspace(0.0, 2 * np.pi, DELTA_GRID, endpoint=False)
         yw = shift_measured(y, lay, grid) * w[:, None]
-        return cls(y, lay, w, nuis, has_te, yw, np.einsum("ij,ij->j", yw, yw))
+        return cls(y, lay, w, nuis, has_te, np.einsum("ij,ij->j", yw, yw))
+
+    def shifted_products(self, V: np.ndarray) -> np.ndarray:
+        """Vᵀ·(w ∘ y(δ)) for every origin δ of the coarse grid (m × DELTA_GRID, V: n × m): y(δ) is a trigonometric
+        polynomial in δ of the TE orders (:func:`~rvflex.diagnosis.features.shift_measured`), so each product is
+        one inverse FFT of its order coefficients instead of a pass over the n × G shifted matrix."""
+        lay, y = self.lay, self.y
+        Vw = V * self.w[:, None]
+        K = lay.max_order
+        Z = np.zeros((Vw.shape[1], DELTA_GRID // 2 + 1), complex)
+        const = Vw.T @ y
+        for r in lay.te_runs:
+            cs, sn = lay.cos[r], lay.sin[r]
+            vc, vs, a, b = Vw[cs], Vw[sn], y[cs][:, None], y[sn][:, None]
+            const -= (vc * a + vs * b).sum(axis=0)  # the shifted rows enter through Z alone
+            Z[:, 1:K + 1] += ((vc * a + vs * b) - 1j * (vc * b - vs * a)).T
+        # Σ_k C_k cos kδ + S_k sin kδ = Re Σ_k (C_k − i S_k) e^{ikδ}; irfft halves the k ≥ 1 terms and divides by G
+        return const[:, None] + np.fft.irfft(Z * (DELTA_GRID / 2.0), n=DELTA_GRID, axis=1)
 
 
 def lin_fit(prob: Problem, base: np.ndarray, J: np.ndarray, x_ref: np.ndarray, lo: np.ndarray, hi: np.ndarray,
@@ -228,14 +244,14 @@ def _best_delta(prob, base, A, rows, w, grid) -> float:
 
 
 def _best_delta_all_rows(prob, base, A, grid) -> float:
-    """:func:`_best_delta` over all rows on the coarse grid, from the problem's shifted features:
-    ‖P⊥(Y − b)‖² = ‖Y‖² − 2 bᵀY + ‖b‖² − ‖Qᵀ(Y − b)‖² costs two products with the n × G matrix
-    instead of five passes over it (measured: the δ searches were 40 of a warm diagnosis' 52 s)."""
-    Y, bw = prob.shifted_w, base * prob.w
-    rss = prob.shifted_w_sq - 2.0 * (bw @ Y) + bw @ bw
-    if A.shape[1]:
-        Q, _ = np.linalg.qr(A)
-        P = Q.T @ Y - (Q.T @ bw)[:, None]
+    """:func:`_best_delta` over all rows on the coarse grid: ‖P⊥(Y − b)‖² = ‖Y‖² − 2 bᵀY + ‖b‖² − ‖Qᵀ(Y − b)‖²,
+    the products with the shifted features Y(δ) by FFT over δ (:meth:`Problem.shifted_products`)."""
+    bw = base * prob.w
+    Q = np.linalg.qr(A)[0] if A.shape[1] else np.zeros((len(bw), 0))
+    F = prob.shifted_products(np.column_stack([bw, Q]))
+    rss = prob.shifted_w_sq - 2.0 * F[0] + bw @ bw
+    if Q.shape[1]:
+        P = F[1:] - (Q.T @ bw)[:, None]
         rss = rss - np.einsum("ij,ij->j", P, P)
     return float(grid[int(np.argmin(rss))])
 
