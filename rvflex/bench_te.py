@@ -91,8 +91,9 @@ _CONTACT_FUNCS = ("evaluate", "evaluate_housing", "_force_uf", "_force_housing",
 _SOLVE_FUNCS = ("lu_factor", "lu_solve", "getrf", "getrs")
 
 
-def _split(prof: cProfile.Profile, engine, t_contact_us: float, t_solve_us: float) -> dict:
-    """Shares of a profiled run: contact kernels, assembly outside Exudyn, linear solves, Exudyn, Python."""
+def _split(prof: cProfile.Profile, counts: dict | None, t_contact_us: float, t_solve_us: float) -> dict:
+    """Shares of a profiled run: contact kernels, assembly outside Exudyn, linear solves, Exudyn, Python
+    (``counts``: the run's compiled-step counts, :attr:`rvflex.solve.QuasiStaticResult.compiled`)."""
     st = pstats.Stats(prof)
     total = 0.0
     parts = dict(contact=0.0, assembly=0.0, linear_solve=0.0, exudyn=0.0, python=0.0)
@@ -106,9 +107,9 @@ def _split(prof: cProfile.Profile, engine, t_contact_us: float, t_solve_us: floa
             parts["linear_solve"] += tt
         elif "exudyn" in file or "exudynCPP" in name or file == "~" and "exudyn" in name:
             parts["exudyn"] += tt
-        elif "engine.py" in file and name == "_newton" and engine is not None:
-            contact = engine.evaluations * t_contact_us * 1e-6
-            solve = engine.iterations * t_solve_us * 1e-6
+        elif "engine.py" in file and name == "_newton" and counts is not None:
+            contact = counts["evaluations"] * t_contact_us * 1e-6
+            solve = counts["solves"] * t_solve_us * 1e-6
             parts["contact"] += min(contact, tt)
             parts["linear_solve"] += min(solve, max(tt - contact, 0.0))
             parts["assembly"] += max(tt - contact - solve, 0.0)
@@ -147,36 +148,27 @@ def bench_case(unit: str, case: str, positions: int, progress=None) -> dict:
     theta = np.linspace(0.0, 2.0 * np.pi * model.ratio, positions, endpoint=False)
     torque = spec.rated_torque_Nm
     solve.quasi_static(model, theta[:6], torque)  # compile, warm the caches
-    made = []
-    orig = solve.compiled_step
-    solve.compiled_step = lambda m: made.append(orig(m)) or made[-1]
-    try:
-        t = time.perf_counter()
-        res = solve.quasi_static(model, theta, torque)
-        wall = time.perf_counter() - t
-        engine = made[-1] if made else None
-        q = np.asarray(model.mbs.systemData.GetODE2Coordinates()) + model.reference
-        t_contact = contact_evaluation_us(model, q)
-        prof = cProfile.Profile()
-        made.clear()
-        prof.enable()
-        solve.quasi_static(model, theta, torque)
-        prof.disable()
-        engine_p = made[-1] if made else None
-    finally:
-        solve.compiled_step = orig
-    free = len(engine.d["free"]) if engine is not None else 0
-    t_solve = _solve_us(free) if free else 0.0
+    t = time.perf_counter()
+    res = solve.quasi_static(model, theta, torque)
+    wall = time.perf_counter() - t
+    counts = res.compiled
+    q = np.asarray(model.mbs.systemData.GetODE2Coordinates()) + model.reference
+    t_contact = contact_evaluation_us(model, q)
+    prof = cProfile.Profile()
+    prof.enable()
+    profiled = solve.quasi_static(model, theta, torque)
+    prof.disable()
+    t_solve = _solve_us(counts["free"]) if counts is not None and counts["free"] else 0.0
     per_step_us = wall / positions * 1e6
     row = {
         "unit": unit, "case": case, "positions": positions, "dof": int(model.mbs.systemData.ODE2Size()),
-        "solver": "compiled" if engine is not None else ("chord Newton" if model.modal_nodes else "Exudyn"),
+        "solver": "compiled" if counts is not None else ("chord Newton" if model.modal_nodes else "Exudyn"),
         "build_s": build_s, "wall_s": wall, "per_step_ms": per_step_us / 1e3,
         "contact_evaluation_us": t_contact, "per_step_contact_evaluations": per_step_us / t_contact,
-        "newton_evaluations_per_step": (engine.evaluations / positions) if engine is not None else None,
-        "fallbacks": engine.fallbacks if engine is not None else None,
+        "newton_evaluations_per_step": (counts["evaluations"] / positions) if counts is not None else None,
+        "fallbacks": counts["fallbacks"] if counts is not None else None,
         "te_peak_to_peak_arcsec": float(np.ptp(res.te_rad) * 206264.806),
-        "split": _split(prof, engine_p, t_contact, t_solve),
+        "split": _split(prof, profiled.compiled, t_contact, t_solve),
     }
     if progress is not None:
         progress(f"{unit:7s} {case:17s} {row['per_step_ms']:7.3f} ms/step = "

@@ -194,11 +194,11 @@ def _assemble(x, ref, pc_idx, pc_lp, pc_kind, pc_par, cs_idx, cs_k, cs_off, ld_i
     bad = 0
     phi = np.zeros((0, 2, 0))
     eta = np.zeros(0)
+    qd = np.zeros(3)  # a quasi-static step: no velocities (the kernel only reads them)
     for d in range(ct_node.shape[0]):
         b = ct_node[d]
         for i in range(3):
             work3[i] = ct_ref[d, i] + x[b + i]
-        qd = np.zeros(3)
         p, nbad = K.evaluate_kernel(work3, qd, ct_offset[d], ct_pins[d], ct_radii[d], ct_par[d], ct_herr[d], ct_hpsi[d],
                              ct_law[d], ct_tcache[d], phi, eta, eta, meshf[:3], workk, workd, ct_out[d], ct_zones[d],
                              ct_window[d], ct_pout[d], ct_count[d])
@@ -368,6 +368,12 @@ class CompiledStep:
         self.solved = False
         if self.backup is not None:
             self.backup.reset()
+
+    def counts(self) -> dict:
+        """What the step has done so far: ``free`` coordinates, Newton ``evaluations`` and linear ``solves``,
+        ``fallbacks`` (steps it could not take) and ``backup_steps`` (those its backup then took)."""
+        return {"free": int(len(self.d["free"])), "evaluations": self.evaluations, "solves": self.iterations,
+                "fallbacks": self.fallbacks, "backup_steps": getattr(self.backup, "steps", 0)}
 
     def _runtime(self) -> None:
         """Read what a run changes between steps: the prescribed coordinates, the regulariser and the load."""

@@ -53,7 +53,9 @@ class QuasiStaticResult:
 
     theta_in, theta_out: input and output angles; te_rad = θ_out − θ_in/i;
     pin_force_N: (steps, discs, pins) normal forces; pin_gap_m likewise;
-    torque_out_Nm: the output torque (resisting, positive); wall_s: solve time.
+    torque_out_Nm: the output torque (resisting, positive); wall_s: solve time;
+    compiled: the compiled step's counts over the run (:meth:`rvflex.engine.CompiledStep.counts`), None when
+    Exudyn's solvers took it.
     """
 
     theta_in: np.ndarray
@@ -64,6 +66,7 @@ class QuasiStaticResult:
     torque_out_Nm: float
     ratio: float
     wall_s: float
+    compiled: dict | None = None
 
 
 def static_settings():
@@ -139,11 +142,14 @@ class _Backup:
     def __init__(self, model: ReducerModel):
         self.model = model
         self.newton = None
+        self.steps = 0  # steps it took
 
     def solve(self, q_abs: np.ndarray) -> np.ndarray:
         if self.newton is None:
             self.newton = _ChordNewton(self.model)
-        return self.newton.solve(q_abs)
+        q = self.newton.solve(q_abs)
+        self.steps += 1
+        return q
 
     def reset(self) -> None:
         if self.newton is not None:
@@ -446,7 +452,8 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
         m = done
         th_out = out[:m]
         return QuasiStaticResult(theta_in[:m], th_out, th_out - theta_in[:m] / model.ratio, forces[:m], gaps[:m],
-                                 torque_out_Nm, model.ratio, time.perf_counter() - t0)
+                                 torque_out_Nm, model.ratio, time.perf_counter() - t0,
+                                 compiled.counts() if compiled is not None else None)
 
     direction = -1.0 if len(theta_in) > 1 and theta_in[-1] < theta_in[0] else 1.0
     k_work = OUTPUT_REGULARISER_NM_RAD
@@ -491,7 +498,8 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
         # 1968 solves, 23 s against 21 s for 50 429 compiled steps)
         chord_step = (record or compiled is not None) and newton is not None and (chord_newton or bool(bisected))
         kept_step = record and kept is not None and not chord_step and kept.fallbacks < KEPT_FALLBACKS
-        kin = model.kinematic_coordinates(th) if chord_step or kept_step else None
+        # the extrapolated guess of a recorded step (a continuation step at the first pose starts from the last state)
+        kin = model.kinematic_coordinates(th) if record and (chord_step or kept_step) else None
         if record and kin is None:
             history = []  # an extrapolation spans contiguous steps only
         guess = _extrapolated_guess(kin, history, th) if kin is not None and history else None
@@ -565,11 +573,12 @@ def _loaded_by_torque_stepping(model: ReducerModel, torque_Nm: float) -> np.ndar
 class TorqueStepResult:
     """Input locked, output torque stepped: torque (N·m, on the output, positive in the forward
     direction), output angle (rad; NaN for a step left out by ``skip_unsolved``), one row per step
-    taken."""
+    taken; ``compiled`` as :class:`QuasiStaticResult`'s."""
 
     torque_Nm: np.ndarray
     theta_out: np.ndarray
     wall_s: float
+    compiled: dict | None = None
 
 
 HYSTERESIS_FINE_FRACTIONS = (0.005, 0.01, 0.02, 0.03, 0.04)  # of T: the lost-motion points and the free play
@@ -650,7 +659,12 @@ def torque_stepping(model: ReducerModel, torques_Nm: np.ndarray, *, progress=Non
     q_kin = model.kinematic_coordinates(0.0)
     mbs.SetObjectParameter(model.carrier.regulariser, "stiffness", OUTPUT_REGULARISER_NM_RAD)
     # the compiled step (rvflex.engine) where it replicates the system, else the chord Newton on Exudyn's residual
-    newton = (_compiled(model) or _ChordNewton(model)) if chord_newton else None
+    compiled = _compiled(model) if chord_newton else None
+    newton = compiled or (_ChordNewton(model) if chord_newton else None)
+
+    def result(m: int) -> TorqueStepResult:
+        return TorqueStepResult(torques[:m], out[:m], time.perf_counter() - t0,
+                                compiled.counts() if compiled is not None else None)
 
     class _Abort(Exception):
         pass
@@ -748,8 +762,7 @@ def torque_stepping(model: ReducerModel, torques_Nm: np.ndarray, *, progress=Non
                                 progress(done, len(torques))
                             continue  # NaN; the next step starts from the last converged state
                         raise SolveError(f"torque step {j} ({torque:.3f} N·m) did not converge: {err}",
-                                         TorqueStepResult(torques[:done], out[:done],
-                                                          time.perf_counter() - t0)) from None
+                                         result(done)) from None
             out[j] = q[car]
             solved[float(torque)] = q
             prev = float(torque)
@@ -758,7 +771,7 @@ def torque_stepping(model: ReducerModel, torques_Nm: np.ndarray, *, progress=Non
                 progress(done, len(torques))
     except _Abort as abort:
         raise abort.__cause__ from None
-    return TorqueStepResult(torques, out, time.perf_counter() - t0)
+    return result(len(torques))
 
 
 @dataclass(frozen=True)

@@ -66,24 +66,18 @@ def test_the_compiled_steps_reach_exudyns_equilibria(unit):
     load over two crank turns relative to the carrier (64 positions, contact sets changing): the default
     run (compiled steps; a first-pose continuation step they cannot take goes to Exudyn) gives the TE of Exudyn's static solver at every step within 1e-4″ (both converge
     to ~1e-10 rad) and the same pin forces within 1 N (1e-10 m against ~1e9 N/m)."""
-    from rvflex import engine, solve
+    from rvflex import solve
 
     spec = load_reducer(unit)
     model = build_reducer(spec, clearance_errors(spec), "rigid")
     theta = np.linspace(0.0, 4 * np.pi * model.ratio / spec.cycloid.pin_count, 64, endpoint=False)
-    made = []
-    orig = solve.compiled_step
-    solve.compiled_step = lambda m: made.append(engine.compiled_step(m)) or made[-1]
-    try:
-        fast = solve.quasi_static(model, theta, spec.rated_torque_Nm)
-    finally:
-        solve.compiled_step = orig
+    fast = solve.quasi_static(model, theta, spec.rated_torque_Nm)
     exudyn = solve.quasi_static(build_reducer(spec, clearance_errors(spec), "rigid"), theta,
                                 spec.rated_torque_Nm, chord_newton=False)
     # the compiled step took the run: at most the loading continuation's first-pose steps fell back to Exudyn
     continuation = len(solve.REGULARISER_CONTINUATION_NM_RAD) + len(solve.LOAD_CONTINUATION)
-    assert made and made[0] is not None and made[0].fallbacks <= continuation
-    assert made[0].evaluations >= 2 * len(theta)
+    assert fast.compiled is not None and fast.compiled["fallbacks"] <= continuation
+    assert fast.compiled["evaluations"] >= 2 * len(theta)
     assert np.ptp(fast.te_rad) * ARCSEC_PER_RAD > 1.0
     assert np.abs(fast.te_rad - exudyn.te_rad).max() * ARCSEC_PER_RAD < 1e-4
     assert np.abs(fast.pin_force_N - exudyn.pin_force_N).max() < 1.0
@@ -125,15 +119,13 @@ def test_a_torque_cycle_the_compiled_newton_cannot_take_is_taken_by_the_chord_ne
         eccentric=dc.replace(b.eccentric, radial_stiffness_N_m=3e8, clearance_m=3e-6)))
     spec, errors = EFFECTS["cycloid_pitch_error"].apply(spec, ErrorSpec(), np.array([5e-6, 0.0]))
     path = solve.hysteresis_cycle(spec.rated_torque_Nm, 400)
-    angles = {}
+    runs = {}
     for choice in ("compiled", "exudyn"):
         monkeypatch.setenv(solve.SOLVER_ENV, choice)
-        model = build_reducer(spec, errors)
-        step = solve._compiled(model)
-        monkeypatch.setattr(solve, "_compiled", lambda m, step=step: step)
-        angles[choice] = solve.torque_stepping(model, path).theta_out * ARCSEC_PER_RAD
-        monkeypatch.undo()
-        if choice == "compiled":
-            assert step is not None and step.fallbacks >= 1 and step.backup.newton is not None
+        runs[choice] = solve.torque_stepping(build_reducer(spec, errors), path)
+    counts = runs["compiled"].compiled
+    assert counts is not None and counts["fallbacks"] >= 1 and counts["backup_steps"] >= 1
+    assert runs["exudyn"].compiled is None
+    angles = {k: r.theta_out * ARCSEC_PER_RAD for k, r in runs.items()}
     assert np.all(np.isfinite(angles["compiled"]))
     assert np.max(np.abs(angles["compiled"] - angles["exudyn"])) < 1e-3
