@@ -619,7 +619,8 @@ def torque_stepping(model: ReducerModel, torques_Nm: np.ndarray, *, progress=Non
     1. a failing step is bisected (up to 3 levels) from the last converged state, through zero
        torque when it changes sign; a step out of zero torque is not (its smaller torques float as it does);
     2. a zero torque that floats (the clearances let the bodies drift) is taken at ±0.2 % of the
-       amplitude on the side the path comes from;
+       amplitude on the side the path comes from (a cycle's first step, from the kinematic state, on
+       the positive side), once the remedies of 3. and 4. fail at zero torque itself;
     3. a step that still fails is solved by a stiff-to-working continuation of the output
        regulariser, from the last state and then from the unloaded kinematic configuration: out
        of the free play the weak regulariser alone holds the output, and Newton's first step from
@@ -741,28 +742,32 @@ def torque_stepping(model: ReducerModel, torques_Nm: np.ndarray, *, progress=Non
             except _Abort:
                 raise
             except Exception as err:
-                try:
-                    q = stiffened(q, float(torque))
+                t = float(torque)
+                # a zero torque that floats (even by the continuation) is taken at the small torque on the side
+                # the path comes from (a cycle's first step, out of the kinematic state: the positive side)
+                shifted = (np.sign(prev) or 1.0) * ZERO_TORQUE_SHIFT * amplitude
+                attempts = [(stiffened, t), (again, t)] + ([(stiffened, shifted), (again, shifted)] if t == 0.0 else [])
+                for k, (how, at) in enumerate(attempts):
+                    try:
+                        q = stiffened(q, at) if how is stiffened else again(at)
+                    except _Abort:
+                        raise
+                    except Exception:  # noqa: BLE001 - Exudyn raises its own error types
+                        continue
                     # a step out of zero torque that only the continuation took: the next one out of zero
                     # torque (the cycle's reversal) starts with it (the equilibrium at a non-zero torque does
                     # not depend on the path, see 3.)
-                    by_continuation[0] = by_continuation[0] or prev == 0.0
-                except _Abort:
-                    raise
-                except Exception:
-                    try:
-                        q = again(float(torque))
-                    except _Abort:
-                        raise
-                    except Exception:
-                        if skip_unsolved and 0 < j < len(torques) - 1 and skipped != j - 1:
-                            skipped = j
-                            done = j + 1
-                            if progress is not None:
-                                progress(done, len(torques))
-                            continue  # NaN; the next step starts from the last converged state
-                        raise SolveError(f"torque step {j} ({torque:.3f} N·m) did not converge: {err}",
-                                         result(done)) from None
+                    by_continuation[0] = by_continuation[0] or (k == 0 and prev == 0.0)
+                    break
+                else:
+                    if skip_unsolved and 0 < j < len(torques) - 1 and skipped != j - 1:
+                        skipped = j
+                        done = j + 1
+                        if progress is not None:
+                            progress(done, len(torques))
+                        continue  # NaN; the next step starts from the last converged state
+                    raise SolveError(f"torque step {j} ({torque:.3f} N·m) did not converge: {err}",
+                                     result(done)) from None
             out[j] = q[car]
             solved[float(torque)] = q
             prev = float(torque)
