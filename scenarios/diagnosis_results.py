@@ -203,8 +203,9 @@ def write_table(results: str | Path = RESULTS) -> Path:
 def null_table(path: str | Path | None = None) -> str:
     """The Markdown table of the null distribution (``rvflex null-distribution``; default: the package's): per
     candidate effect, the share of the ensemble's controls in which the tests alone accepted it (its false-alarm
-    rate before the null's thresholds), and per unit the thresholds a diagnosis of that unit uses (the evidence
-    and the size its healthy controls reach, 95th percentiles), the pooled ones for any other unit."""
+    rate before the null's thresholds), and per unit the thresholds a diagnosis of that unit uses (the largest
+    evidence and size its healthy controls reach), the pooled ones for any other unit; below it, how many controls
+    held out one at a time the thresholds of the others hold (with the largest and with 95th percentiles)."""
     from rvflex.diagnosis.effects import EFFECTS
     from rvflex.diagnosis.null import NULL_PATH
     from rvflex.diagnosis.verdict import fmt_mag
@@ -220,7 +221,7 @@ def null_table(path: str | Path | None = None) -> str:
              (f"{src.get('controls', '?')} ensemble controls over {', '.join(src.get('reducers', []))} "
               f"({src.get('cases_per_unit', '?')} per unit, seed {src.get('seed', '?')}; "
               f"`rvflex null-distribution --cases {src.get('cases_per_unit', '?')} --seed {src.get('seed', '?')}`). "
-              "Thresholds as evidence / size (95th percentiles of the controls)."), "",
+              "Thresholds as evidence / size (the largest the controls reach)."), "",
              "| effect | false alarms (tests alone) | " + " | ".join(units + ["pooled"]) + " |",
              "|---|---:|" + "---:|" * (len(units) + 1)]
 
@@ -228,8 +229,8 @@ def null_table(path: str | Path | None = None) -> str:
         if v is None:
             return "—"
         plain = e is None or e.params[0].unit == "1"  # a share or fraction: no unit to print
-        size = f"{v['magnitude_q95']:.3g}" if plain else fmt_mag(e, v["magnitude_q95"])
-        return f"{v['evidence_q95']:.0f} / {size}"
+        size = f"{v['magnitude_max']:.3g}" if plain else fmt_mag(e, v["magnitude_max"])
+        return f"{v['evidence_max']:.0f} / {size}"
 
     for name, v in sorted(doc["effects"].items(), key=lambda kv: (-kv[1]["false_alarm_rate"], kv[0])):
         e = EFFECTS.get(name)
@@ -237,6 +238,15 @@ def null_table(path: str | Path | None = None) -> str:
         per = [cell(doc["per_unit"][u].get(name), e) for u in units]
         lines.append(f"| {name} | {v['false_alarm_rate']:.2f} ({round(v['false_alarm_rate'] * n)}/{n}) | "
                      + " | ".join(per + [cell(v, e)]) + " |")
+    held = doc.get("leave_one_out")
+    if held:
+        n = sum(h["controls"] for h in held.values())
+        named = sum(h["named"] for h in held.values())
+        named_q95 = sum(h["named_q95"] for h in held.values())
+        which = "; ".join(f"{u}: {', '.join(h['names'].values())}" for u, h in held.items() if h["names"])
+        lines += ["", f"Held out one at a time, each control judged by the thresholds of its unit's other controls: "
+                      f"{named} of {n} name an effect ({which or 'none'}); with the others' 95th percentiles as "
+                      f"thresholds, {named_q95} of {n}."]
     return "\n".join(lines) + "\n"
 
 

@@ -53,7 +53,7 @@ def test_a_finding_below_the_null_is_consistent_and_never_written_as_explaining_
 
     strict = tmp_path / "null.json"
     strict.write_text(json.dumps({"effects": {"thermal_expansion": {
-        "evidence_q95": 10 * found.chosen.score, "magnitude_q95": 0.0, "false_alarm_rate": 0.0, "controls": 40}}}))
+        "evidence_max": 10 * found.chosen.score, "magnitude_max": 0.0, "false_alarm_rate": 0.0, "controls": 40}}}))
     held = diagnose(ds, settings=dataclasses.replace(CI, null_distribution=str(strict)), effects=effects,
                     cache_dir=cache)
     assert held.chosen is None, held.verdict
@@ -266,7 +266,7 @@ def test_an_effect_the_null_distribution_has_not_seen_is_never_established():
 
     settings = DiagnosisSettings()
     local = {"explained_pct": 90.0, "groups": ["TE order 40"]}
-    null = NullDistribution({"pin_ring_runout": {"evidence_q95": 50.0, "magnitude_q95": 1e-6,
+    null = NullDistribution({"pin_ring_runout": {"evidence_max": 50.0, "magnitude_max": 1e-6,
                                                  "false_alarm_rate": 0.0, "controls": 14}}, unit="rv160n")
     seen = grade(_fitted("pin_ring_runout", 5e-6), settings, null, local)
     assert seen["grade"] == ESTABLISHED and seen["fails"] == []
@@ -290,7 +290,7 @@ def test_an_effect_whose_look_alike_model_forms_the_ensemble_cannot_draw_is_neve
 
     settings = DiagnosisSettings()
     local = {"explained_pct": 90.0, "groups": ["TE order 40"]}
-    null = NullDistribution({"crank_runout": {"evidence_q95": 50.0, "magnitude_q95": 1e-7, "false_alarm_rate": 0.0,
+    null = NullDistribution({"crank_runout": {"evidence_max": 50.0, "magnitude_max": 1e-7, "false_alarm_rate": 0.0,
                                               "controls": 14}}, unit="rv80e")
     g = grade(_fitted("crank_runout", 5e-6), settings, null, local)
     assert g["grade"] == CONSISTENT
@@ -298,3 +298,33 @@ def test_an_effect_whose_look_alike_model_forms_the_ensemble_cannot_draw_is_neve
                           "model forms the ensemble cannot draw yet, act where crank_runout acts: the null "
                           "distribution does not bound what they make of it"]
     assert grade(_fitted("crank_runout", 5e-6), settings, None, local)["grade"] == ESTABLISHED
+
+
+def _control(name: str, score: float, size: float, fails=()) -> dict:
+    """A control's diagnosis document, as ``rvflex diagnose --json`` writes the fields the null reads."""
+    return {"effects": [{"name": name, "score": score, "magnitude": {name: size}, "refined": True,
+                         "grade_fails": list(fails), "accepted": not fails}]}
+
+
+def test_the_null_thresholds_are_the_largest_the_controls_reach_and_held_out_controls_are_counted():
+    """Fourteen controls of one unit, a pin-ring runout fitted in each: twelve at 1 … 2.8 µm with evidence 20 … 42,
+    one at 5 µm (evidence 80) and one at 6 µm (evidence 90). The thresholds are the largest the controls reach (a
+    finding at 5.5 µm, between the 95th percentile and the largest, is not established); held out one at a time,
+    only the 6 µm control lies beyond the other thirteen, and with their 95th percentiles the 5 µm one does too."""
+    from rvflex.diagnosis.grade import grade
+    from rvflex.diagnosis.null import NullDistribution, leave_one_out, null_from_reports
+
+    reports = [_control("pin_ring_runout", 20.0 + 2 * k, (1.0 + k / 6) * 1e-6) for k in range(12)]
+    reports += [_control("pin_ring_runout", 80.0, 5e-6), _control("pin_ring_runout", 90.0, 6e-6)]
+    figures = null_from_reports(reports)["pin_ring_runout"]
+    assert figures["evidence_max"] == 90.0 and figures["magnitude_max"] == 6e-6
+    assert figures["magnitude_q95"] < 5.5e-6 < figures["magnitude_max"]
+    null = NullDistribution({"pin_ring_runout": figures}, unit="rv40e")
+    local = {"explained_pct": 90.0, "groups": ["TE order 78"]}
+    between = grade(_fitted("pin_ring_runout", 5.5e-6), DiagnosisSettings(), null, local)
+    assert between["grade"] == CONSISTENT and between["magnitude_thresholds"] == {"pin_ring_runout": 6e-6}
+    beyond = grade(_fitted("pin_ring_runout", 7e-6), DiagnosisSettings(), null, local)
+    assert beyond["grade"] == ESTABLISHED and beyond["evidence_threshold"] == 90.0
+    held = leave_one_out(reports)
+    assert held["controls"] == 14 and held["named"] == 1 and held["names"] == {"13": "pin_ring_runout"}
+    assert held["named_q95"] == 2

@@ -147,9 +147,11 @@ def _cmd_null(args: argparse.Namespace) -> int:
     out = Path(args.out)
     doc = build_null(out, reducers, args.cases, args.seed, json_path=args.json, cache_dir=out / "cache",
                      log=lambda s: print(s, file=sys.stderr, flush=True))
-    rows = {k: {"evidence_q95": round(v["evidence_q95"], 1), "false_alarm_rate": round(v["false_alarm_rate"], 3)}
+    rows = {k: {"evidence_max": round(v["evidence_max"], 1), "false_alarm_rate": round(v["false_alarm_rate"], 3)}
             for k, v in doc["effects"].items()}
-    print(json.dumps({"controls": doc["source"]["controls"], "wall_s": doc["wall_s"], "effects": rows}, indent=2))
+    held = {u: {k: h[k] for k in ("controls", "named", "named_q95")} for u, h in doc["leave_one_out"].items()}
+    print(json.dumps({"controls": doc["source"]["controls"], "wall_s": doc["wall_s"], "effects": rows,
+                      "leave_one_out": held}, indent=2))
     if args.json:
         print(f"wrote {args.json}")
     return 0

@@ -7,8 +7,8 @@ passed every test on all three healthy units while removing 10–29 % of the gap
 only when, besides those tests,
 
 1. it is beyond what healthy units of other model forms make of it (:mod:`rvflex.diagnosis.null`): its
-   evidence exceeds the ensemble controls' 95th percentile for its effects and each effect's size exceeds the
-   size the controls reach; an effect the controls were not diagnosed with (absent from the distribution), or
+   evidence exceeds the largest the ensemble's controls reach for its effects and each effect's size exceeds the
+   largest size the controls reach; an effect the controls were not diagnosed with (absent from the distribution), or
    one with look-alike model forms the ensemble cannot draw yet (``Effect.unjudged_by``), is never established
    while a distribution is in use;
 2. it explains most (:data:`MOST`) of what calibration left where its own signature lies: in the discrepancy
