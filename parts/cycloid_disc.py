@@ -77,6 +77,7 @@ def build(mbs, spec: ReducerSpec, errors: ErrorSpec, cranks, law: ContactLaw, ec
     (``modal_node`` ≥ 0) carries the pins on its seats in every disc's contact.
     """
     check_choice("fidelity", fidelity, BodyFidelity)
+    axial = spec.cranks.eccentric_axial_positions_m  # a tilted pin ring is cut at each disc's plane
     carried = {}
     if housing is not None and housing.modal_node >= 0:
         carried = {"housing_node": housing.modal_node, "seat": housing.seat_rows}
@@ -106,7 +107,8 @@ def build(mbs, spec: ReducerSpec, errors: ErrorSpec, cranks, law: ContactLaw, ec
         # pin and disc errors may make pins interfere by a few µm at the nominal pose (the first
         # static step resolves it); deeper than 50 µm would be a broken spec
         contacts.append(add_cycloid_pin_contact(mbs, node, cy, law, disc=d, errors=errors,
-                                                initial_interference_m=50e-6, **carried))
+                                                initial_interference_m=50e-6,
+                                                axial_m=axial[d] - float(np.mean(axial)), **carried))
         nodes.append(int(node))
         bodies.append(int(body))
         ecc_bearings.append(tuple(pairs))

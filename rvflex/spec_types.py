@@ -516,6 +516,11 @@ class ErrorSpec:
         Error of the pin-circle radius, m.
     pin_ring_runout_m, pin_ring_runout_phase_rad : float
         Runout of the pin ring (m) and its phase (rad).
+    pin_ring_tilt_rad, pin_ring_tilt_phase_rad : float
+        Tilt of the pins (their housing bores) against the crank axis (rad, at most 10 mrad) and the
+        direction the ring leans towards (rad): the disc at axial position z (the crank's eccentric, from the
+        discs' mid-plane) sees the pin ring shifted by tilt·z in that direction, the discs on either side
+        oppositely.
     carrier_bore_eccentricity_m, carrier_bore_eccentricity_phase_rad : tuple of float
         Per crank: eccentricity of its carrier bore (m) and its phase (rad).
     carrier_runout_m, carrier_runout_phase_rad : float
@@ -561,6 +566,8 @@ class ErrorSpec:
     pin_circle_radius_error_m: float = 0.0
     pin_ring_runout_m: float = 0.0
     pin_ring_runout_phase_rad: float = 0.0
+    pin_ring_tilt_rad: float = 0.0
+    pin_ring_tilt_phase_rad: float = 0.0
     # carrier
     carrier_bore_eccentricity_m: tuple[float, ...] = ()
     carrier_bore_eccentricity_phase_rad: tuple[float, ...] = ()
@@ -604,6 +611,8 @@ class ErrorSpec:
         # an angle error of µrad–mrad scale; the sun's angle θ + a·cos(θ − ψ) must still rise with θ (a < 1)
         _range("input_shaft_angle_error_rad", self.input_shaft_angle_error_rad, 0.0, 0.01,
                "expected an amplitude in radians, 0 to 10 mrad (the phase goes in input_shaft_angle_error_phase_rad)")
+        _range("pin_ring_tilt_rad", self.pin_ring_tilt_rad, -0.01, 0.01,
+               "expected a tilt in radians, at most ±10 mrad (the direction goes in pin_ring_tilt_phase_rad)")
 
     def check_against(self, spec: ReducerSpec) -> None:
         """Raise :class:`SpecError` if a per-item tuple does not match ``spec``'s item counts.

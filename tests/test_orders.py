@@ -199,6 +199,23 @@ def test_housing_fixed_runouts_show_at_twice_the_pin_sweep_and_a_turning_carrier
     assert any("carrier runout turning with the carrier" in s for s in named["lacking"])
 
 
+@pytest.mark.parametrize("unit", ["rv40e", "rv160n"])
+def test_a_tilted_pin_ring_shows_at_z_c_where_a_runout_cancels_and_the_library_names_it_there(unit):
+    """The pins leaning against the crank axis by 2 µm at each disc plane (the discs see the ring offset
+    oppositely, ErrorSpec.pin_ring_tilt_rad): the discs' kinematic errors at the odd harmonics of the load
+    zone's sweep add instead of cancelling, so the TE shows at z_c = 39 on the two- and the three-crank unit,
+    at several arcseconds (a runout of the same size: ≤ 0.1″ at 78), and twice z_c at under 5 % of it. The
+    table names the effect pin_ring_tilt there, and not at twice z_c."""
+    spec = catalog.load(unit)
+    z = max(spec.cranks.eccentric_axial_positions_m) - float(np.mean(spec.cranks.eccentric_axial_positions_m))
+    amp, n = _added(unit, ErrorSpec(pin_ring_tilt_rad=2 * UM / z, pin_ring_tilt_phase_rad=0.4))
+    zc = spec.cycloid.disc_teeth
+    assert _strongest(amp, n, unit) == zc and amp[zc] > 3.0 and amp[2 * zc] < 0.05 * amp[zc]
+    named = name_orders(spec, [zc])[0]
+    assert _keys(named["parts"])["crank_housing"] == 1
+    assert "pin_ring_tilt" in named["candidates"] and "pin_ring_tilt" not in effects_at(spec, 2 * zc)
+
+
 def test_pin_ring_lobing_shows_where_the_table_puts_it():
     """RV-40E: 2 lobes → 78 = 2·z_c; 3 lobes → 234 = 6·z_c (3·z_c = 117 cancelled by the discs'
     phases); 4 lobes → 156 = 4·z_c."""

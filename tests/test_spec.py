@@ -90,6 +90,7 @@ def test_error_toml_round_trip_is_exact(rv40e):
         disc_profile_error_m=(tuple(0.3e-6 for _ in range(zc)), tuple(-0.1e-6 for _ in range(zc))),
         input_shaft_angle_error_rad=3e-4, input_shaft_angle_error_phase_rad=-1.2,
         crank_runout_m=(3e-6, 0.0), crank_runout_phase_rad=(0.5, 0.0),
+        pin_ring_tilt_rad=3e-4, pin_ring_tilt_phase_rad=0.4,
     )
     again = loads_errors(dumps_errors(errors), spec=rv40e)
     assert again == errors
@@ -102,6 +103,7 @@ def test_error_toml_round_trip_is_exact(rv40e):
     ("crank_runout_m = [3e-6, 3e-6, 3e-6]", "crank_runout_m", "needs 2 values (one per crank of"),
     ("crank_runout_m = [3e-3, 0.0]", "crank_runout_m[0]", "expected metres"),
     ("crank_runout_phase_rad = [7.0, 0.0]", "crank_runout_phase_rad[0]", "radians within ±2π"),
+    ("pin_ring_tilt_rad = 0.05", "pin_ring_tilt_rad", "at most ±10 mrad"),
 ])
 def test_bad_input_shaft_and_crank_runout_errors_are_refused_naming_the_field(rv40e, text, field, rule):
     with pytest.raises(SpecError) as info:

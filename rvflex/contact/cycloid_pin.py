@@ -527,7 +527,8 @@ def add_cycloid_pin_contact(mbs, disc_node: int, stage: CycloidStage, law: Conta
                             initial_interference_m: float = DEFAULT_INITIAL_INTERFERENCE_M,
                             profile: CycloidProfile | None = None, modal_node: int = -1,
                             phi: np.ndarray | None = None, offset_rad: float | None = None,
-                            housing_node: int = -1, seat: np.ndarray | None = None) -> CycloidPinContact:
+                            housing_node: int = -1, seat: np.ndarray | None = None,
+                            axial_m: float = 0.0) -> CycloidPinContact:
     """Add the contact between disc ``disc`` of ``stage`` (on ``disc_node``) and the fixed pin ring.
 
     Parameters
@@ -560,6 +561,9 @@ def add_cycloid_pin_contact(mbs, disc_node: int, stage: CycloidStage, law: Conta
         A flexible pin housing: its modal coordinates are the NodeGenericODE2 ``housing_node``
         (h coordinates) and pin i sits at its nominal centre plus ``seat[i] @ ξ`` (``seat``
         (n_pins, 2, h), m per modal unit, ring frame): the in-plane motion of its seat.
+    axial_m : float, optional
+        The disc's axial position from the discs' mid-plane (m): where a tilted pin ring
+        (``errors.pin_ring_tilt_rad``) is cut.
 
     Raises
     ------
@@ -595,7 +599,7 @@ def add_cycloid_pin_contact(mbs, disc_node: int, stage: CycloidStage, law: Conta
     if errors is not None:
         errors.check_cycloid(stage)
     prof = profile or build_profile(stage, errors, disc)
-    pins = np.ascontiguousarray(pin_centres(stage, errors))
+    pins = np.ascontiguousarray(pin_centres(stage, errors, axial_m))
     radii = np.ascontiguousarray(pin_radii(stage, errors))
     ref = np.asarray(node["referenceCoordinates"], float)
     init = ref + np.asarray(node.get("initialCoordinates", np.zeros(len(ref))), float)

@@ -385,6 +385,16 @@ def _builtin() -> tuple[Effect, ...]:
                "or carrier-seat runout), as (r cos 2φ, r sin 2φ): only 2φ is observable",
                polar(20 * um, 5 * um, ("cos2phi_m", "sin2phi_m")),
                apply=partial(_runout, field="pin_ring_runout_m", angle_multiple=2), polar=True),
+        # pins leaning against the crank axis: the discs, on either side of their mid-plane, see the ring moved
+        # oppositely, so their kinematic errors at the odd harmonics of the load zone's sweep add where a runout's
+        # cancel (measured: 2 µm at each disc plane → 8.2″ at z_c on the RV-40E, its phase turning with φ)
+        Effect("pin_ring_tilt", "pin-ring tilt t against the crank axis towards φ (pin bores not parallel to it, or a "
+               "ring offset that differs between the disc planes: the disc at axial position z sees the ring moved "
+               "t·z), as (t cos φ, t sin φ)",
+               polar(1e-3, 2e-4, ("cos_rad", "sin_rad"), "rad"),
+               apply=partial(_runout, field="pin_ring_tilt_rad", phase_field="pin_ring_tilt_phase_rad"), polar=True,
+               separating_runs="a measurement of the pin bores' parallelism to the crank axis, or TE with the unit "
+                               "turned end for end on the bench (a tilt keeps its order z_c)"),
         Effect("pin_position_h2", "per-pin radial position error, 2nd harmonic around the ring (cos/sin amplitudes)",
                polar(10 * um, 4 * um, ("cos_m", "sin_m")), apply=partial(_pin_harmonic, harmonic=2), polar=True,
                central=True),

@@ -42,6 +42,10 @@ positions per output revolution; amplitudes per typical step of the effect):
   0.059″ RV-160N), nothing at 39; 2-lobed pins 5 µm → 78 (9.9″), 156, 234; 3-lobed → 234 = 6·z_c
   (1.44″), nothing at 117; 4-lobed (``pin_position_h4``) → 156 = 4·z_c (2.54″ for 4 µm RV-40E, 0.47″ for
   2 µm RV-160N), 312;
+- a pin ring tilted against the crank axis (``ErrorSpec.pin_ring_tilt_rad``: the discs see the ring offset
+  oppositely) shows at the odd n·z_c the runout's phases cancel: 2 µm at each disc plane → 39 (8.2″ RV-40E,
+  5.1″ RV-160N; at 100, 800 and 1800 N·m alike on the RV-160N), 78 (0.15″, 0.08″), nothing at 117
+  (4e-4″): the effect ``pin_ring_tilt``;
 - errors on the discs swept by the load zone show at m·z_b: a once-per-disc pitch error
   (``cycloid_pitch_error``) → 40 (6.9″ on one disc, 0.56″ alike on both; 0.08″ at 80), nothing at
   order 1; one tooth's profile error → 40, 80, 120, …;
@@ -89,12 +93,16 @@ from rvflex.spec import ReducerSpec
 __all__ = ["MEAN_ONLY", "PART_ERRORS", "NO_PART_NOTE", "HarmonicRule", "PartError", "PartRotation", "effects_at",
            "lacking_lookalikes", "name_orders", "parts_at", "rotations"]
 
-HarmonicRule = Literal["any", "first", "discs_housing", "discs_carrier", "cranks_carrier", "planets"]
+HarmonicRule = Literal["any", "first", "discs_housing", "discs_housing_tilt", "discs_carrier", "cranks_carrier",
+                       "planets"]
 """At which harmonics of its part an error shows in the TE:
 
 ``"any"``: every harmonic m; ``"first"``: m = 1 only; ``"discs_housing"``: an error fixed in the housing
 and swept by the load zone, at TE order n·z_c where the discs' eccentric phases φ_d do not cancel
-(Σ_d exp(i·n·φ_d) ≠ 0); ``"discs_carrier"``: the same for an error fixed on the carrier, at n·z_b;
+(Σ_d exp(i·n·φ_d) ≠ 0); ``"discs_housing_tilt"``: a once-round error that the discs see with opposite signs
+(a tilted pin ring: disc d at axial position z_d sees it ∝ z_d), at z_c itself where Σ_d z_d·exp(i·φ_d) ≠ 0 (two
+discs in antiphase: the order a runout's cancel; its higher harmonics are second order, measured
+below); ``"discs_carrier"``: the same for an error fixed on the carrier, at n·z_b;
 ``"cranks_carrier"``: n·z_b with n a multiple of the crank count and not cancelled by the discs'
 phases (an error alike on every crank's bearing); ``"planets"``: harmonics m of the sun's order against
 the carrier that are multiples of the crank (planet) count."""
@@ -197,6 +205,9 @@ PART_ERRORS: dict[str, PartError] = {e.key: e for e in (
               "discs_housing"),
     PartError("pin_ring_runout", "pin-ring runout (1 lobe) or a main-bearing seat offset in the housing",
               ("pin_ring_runout",), "discs_housing"),
+    PartError("pin_ring_tilt", "pin-ring tilt against the crank axis (pin bores not parallel to it, or a ring offset "
+              "that differs between the disc planes): the discs see the ring offset oppositely", ("pin_ring_tilt",),
+              "discs_housing_tilt"),
     PartError("pin_ring_lobing_2", "pin-ring lobing (2 lobes)", ("pin_position_h2",), "discs_housing"),
     PartError("pin_ring_lobing_3", "pin-ring lobing (3 lobes)", ("pin_position_h3",), "discs_housing"),
     PartError("pin_ring_lobing_4", "pin-ring lobing (4 lobes)", ("pin_position_h4",), "discs_housing"),
@@ -265,7 +276,7 @@ def rotations(spec: ReducerSpec) -> tuple[PartRotation, ...]:
         PartRotation("pin_passing", "pin passing (the pins past a point of the carrier and discs)",
                      Fraction(zb), "carrier"),
         PartRotation("crank_housing", "cranks against the pin ring (the load zone sweeping the pins)", crank_housing,
-                     "housing", ("pin_errors", "pin_ring_runout")),
+                     "housing", ("pin_errors", "pin_ring_runout", "pin_ring_tilt")),
     ]
     out += [PartRotation(f"pin_ring_lobing_{n}", f"pin-ring lobing ({n} lobes)", n * crank_housing, "load zone",
                          (f"pin_ring_lobing_{n}",)) for n in _LOBES]
@@ -326,9 +337,16 @@ def parts_at(spec: ReducerSpec, order, max_harmonic: int = 8) -> list[dict]:
     return out
 
 
-def _disc_sum(spec: ReducerSpec, n: int) -> float:
+def _disc_sum(spec: ReducerSpec, n: int, tilted: bool = False) -> float:
+    """|Σ_d w_d·exp(i·n·φ_d)| / Σ_d |w_d| over the discs' eccentric phases φ_d: w_d = 1, or (``tilted``) the disc's
+    axial position from the discs' mid-plane."""
     phases = spec.cycloid.disc_phase_rad
-    return abs(sum(cmath.exp(1j * n * p) for p in phases)) / len(phases)
+    if not tilted:
+        return abs(sum(cmath.exp(1j * n * p) for p in phases)) / len(phases)
+    z = spec.cranks.eccentric_axial_positions_m
+    w = [zd - sum(z) / len(z) for zd in z]
+    total = sum(abs(x) for x in w)
+    return abs(sum(x * cmath.exp(1j * n * p) for x, p in zip(w, phases))) / total if total > 0 else 0.0
 
 
 def _shows(err: PartError, spec: ReducerSpec, order: Fraction, m: int) -> tuple[bool, bool]:
@@ -341,12 +359,12 @@ def _shows(err: PartError, spec: ReducerSpec, order: Fraction, m: int) -> tuple[
         return m == 1, False
     if rule == "planets":
         return m % nc == 0, False
-    n = order / (zc if rule == "discs_housing" else zb)
-    if n.denominator != 1:
+    n = order / (zc if rule in ("discs_housing", "discs_housing_tilt") else zb)
+    if n.denominator != 1 or (rule == "discs_housing_tilt" and n != 1):
         return False, False
     if rule == "cranks_carrier" and int(n) % nc:
         return False, False
-    if _disc_sum(spec, int(n)) < 1e-6:
+    if _disc_sum(spec, int(n), tilted=rule == "discs_housing_tilt") < 1e-6:
         return False, True
     return True, False
 

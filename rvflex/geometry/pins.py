@@ -15,12 +15,14 @@ from rvflex.spec_types import CycloidStage, ErrorSpec
 __all__ = ["pin_centres", "pin_radii", "nominal_disc_pose", "to_disc_frame", "pin_angle_from_eccentric"]
 
 
-def pin_centres(stage: CycloidStage, errors: ErrorSpec | None = None) -> np.ndarray:
-    """Pin centres in the ring frame, shape (z_b, 2) (m), including the ErrorSpec pin errors.
+def pin_centres(stage: CycloidStage, errors: ErrorSpec | None = None, axial_m: float = 0.0) -> np.ndarray:
+    """Pin centres in the ring frame, shape (z_b, 2) (m), including the ErrorSpec pin errors, in the
+    plane at axial position ``axial_m`` from the discs' mid-plane (m; a disc's: its crank eccentric's).
 
     Applied: ``pin_circle_radius_error_m``, per-pin ``pin_radial_m`` (outward) and
-    ``pin_tangential_m`` (arc length, counter-clockwise), and the ring runout
-    ``pin_ring_runout_m`` at ``pin_ring_runout_phase_rad`` (a shift of the whole ring).
+    ``pin_tangential_m`` (arc length, counter-clockwise), the ring runout
+    ``pin_ring_runout_m`` at ``pin_ring_runout_phase_rad`` (a shift of the whole ring), and the
+    ring's tilt: a shift ``pin_ring_tilt_rad``·``axial_m`` towards ``pin_ring_tilt_phase_rad``.
     """
     zb = stage.pin_count
     r = np.full(zb, stage.pin_circle_radius_m)
@@ -34,6 +36,8 @@ def pin_centres(stage: CycloidStage, errors: ErrorSpec | None = None) -> np.ndar
             ang = ang + np.asarray(errors.pin_tangential_m) / stage.pin_circle_radius_m
         shift = errors.pin_ring_runout_m * np.array(
             [np.cos(errors.pin_ring_runout_phase_rad), np.sin(errors.pin_ring_runout_phase_rad)])
+        shift = shift + errors.pin_ring_tilt_rad * axial_m * np.array(
+            [np.cos(errors.pin_ring_tilt_phase_rad), np.sin(errors.pin_ring_tilt_phase_rad)])
     return np.column_stack([r * np.cos(ang), r * np.sin(ang)]) + shift
 
 
