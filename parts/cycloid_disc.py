@@ -15,8 +15,8 @@ from rvflex.fe.geometry import pillar_angles
 from rvflex.parts import bearings
 from rvflex.spec import ErrorSpec, ReducerSpec
 
-__all__ = ["DiscHandles", "FEDiscPlacement", "build", "bore_positions", "contact_mode_table", "fe_disc_placements",
-           "fe_disc_spec"]
+__all__ = ["DiscHandles", "FEDiscPlacement", "build", "bore_positions", "contact_mode_table", "disc_planes",
+           "fe_disc_placements", "fe_disc_spec"]
 
 
 @dataclass(frozen=True)
@@ -49,6 +49,13 @@ def contact_mode_table(flank, offset_rad: float, grid_per_tooth: int, teeth: int
     return np.ascontiguousarray(out)
 
 
+def disc_planes(spec: ReducerSpec) -> np.ndarray:
+    """Each disc's axial position from the discs' mid-plane (its crank eccentric's), m: where a tilted pin ring
+    (``ErrorSpec.pin_ring_tilt_rad``) is cut."""
+    z = np.asarray(spec.cranks.eccentric_axial_positions_m, float)
+    return z - z.mean()
+
+
 def bore_positions(spec: ReducerSpec, errors: ErrorSpec, disc: int) -> np.ndarray:
     """Crank-bore centres in the disc frame, (cranks, 2) (m); a bore-distance error a_c moves
     each bore radially by half of it."""
@@ -77,7 +84,6 @@ def build(mbs, spec: ReducerSpec, errors: ErrorSpec, cranks, law: ContactLaw, ec
     (``modal_node`` ≥ 0) carries the pins on its seats in every disc's contact.
     """
     check_choice("fidelity", fidelity, BodyFidelity)
-    axial = spec.cranks.eccentric_axial_positions_m  # a tilted pin ring is cut at each disc's plane
     carried = {}
     if housing is not None and housing.modal_node >= 0:
         carried = {"housing_node": housing.modal_node, "seat": housing.seat_rows}
@@ -108,7 +114,7 @@ def build(mbs, spec: ReducerSpec, errors: ErrorSpec, cranks, law: ContactLaw, ec
         # static step resolves it); deeper than 50 µm would be a broken spec
         contacts.append(add_cycloid_pin_contact(mbs, node, cy, law, disc=d, errors=errors,
                                                 initial_interference_m=50e-6,
-                                                axial_m=axial[d] - float(np.mean(axial)), **carried))
+                                                axial_m=disc_planes(spec)[d], **carried))
         nodes.append(int(node))
         bodies.append(int(body))
         ecc_bearings.append(tuple(pairs))
@@ -272,7 +278,7 @@ def _build_flexible(mbs, spec, errors, cranks, law, eccentric_offsets, axes, red
         phi = contact_mode_table(red.flank, offset, grid_per_tooth, cy.disc_teeth)
         contacts.append(add_cycloid_pin_contact(mbs, node, cy, law, disc=d, errors=errors,
                                                 initial_interference_m=50e-6, modal_node=modal, phi=phi,
-                                                offset_rad=offset, **carried))
+                                                offset_rad=offset, axial_m=disc_planes(spec)[d], **carried))
         nodes.append(node)
         bodies.append(body)
         modal_nodes.append(modal)

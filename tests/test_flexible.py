@@ -260,3 +260,27 @@ def test_a_disc_meshed_with_the_nominal_profile_keeps_the_exact_modified_contact
     assert meshed and all(meshed)  # the nominal disc's reduction, from the cache
     assert np.abs(exact - before).max() > 10.0
     assert np.abs(nominal_mesh - exact).max() < 0.3
+
+
+def test_a_tilted_pin_ring_is_cut_at_each_discs_plane_with_fe_discs_as_with_rigid_ones(setup):
+    """A pin ring tilted by 0.3 mrad towards 0.4 rad: each disc's contact, FE-reduced or rigid, has the pins moved
+    by tilt·z at its plane (z = its eccentric's axial position from the discs' mid-plane), the two discs oppositely;
+    the TE of the flexible unit changes by arcseconds (a kinematic error at z_c) while the untilted pins sit
+    where the error-free ring has them."""
+    from rvflex.parts.cycloid_disc import disc_planes
+    from rvflex.spec import ErrorSpec
+
+    spec, reduced, theta, _ = setup
+    tilt, phase = 3e-4, 0.4
+    errors = ErrorSpec(pin_ring_tilt_rad=tilt, pin_ring_tilt_phase_rad=phase)
+    direction = np.array([np.cos(phase), np.sin(phase)])
+    plain = build_reducer(spec, None, "flexible", reduced_disc=reduced)
+    for fidelity in ("rigid", "flexible"):
+        model = build_reducer(spec, errors, fidelity, reduced_disc=reduced if fidelity == "flexible" else None)
+        z = disc_planes(spec)
+        assert z[0] == -z[-1] != 0.0
+        for d, c in enumerate(model.discs.contacts):
+            shift = c.pins_m - plain.discs.contacts[d].pins_m
+            np.testing.assert_allclose(shift, np.tile(tilt * z[d] * direction, (len(shift), 1)), atol=1e-12)
+    te = quasi_static(model, theta, spec.rated_torque_Nm).te_rad * ARCSEC_PER_RAD
+    assert np.max(np.abs(te - _flexible_te(spec, reduced, theta))) > 1.0
