@@ -70,7 +70,7 @@ def _revision() -> str | None:
     try:
         head = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short=12", "HEAD"], capture_output=True,
                               text=True, check=True).stdout.strip()
-        # tracked files only: a run beside it can leave numba's cache files in the tree for a moment
+        # tracked files only: untracked files (caches, scratch output) are not the code
         dirty = subprocess.run(["git", "-C", str(ROOT), "status", "--porcelain", "--untracked-files=no", "--",
                                 "rvflex", "scenarios"],
                                capture_output=True, text=True, check=True).stdout.strip()
