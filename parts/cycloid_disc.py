@@ -12,11 +12,12 @@ from rvflex.choices import BodyFidelity, check_choice
 from rvflex.contact.cycloid_pin import ContactLaw, CycloidPinContact, add_cycloid_pin_contact
 from rvflex.fe import ffrf as ffrf_module  # called through the module: tests stand in for ffrf_interface
 from rvflex.fe.geometry import pillar_angles
+from rvflex.geometry.pins import disc_planes
 from rvflex.parts import bearings
 from rvflex.spec import ErrorSpec, ReducerSpec
 
-__all__ = ["DiscHandles", "FEDiscPlacement", "build", "bore_positions", "contact_mode_table", "disc_planes",
-           "fe_disc_placements", "fe_disc_spec"]
+__all__ = ["DiscHandles", "FEDiscPlacement", "build", "bore_positions", "contact_mode_table", "fe_disc_placements",
+           "fe_disc_spec"]
 
 
 @dataclass(frozen=True)
@@ -47,13 +48,6 @@ def contact_mode_table(flank, offset_rad: float, grid_per_tooth: int, teeth: int
     out[:, 0] = c * rows[:, 0] + s_ * rows[:, 1]
     out[:, 1] = -s_ * rows[:, 0] + c * rows[:, 1]
     return np.ascontiguousarray(out)
-
-
-def disc_planes(spec: ReducerSpec) -> np.ndarray:
-    """Each disc's axial position from the discs' mid-plane (its crank eccentric's), m: where a tilted pin ring
-    (``ErrorSpec.pin_ring_tilt_rad``) is cut."""
-    z = np.asarray(spec.cranks.eccentric_axial_positions_m, float)
-    return z - z.mean()
 
 
 def bore_positions(spec: ReducerSpec, errors: ErrorSpec, disc: int) -> np.ndarray:

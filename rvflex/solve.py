@@ -746,10 +746,10 @@ def torque_stepping(model: ReducerModel, torques_Nm: np.ndarray, *, progress=Non
                 # a zero torque that floats (even by the continuation) is taken at the small torque on the side
                 # the path comes from (a cycle's first step, out of the kinematic state: the positive side)
                 shifted = (np.sign(prev) or 1.0) * ZERO_TORQUE_SHIFT * amplitude
-                attempts = [(stiffened, t), (again, t)] + ([(stiffened, shifted), (again, shifted)] if t == 0.0 else [])
-                for k, (how, at) in enumerate(attempts):
+                attempts = [(from_last, at) for at in ((t, shifted) if t == 0.0 else (t,)) for from_last in (True, False)]
+                for k, (from_last, at) in enumerate(attempts):
                     try:
-                        q = stiffened(q, at) if how is stiffened else again(at)
+                        q = stiffened(q, at) if from_last else again(at)
                     except _Abort:
                         raise
                     except Exception:  # noqa: BLE001 - Exudyn raises its own error types

@@ -267,7 +267,7 @@ def test_a_tilted_pin_ring_is_cut_at_each_discs_plane_with_fe_discs_as_with_rigi
     by tilt·z at its plane (z = its eccentric's axial position from the discs' mid-plane), the two discs oppositely;
     the TE of the flexible unit changes by arcseconds (a kinematic error at z_c) while the untilted pins sit
     where the error-free ring has them."""
-    from rvflex.parts.cycloid_disc import disc_planes
+    from rvflex.geometry.pins import disc_planes
     from rvflex.spec import ErrorSpec
 
     spec, reduced, theta, _ = setup

@@ -24,9 +24,8 @@ healthy units reach is not a finding. The largest, not the 95th percentile: a un
 percentile lies between their two largest values and below the true one about half the time, and a diagnosis
 tries some twenty effects, so per-effect percentiles let more than one case in twenty through (measured on the
 ensemble self-checks at 06f66ff: 2 false names in 20 cases for seeds 1 and 3 with the percentiles, 1 with the
-largest). :func:`leave_one_out` measures what the
-thresholds hold on controls they were not made from. The distribution ships with the package
-(:data:`NULL_PATH`) and names the commit-independent settings it was made with.
+largest). :func:`leave_one_out` measures what the thresholds hold on controls they were not made from. The
+distribution ships with the package (:data:`NULL_PATH`) and names the commit-independent settings it was made with.
 """
 
 from __future__ import annotations

@@ -43,7 +43,7 @@ positions per output revolution; amplitudes per typical step of the effect):
   (1.44″), nothing at 117; 4-lobed (``pin_position_h4``) → 156 = 4·z_c (2.54″ for 4 µm RV-40E, 0.47″ for
   2 µm RV-160N), 312;
 - a pin ring tilted against the crank axis (``ErrorSpec.pin_ring_tilt_rad``: the discs see the ring offset
-  oppositely) shows at the odd n·z_c the runout's phases cancel: 2 µm at each disc plane → 39 (8.2″ RV-40E,
+  oppositely) shows at z_c, where the runout's phases cancel: 2 µm at each disc plane → 39 (8.2″ RV-40E,
   5.1″ RV-160N; at 100, 800 and 1800 N·m alike on the RV-160N), 78 (0.15″, 0.08″), nothing at 117
   (4e-4″): the effect ``pin_ring_tilt``;
 - errors on the discs swept by the load zone show at m·z_b: a once-per-disc pitch error
@@ -87,7 +87,10 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import Literal, get_args
 
+import numpy as np
+
 from rvflex.diagnosis.effects import EFFECTS
+from rvflex.geometry.pins import disc_planes
 from rvflex.spec import ReducerSpec
 
 __all__ = ["MEAN_ONLY", "PART_ERRORS", "NO_PART_NOTE", "HarmonicRule", "PartError", "PartRotation", "effects_at",
@@ -341,11 +344,8 @@ def _disc_sum(spec: ReducerSpec, n: int, tilted: bool = False) -> float:
     """|Σ_d w_d·exp(i·n·φ_d)| / Σ_d |w_d| over the discs' eccentric phases φ_d: w_d = 1, or (``tilted``) the disc's
     axial position from the discs' mid-plane."""
     phases = spec.cycloid.disc_phase_rad
-    if not tilted:
-        return abs(sum(cmath.exp(1j * n * p) for p in phases)) / len(phases)
-    z = spec.cranks.eccentric_axial_positions_m
-    w = [zd - sum(z) / len(z) for zd in z]
-    total = sum(abs(x) for x in w)
+    w = disc_planes(spec) if tilted else np.ones(len(phases))
+    total = float(np.sum(np.abs(w)))
     return abs(sum(x * cmath.exp(1j * n * p) for x, p in zip(w, phases))) / total if total > 0 else 0.0
 
 

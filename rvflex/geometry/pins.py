@@ -10,9 +10,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from rvflex.spec_types import CycloidStage, ErrorSpec
+from rvflex.spec_types import CycloidStage, ErrorSpec, ReducerSpec
 
-__all__ = ["pin_centres", "pin_radii", "nominal_disc_pose", "to_disc_frame", "pin_angle_from_eccentric"]
+__all__ = ["disc_planes", "pin_centres", "pin_radii", "nominal_disc_pose", "to_disc_frame", "pin_angle_from_eccentric"]
+
+
+def disc_planes(spec: ReducerSpec) -> np.ndarray:
+    """Each disc's axial position from the discs' mid-plane (its crank eccentric's), shape (discs,) (m): where
+    :func:`pin_centres` cuts a tilted pin ring (``ErrorSpec.pin_ring_tilt_rad``)."""
+    z = np.asarray(spec.cranks.eccentric_axial_positions_m, float)
+    return z - z.mean()
 
 
 def pin_centres(stage: CycloidStage, errors: ErrorSpec | None = None, axial_m: float = 0.0) -> np.ndarray:
