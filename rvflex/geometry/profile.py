@@ -182,8 +182,9 @@ class CycloidProfile:
         if worst <= 0.0:
             return "undercut", float(ts[k]), 0.0
         q, q1, _ = self.evaluate(ts)
-        i, j = K.first_self_intersection(np.column_stack([q.real, q.imag]), SAMPLES_PER_TOOTH * 3 // 2)
-        if i >= 0:
+        xy, span = np.column_stack([q.real, q.imag]), SAMPLES_PER_TOOTH * 3 // 2
+        if K.any_self_intersection(xy, span):  # the boxed test first; the first crossing pair only to name it
+            i, j = K.first_self_intersection(xy, span)
             return "crossing", float(ts[i]), float(ts[j])
         area = 0.5 * np.sum(q.real * q1.imag - q.imag * q1.real) * h
         if area <= 0.0:
