@@ -17,6 +17,7 @@ import functools
 import math
 from dataclasses import dataclass
 
+import numba as nb
 import numpy as np
 
 from rvflex.choices import Fidelity
@@ -190,25 +191,11 @@ class ReducerModel:
         """
         k = self._kinematics
         q = self.reference.copy()
-        th_c = theta_in / self.ratio
-        alpha = -self.spec.cycloid.pin_count * th_c  # crank angle relative to the carrier
-        c, s = math.cos(th_c), math.sin(th_c)
-        q[k["sun"]] = theta_in
-        q[k["carrier"]] = th_c
-        ax = k["crank_axes"]
-        q[k["crank_x"]] = c * ax[:, 0] - s * ax[:, 1]
-        q[k["crank_y"]] = s * ax[:, 0] + c * ax[:, 1]
-        q[k["crank_th"]] = th_c + alpha
-        v = k["disc_base"] + k["eccentricity"] * np.stack([np.cos(alpha + k["disc_phase"]),
-                                                           np.sin(alpha + k["disc_phase"])], axis=1)
-        q[k["disc_x"]] = c * v[:, 0] - s * v[:, 1]
-        q[k["disc_y"]] = s * v[:, 0] + c * v[:, 1]
-        q[k["disc_th"]] += th_c  # a flexible disc may sit turned by a half turn (its reference angle)
-        q[k["modal"]] = 0.0
+        _ideal_kinematics(q, float(theta_in), self.ratio, float(self.spec.cycloid.pin_count), *k)
         return q
 
     @functools.cached_property
-    def _kinematics(self) -> dict:
+    def _kinematics(self) -> tuple:
         # index arrays and constants of kinematic_coordinates, computed once (it runs every quasi-static step)
         sl = self.planar_index()
         cy = self.spec.cycloid
@@ -218,16 +205,15 @@ class ReducerModel:
                                                                                        axis=1)
         modal = [np.arange(self.mbs.GetNodeODE2Index(n), self.mbs.GetNodeODE2Index(n)
                            + self.mbs.GetNode(n)["numberOfODE2Coordinates"]) for n in self.modal_nodes]
-        return {"sun": sl["sun"][2], "carrier": sl["carrier"][2],
-                "crank_axes": np.asarray(self.crank_axes, float)[:nk],
-                "crank_x": np.array([sl[f"crank{i}"][0] for i in range(nk)]),
-                "crank_y": np.array([sl[f"crank{i}"][1] for i in range(nk)]),
-                "crank_th": np.array([sl[f"crank{i}"][2] for i in range(nk)]),
-                "disc_x": np.array([sl[f"disc{d}"][0] for d in range(nd)]),
-                "disc_y": np.array([sl[f"disc{d}"][1] for d in range(nd)]),
-                "disc_th": np.array([sl[f"disc{d}"][2] for d in range(nd)]),
-                "disc_base": base, "disc_phase": phase, "eccentricity": cy.eccentricity_m,
-                "modal": np.concatenate(modal) if modal else np.zeros(0, dtype=int)}
+
+        def idx(name, j, n):
+            return np.array([sl[f"{name}{i}"][j] for i in range(n)], dtype=np.int64)
+
+        # in the argument order of _ideal_kinematics
+        return (int(sl["sun"][2]), int(sl["carrier"][2]), np.ascontiguousarray(np.asarray(self.crank_axes, float)[:nk]),
+                idx("crank", 0, nk), idx("crank", 1, nk), idx("crank", 2, nk), np.ascontiguousarray(base),
+                float(cy.eccentricity_m), phase, idx("disc", 0, nd), idx("disc", 1, nd), idx("disc", 2, nd),
+                (np.concatenate(modal) if modal else np.zeros(0)).astype(np.int64))
 
 
 def disc_mesh_spec(spec: ReducerSpec, modification=None) -> ReducerSpec:
@@ -371,3 +357,28 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None,
     centres = np.array([np.asarray(mbs.GetNode(n)["referenceCoordinates"])[:2] for n in discs.nodes])
     return ReducerModel(spec, errors, options, sc, mbs, sun, carrier, cranks, discs, pins, ref, axes, centres, seat_in,
                         reduced_disc, reduced_carrier, reduced_discs, reduced_housing)
+
+
+@nb.njit(cache=True, nogil=True)
+def _ideal_kinematics(q, theta_in, ratio, pin_count, sun, carrier, crank_axes, crank_x, crank_y, crank_th, disc_base,
+                      eccentricity, disc_phase, disc_x, disc_y, disc_th, modal):
+    # ReducerModel.kinematic_coordinates in place on q (the reference coordinates): one compiled call per
+    # quasi-static step instead of some thirty small numpy operations
+    th_c = theta_in / ratio
+    alpha = -pin_count * th_c  # crank angle relative to the carrier
+    c, s = math.cos(th_c), math.sin(th_c)
+    q[sun] = theta_in
+    q[carrier] = th_c
+    for i in range(crank_x.shape[0]):
+        ax, ay = crank_axes[i, 0], crank_axes[i, 1]
+        q[crank_x[i]] = c * ax - s * ay
+        q[crank_y[i]] = s * ax + c * ay
+        q[crank_th[i]] = th_c + alpha
+    for d in range(disc_x.shape[0]):
+        vx = disc_base[d, 0] + eccentricity * math.cos(alpha + disc_phase[d])
+        vy = disc_base[d, 1] + eccentricity * math.sin(alpha + disc_phase[d])
+        q[disc_x[d]] = c * vx - s * vy
+        q[disc_y[d]] = s * vx + c * vy
+        q[disc_th[d]] += th_c  # a flexible disc may sit turned by a half turn (its reference angle)
+    for j in modal:
+        q[j] = 0.0
