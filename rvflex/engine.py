@@ -37,7 +37,7 @@ from rvflex.contact import cycloid_pin as K
 from rvflex.contact.gear_mesh import N_STATE as MESH_STATE
 from rvflex.contact.gear_mesh import mesh_kernel
 
-__all__ = ["CompiledStep", "compiled_step", "solve_dense", "StepFailed"]
+__all__ = ["CompiledStep", "compiled_step", "ideal_kinematics", "solve_dense", "StepFailed"]
 
 # point connectors: law kinds
 LAW_CLEARANCE, LAW_CARTESIAN = 0, 1
@@ -292,6 +292,103 @@ def _newton(x, free, cap, ref, pc_idx, pc_lp, pc_kind, pc_par, cs_idx, cs_k, cs_
 
 
 @_jit
+def ideal_kinematics(q, theta_in, ratio, pin_count, sun, carrier, crank_axes, crank_x, crank_y, crank_th, disc_base,
+                      eccentricity, disc_phase, disc_x, disc_y, disc_th, modal):
+    """:meth:`rvflex.model.ReducerModel.kinematic_coordinates` in place on ``q`` (the reference coordinates; m,
+    rad): one compiled call per quasi-static step instead of some thirty small numpy operations."""
+    th_c = theta_in / ratio
+    alpha = -pin_count * th_c  # crank angle relative to the carrier
+    c, s = math.cos(th_c), math.sin(th_c)
+    q[sun] = theta_in
+    q[carrier] = th_c
+    for i in range(crank_x.shape[0]):
+        ax, ay = crank_axes[i, 0], crank_axes[i, 1]
+        q[crank_x[i]] = c * ax - s * ay
+        q[crank_y[i]] = s * ax + c * ay
+        q[crank_th[i]] = th_c + alpha
+    for d in range(disc_x.shape[0]):
+        vx = disc_base[d, 0] + eccentricity * math.cos(alpha + disc_phase[d])
+        vy = disc_base[d, 1] + eccentricity * math.sin(alpha + disc_phase[d])
+        q[disc_x[d]] = c * vx - s * vy
+        q[disc_y[d]] = s * vx + c * vy
+        q[disc_th[d]] += th_c  # a flexible disc may sit turned by a half turn (its reference angle)
+    for j in modal:
+        q[j] = 0.0
+
+
+# why a run of steps stopped (beside the Newton statuses): a penetration beyond the contacts' guard, a jump
+PENETRATED, JUMPED = 10, 11
+
+
+@_jit
+def _steps(theta, ratio, kin, hist_th, hist_e, nh, last_te, max_jump, max_pen, car, drive, regulariser, x_out,
+           out, forces, gaps, states, x, free, cap, ref, fixed_idx, fixed_value, pc_idx, pc_lp, pc_kind, pc_par,
+           cs_idx, cs_k, cs_off, ld_idx, ld_val, ct_node, ct_ref, ct_offset, ct_pins, ct_radii, ct_par, ct_herr,
+           ct_hpsi, ct_law, ct_tcache, ct_zones, ct_window, ct_out, ct_pout, ct_count, ms_idx, ms_par, max_iterations,
+           sun, carrier, crank_axes, crank_x, crank_y, crank_th, disc_base, eccentricity, disc_phase, disc_x, disc_y,
+           disc_th, modal, pin_count):
+    """The recorded steps at input angles ``theta`` in one call, each as :meth:`CompiledStep.solve` and the
+    caller's loop take it: the guess is the ideal kinematics plus the elastic part extrapolated from the last
+    ``nh`` (≤ 3) converged steps (``hist_th``, ``hist_e``, updated in place), the drive and the output regulariser
+    set to the step's angle, Newton, the contacts' penetration guard and the jump check against the last TE.
+    Records the output angle (``out``), and with ``states`` the pins' forces and gaps; ``x_out`` holds the last
+    converged state (absolute). Returns (steps done, status of the step that stopped the run or CONVERGED,
+    evaluations, the last TE, nh)."""
+    n = theta.shape[0]
+    evaluations = 0
+    for s in range(n):
+        th = theta[s]
+        for i in range(kin.shape[0]):
+            kin[i] = ref[i]
+        ideal_kinematics(kin, th, ratio, pin_count, sun, carrier, crank_axes, crank_x, crank_y, crank_th, disc_base,
+                         eccentricity, disc_phase, disc_x, disc_y, disc_th, modal)
+        for i in range(x.shape[0]):
+            x[i] = kin[i] - ref[i]
+        for j in range(nh):  # Lagrange weights at th
+            w = 1.0
+            for m in range(nh):
+                if m != j:
+                    w *= (th - hist_th[m]) / (hist_th[j] - hist_th[m])
+            for i in range(x.shape[0]):
+                x[i] += w * hist_e[j, i]
+        fixed_value[drive] = th
+        cs_off[regulariser] = th / ratio
+        for i in range(fixed_idx.shape[0]):
+            x[fixed_idx[i]] = fixed_value[i]
+        status, ev, pen, norm = _newton(x, free, cap, ref, pc_idx, pc_lp, pc_kind, pc_par, cs_idx, cs_k, cs_off,
+                                        ld_idx, ld_val, ct_node, ct_ref, ct_offset, ct_pins, ct_radii, ct_par, ct_herr,
+                                        ct_hpsi, ct_law, ct_tcache, ct_zones, ct_window, ct_out, ct_pout, ct_count,
+                                        ms_idx, ms_par, max_iterations)
+        evaluations += ev
+        if status != CONVERGED:
+            return s, status, evaluations, last_te, nh
+        if pen > max_pen:
+            return s, PENETRATED, evaluations, last_te, nh
+        te = x[car] + ref[car] - th / ratio
+        if abs(te - last_te) > max_jump:
+            return s, JUMPED, evaluations, last_te, nh
+        last_te = te
+        out[s] = x[car] + ref[car]
+        if states:
+            for d in range(forces.shape[1]):
+                for p in range(forces.shape[2]):
+                    forces[s, d, p] = ct_out[d][p, K.O_FORCE]
+                    gaps[s, d, p] = ct_out[d][p, K.O_GAP]
+        if nh == 3:  # keep the last three
+            for j in range(2):
+                hist_th[j] = hist_th[j + 1]
+                for i in range(x.shape[0]):
+                    hist_e[j, i] = hist_e[j + 1, i]
+            nh = 2
+        hist_th[nh] = th
+        for i in range(x.shape[0]):
+            hist_e[nh, i] = x[i] + ref[i] - kin[i]
+            x_out[i] = x[i] + ref[i]
+        nh += 1
+    return n, CONVERGED, evaluations, last_te, nh
+
+
+@_jit
 def solve_dense(a, b, perm):
     """Solve a·x = b in place (x in b) by Gaussian elimination with partial pivoting; a is overwritten.
     False when a is singular. For the ~15 unknowns of a rigid reducer this is a fraction of a µs, where
@@ -433,6 +530,45 @@ class CompiledStep:
         self.solved = True
         return x + self.model.reference
 
+    def steps(self, theta: np.ndarray, history: list, last_te: float, max_jump: float, out: np.ndarray,
+              forces: np.ndarray, gaps: np.ndarray, states: bool) -> tuple[int, list, float, np.ndarray | None]:
+        """Recorded steps at the input angles ``theta`` (rad) in one compiled call, as the caller's loop takes them
+        one by one with :meth:`solve` (the extrapolated guess from ``history``, a list of (θ_in, elastic part)
+        of the last converged steps, the penetration guard and the jump check beyond ``max_jump`` rad against
+        ``last_te``), under the load and regulariser stiffness currently set in the Exudyn system. Fills
+        ``out``, ``forces`` and ``gaps`` (with ``states``) for the steps taken and stops before the first
+        that fails (which the caller takes its own way). Returns (steps taken, history, last TE, last state or
+        None when none was taken); the Exudyn system is left at the last state with its drive and regulariser."""
+        d, model = self.d, self.model
+        if d["drive_slot"] < 0 or d["regulariser_slot"] < 0 or not len(theta):
+            return 0, history, last_te, None
+        self._runtime()
+        nh = len(history)
+        n2 = len(model.reference)
+        hist_th, hist_e = np.zeros(3), np.zeros((3, n2))
+        for j, (tj, ej) in enumerate(history[-3:]):
+            hist_th[j], hist_e[j] = tj, ej
+        x, x_out, kin = np.zeros(n2), np.zeros(n2), np.zeros(n2)
+        contacts = model.discs.contacts
+        done, status, ev, last_te, nh = _steps(
+            np.ascontiguousarray(theta, float), float(model.ratio), kin, hist_th, hist_e, min(nh, 3), float(last_te),
+            float(max_jump), float(min(c.max_penetration_m for c in contacts)), int(model.output_index),
+            d["drive_slot"], d["regulariser_slot"], x_out, out, forces, gaps, bool(states), x, d["free"], d["cap"],
+            d["ref"], d["fixed_idx"], d["fixed_value"], d["pc_idx"], d["pc_lp"], d["pc_kind"], d["pc_par"], d["cs_idx"],
+            d["cs_k"], d["cs_off"], d["ld_idx"], d["ld_val"], *self._contacts(), d["ms_idx"], d["ms_par"],
+            MAX_ITERATIONS, *model._kinematics, float(model.spec.cycloid.pin_count))
+        self.evaluations += ev
+        self.iterations += ev
+        if done == 0:
+            return 0, history, last_te, None
+        th = float(theta[done - 1])
+        mbs = model.mbs
+        mbs.SetObjectParameter(model.sun.drive, "offset", th)
+        mbs.SetObjectParameter(model.carrier.regulariser, "offset", th / model.ratio)
+        mbs.systemData.SetODE2Coordinates(x_out - model.reference, configuration=_current())
+        self.solved = status == CONVERGED  # else ct_out holds the failed step's last evaluation
+        return done, [(float(hist_th[j]), hist_e[j].copy()) for j in range(nh)], last_te, x_out
+
     def pin_outputs(self, disc: int) -> tuple[np.ndarray, np.ndarray]:
         """Per-pin normal force (N) and gap (m) of disc ``disc`` at the last solved state."""
         out = self.d["ct_out"][disc]
@@ -541,6 +677,10 @@ def compiled_step(model) -> CompiledStep | None:
         "free": free, "cap": cap[free].copy(),
         "fixed_idx": np.array(fixed_idx, dtype=np.int64), "fixed_objects": fixed_objects,
         "fixed_value": np.zeros(len(fixed_idx)),
+        # the input drive's and the output regulariser's places among them (-1: not there, no batched steps)
+        "drive_slot": fixed_objects.index(model.sun.drive) if model.sun.drive in fixed_objects else -1,
+        "regulariser_slot": (spring_objects.index(model.carrier.regulariser)
+                             if model.carrier.regulariser in spring_objects else -1),
         "pc_idx": np.array(pc_idx, dtype=np.int64).reshape(-1, 2),
         "pc_lp": np.array(pc_lp, float).reshape(-1, 2, 2),
         "pc_kind": np.array(pc_kind, dtype=np.int64), "pc_par": np.array(pc_par, float).reshape(-1, 4),

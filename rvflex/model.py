@@ -14,14 +14,13 @@ disc where its eccentrics put it.
 from __future__ import annotations
 
 import functools
-import math
 from dataclasses import dataclass
 
-import numba as nb
 import numpy as np
 
 from rvflex.choices import Fidelity
 from rvflex.contact.cycloid_pin import ContactLaw
+from rvflex.engine import ideal_kinematics
 from rvflex.options import FIDELITIES, ModelOptions, as_options
 from rvflex.parts import carrier as carrier_part
 from rvflex.parts import crankshaft, cycloid_disc, input_stage, pin_ring
@@ -191,7 +190,7 @@ class ReducerModel:
         """
         k = self._kinematics
         q = self.reference.copy()
-        _ideal_kinematics(q, float(theta_in), self.ratio, float(self.spec.cycloid.pin_count), *k)
+        ideal_kinematics(q, float(theta_in), self.ratio, float(self.spec.cycloid.pin_count), *k)
         return q
 
     @functools.cached_property
@@ -209,7 +208,7 @@ class ReducerModel:
         def idx(name, j, n):
             return np.array([sl[f"{name}{i}"][j] for i in range(n)], dtype=np.int64)
 
-        # in the argument order of _ideal_kinematics
+        # in the argument order of rvflex.engine.ideal_kinematics
         return (int(sl["sun"][2]), int(sl["carrier"][2]), np.ascontiguousarray(np.asarray(self.crank_axes, float)[:nk]),
                 idx("crank", 0, nk), idx("crank", 1, nk), idx("crank", 2, nk), np.ascontiguousarray(base),
                 float(cy.eccentricity_m), phase, idx("disc", 0, nd), idx("disc", 1, nd), idx("disc", 2, nd),
@@ -357,28 +356,3 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None,
     centres = np.array([np.asarray(mbs.GetNode(n)["referenceCoordinates"])[:2] for n in discs.nodes])
     return ReducerModel(spec, errors, options, sc, mbs, sun, carrier, cranks, discs, pins, ref, axes, centres, seat_in,
                         reduced_disc, reduced_carrier, reduced_discs, reduced_housing)
-
-
-@nb.njit(cache=True, nogil=True)
-def _ideal_kinematics(q, theta_in, ratio, pin_count, sun, carrier, crank_axes, crank_x, crank_y, crank_th, disc_base,
-                      eccentricity, disc_phase, disc_x, disc_y, disc_th, modal):
-    # ReducerModel.kinematic_coordinates in place on q (the reference coordinates): one compiled call per
-    # quasi-static step instead of some thirty small numpy operations
-    th_c = theta_in / ratio
-    alpha = -pin_count * th_c  # crank angle relative to the carrier
-    c, s = math.cos(th_c), math.sin(th_c)
-    q[sun] = theta_in
-    q[carrier] = th_c
-    for i in range(crank_x.shape[0]):
-        ax, ay = crank_axes[i, 0], crank_axes[i, 1]
-        q[crank_x[i]] = c * ax - s * ay
-        q[crank_y[i]] = s * ax + c * ay
-        q[crank_th[i]] = th_c + alpha
-    for d in range(disc_x.shape[0]):
-        vx = disc_base[d, 0] + eccentricity * math.cos(alpha + disc_phase[d])
-        vy = disc_base[d, 1] + eccentricity * math.sin(alpha + disc_phase[d])
-        q[disc_x[d]] = c * vx - s * vy
-        q[disc_y[d]] = s * vx + c * vy
-        q[disc_th[d]] += th_c  # a flexible disc may sit turned by a half turn (its reference angle)
-    for j in modal:
-        q[j] = 0.0

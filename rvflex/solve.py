@@ -488,11 +488,36 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
         if abs(q1[car] - th / model.ratio - last_te) > MAX_CYCLE_ANGLE_RAD:
             raise RuntimeError(f"the TE jumped by {abs(q1[car] - th / model.ratio - last_te):.3g} rad from the last "
                                "converged step (across the free play to another tooth)")
+    reached = 0  # recorded steps the loop has reached (a run of compiled steps takes several at once)
+    stopped_at = -1  # the recorded step a run of compiled steps stopped at: the loop's own way takes it
     for th, k_reg, frac, record in steps:
         if loaded_by_stepping and not record:
             continue
+        if record:
+            reached += 1
+            if reached <= done:
+                continue
         mbs.SetLoadParameter(model.carrier.load, "load", -direction * frac * torque_out_Nm)
         mbs.SetObjectParameter(model.carrier.regulariser, "stiffness", k_reg)
+        if record and compiled is not None and history and done > 0 and done != stopped_at:
+            # the steps from here in compiled runs of COMPILED_RUN_STEPS (the same guess, Newton and checks as one
+            # by one, without the loop's Python per step), up to the first it cannot take
+            taken = 0
+            while done < n:
+                k, history, last_te, q_last = compiled.steps(theta_in[done:done + COMPILED_RUN_STEPS], history,
+                                                             last_te, MAX_CYCLE_ANGLE_RAD, out[done:], forces[done:],
+                                                             gaps[done:], contact_states)
+                if k:
+                    q, prev_th = q_last, float(theta_in[done + k - 1])
+                    done += k
+                    taken += k
+                    if progress is not None:
+                        progress(done, n)
+                if k < min(COMPILED_RUN_STEPS, n - done + k):
+                    stopped_at = done
+                    break
+            if taken:
+                continue  # the loop skips the steps taken and takes the one that stopped the run its own way
         # the compiled step takes the loading continuation too (Exudyn's solver when it fails): Exudyn's static
         # solves of the first pose were as dear as all the compiled steps of a diagnosis's runs (measured, FB1 H04:
         # 1968 solves, 23 s against 21 s for 50 429 compiled steps)
@@ -555,6 +580,8 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
                 progress(done, n)
     return result()
 
+
+COMPILED_RUN_STEPS = 512  # recorded steps per compiled call (the progress bar moves between calls)
 
 LOADING_FRACTIONS = (0.005, 0.01, 0.02, 0.04, 0.1, 0.2, 0.35, 0.5, 0.75, 1.0)  # of the torque: the fallback loading path
 

@@ -83,6 +83,46 @@ def test_the_compiled_steps_reach_exudyns_equilibria(unit):
     assert np.abs(fast.pin_force_N - exudyn.pin_force_N).max() < 1.0
 
 
+def test_runs_of_compiled_steps_are_the_step_by_step_loop(monkeypatch):
+    """The recorded steps taken in compiled runs (``CompiledStep.steps``: guess, Newton and checks without
+    Python between steps) give the TE and pin forces of the loop taking them one by one (runs that take no
+    step), to 1e-9″ and 1e-6 N (the same arithmetic in another order), on seed 001's clearances at rated load
+    over four crank turns. A run that stops before a step (as at one its Newton cannot take) leaves that
+    step to the loop, and the next run goes on from it: the same TE again."""
+    from rvflex import engine, solve
+
+    spec = load_reducer("rv40e")
+    theta = np.linspace(0.0, 8 * np.pi * 121 / spec.cycloid.pin_count, 160, endpoint=False)
+
+    def run():
+        return solve.quasi_static(build_reducer(spec, clearance_errors(spec), "rigid"), theta, spec.rated_torque_Nm)
+
+    batched = run()
+    calls = []
+    real_steps = engine.CompiledStep.steps
+
+    def one_by_one(self, theta, history, last_te, *args):
+        calls.append(len(theta))
+        return 0, history, last_te, None
+
+    monkeypatch.setattr(engine.CompiledStep, "steps", one_by_one)
+    loop = run()
+    assert len(calls) >= len(theta) - 2  # every recorded step after the first was offered to a run
+    assert np.abs(batched.te_rad - loop.te_rad).max() * ARCSEC_PER_RAD < 1e-9
+    assert np.abs(batched.pin_force_N - loop.pin_force_N).max() < 1e-6
+    assert np.ptp(batched.te_rad) * ARCSEC_PER_RAD > 1.0
+
+    # a run that stops at step 50 (as a Newton that does not converge there would): the loop takes step 50
+    def stopping(self, theta, history, last_te, max_jump, out, forces, gaps, states):
+        start = len(batched.te_rad) - len(theta)
+        stop = max(0, 50 - start) if start <= 50 else len(theta)
+        return real_steps(self, theta[:stop], history, last_te, max_jump, out, forces, gaps, states) if stop \
+            else (0, history, last_te, None)
+
+    monkeypatch.setattr(engine.CompiledStep, "steps", stopping)
+    stopped = run()
+    assert np.abs(stopped.te_rad - loop.te_rad).max() * ARCSEC_PER_RAD < 1e-9
+
 def test_a_system_with_an_item_the_compiled_step_does_not_replicate_is_left_to_exudyn():
     """An extra connector the compiled step has no law for (a coordinate spring between two bodies) makes
     it decline the system: that model is solved by Exudyn's solver."""
