@@ -7,8 +7,9 @@ revolution is timed after a warm-up (compiled kernels, FE reductions from the ca
 is divided by the unit's contact evaluation: every disc's cycloid–pin kernel, force and Jacobian, at a
 loaded state (the median of many calls). A second, profiled run of the same case splits the step into
 contact kernels, assembly of the residual and Jacobian outside Exudyn, linear solves, Exudyn's own calls and
-the Python of the stepping; the compiled step's share (:mod:`rvflex.engine`, one numba call per step) is
-split by its counted evaluations and solves and their measured unit costs.
+the Python of the stepping; the compiled step's share (:mod:`rvflex.engine`, one numba call per step or per run
+of steps) is split by its counted evaluations and solves and their measured unit costs, the rest of it (its
+assembly, the guesses and kinematics of a run of steps) counted as assembly.
 """
 
 from __future__ import annotations
@@ -97,6 +98,7 @@ def _split(prof: cProfile.Profile, counts: dict | None, t_contact_us: float, t_s
     st = pstats.Stats(prof)
     total = 0.0
     parts = dict(contact=0.0, assembly=0.0, linear_solve=0.0, exudyn=0.0, python=0.0)
+    compiled = 0.0
     for (file, _line, name), (_cc, _nc, tt, _ct, _callers) in st.stats.items():
         total += tt
         if "_cycloid_kernel" in file or (name in _CONTACT_FUNCS and "cycloid_pin" in file):
@@ -107,14 +109,16 @@ def _split(prof: cProfile.Profile, counts: dict | None, t_contact_us: float, t_s
             parts["linear_solve"] += tt
         elif "exudyn" in file or "exudynCPP" in name or file == "~" and "exudyn" in name:
             parts["exudyn"] += tt
-        elif "engine.py" in file and name == "_newton" and counts is not None:
-            contact = counts["evaluations"] * t_contact_us * 1e-6
-            solve = counts["solves"] * t_solve_us * 1e-6
-            parts["contact"] += min(contact, tt)
-            parts["linear_solve"] += min(solve, max(tt - contact, 0.0))
-            parts["assembly"] += max(tt - contact - solve, 0.0)
+        elif "engine.py" in file and name in ("_newton", "_steps") and counts is not None:
+            compiled += tt  # a step at a time or a run of steps: split below by the counted evaluations
         else:
             parts["python"] += tt
+    if compiled:
+        contact = counts["evaluations"] * t_contact_us * 1e-6
+        solve = counts["solves"] * t_solve_us * 1e-6
+        parts["contact"] += min(contact, compiled)
+        parts["linear_solve"] += min(solve, max(compiled - contact, 0.0))
+        parts["assembly"] += max(compiled - contact - solve, 0.0)
     return {k: v / total for k, v in parts.items()} if total else parts
 
 
