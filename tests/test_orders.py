@@ -386,3 +386,20 @@ def test_one_cranks_runout_shows_at_z_b_and_a_runout_alike_on_every_crank_at_no_
     tie = lacking_lookalikes(spec, "crank_runout")
     assert tie["order"] == 40 and any("planet gear runout" in s for s in tie["lacking"])
     assert not any("crank eccentric runout" in s for s in name_orders(spec, [40])[0]["lacking"])
+
+
+def test_nothing_the_library_models_acts_at_the_crank_count_order_of_a_three_crank_unit():
+    """RV-160N at rated load: a 10 µm pin-ring runout and a 4 µm 3-lobed pin pattern, which act at 78 and
+    234, put under 1e-3″ on orders 1 … 6 (the carrier turns its three cranks past uniform pins; TE at n_c = 3
+    needs a carrier-fixed pattern meeting a housing-fixed one), and the table names order 3 by the crank and
+    pillar patterns, with no candidate and those patterns as lacking."""
+    spec = catalog.load("rv160n")
+    runout = _effect("pin_ring_runout", "rv160n", (10 * UM, 0.0))
+    lobes = _effect("pin_position_h3", "rv160n", (4 * UM, 0.0))
+    for errors, order, least in ((runout, 78, 0.1), (lobes, 234, 0.1)):
+        amp, _ = _added("rv160n", errors, 1280)
+        assert amp[order] > least
+        assert amp[1:7].max() < 1e-3
+    named = name_orders(spec, [3])[0]
+    assert named["candidates"] == []
+    assert {PART_ERRORS["crank_pattern"].description, PART_ERRORS["pillar_pattern"].description} <= set(named["lacking"])

@@ -74,6 +74,12 @@ positions per output revolution; amplitudes per typical step of the effect):
 - ``crank_phase_error``, ``carrier_hole_position``, ``main_bearing_clearance``, friction (a load
   change) and ``output_series_compliance`` move the mean only (≤ 0.002″ at any order): they are
   named at no order (:data:`MEAN_ONLY`);
+- nothing acts at the crank-count order n_c of a three-crank unit: on the RV-160N a 10 µm pin-ring runout, a
+  10 µm main-bearing seat offset, 4 µm 2- and 3-lobed pin patterns give < 5e-4″ at orders 1 … 6 (1280 positions,
+  rated load; the runout 0.24″ at 78). The rigid carrier turns the cranks' pattern past uniform pins, so TE at
+  n_c needs a carrier-fixed pattern meeting a housing-fixed one (a housing or carrier whose stiffness varies
+  around, the output's support): :data:`PART_ERRORS` lists it as lacking (``crank_pattern``,
+  ``pillar_pattern``);
 - ``output_encoder_eccentricity`` is a·cos θ + b·sin θ: order 1 exactly;
 - ``disc_carrier_flexibility`` (a flexible-disc model) is placed at the tooth mesh, not measured
   here (an FE run).
