@@ -67,6 +67,33 @@ def test_chord_newton_matches_exudyns_static_solver_with_fe_discs(setup):
     assert np.abs(chord - exudyn).max() * ARCSEC_PER_RAD < 1e-4
 
 
+@pytest.mark.parametrize("seed001", [False, True], ids=["nominal", "seed001"])
+def test_orbit_guess_reaches_exudyns_equilibria(setup, monkeypatch, seed001):
+    """Two and a half crank revolutions at 30° steps, nominal and with seed 001's errors (12 µm
+    crank-bearing clearances, pin errors): from the third revolution on the FE steps start from the
+    elastic state one crank revolution back plus the extrapolated rest (``_OrbitGuess``); the chord
+    Newton's equilibria are Exudyn's static solver's to 1e-4″."""
+    from rvflex import solve
+    from rvflex.scenarios.loaded_te import seed001_errors
+
+    spec, reduced, _, _ = setup
+    used = []
+    guess = solve._OrbitGuess.guess
+
+    def spy(self, kin, history, theta):
+        used.append(len(self.drift) == 3 and self._periodic(self.sign * self._phase(kin)) is not None)
+        return guess(self, kin, history, theta)
+
+    monkeypatch.setattr(solve._OrbitGuess, "guess", spy)
+    pitch = 2 * np.pi * spec.nominal_ratio / spec.cycloid.pin_count  # one crank turn relative to the carrier
+    theta = np.linspace(0.0, 2.5 * pitch, 30, endpoint=False)
+    model = build_reducer(spec, seed001_errors(spec) if seed001 else None, "flexible", reduced_disc=reduced)
+    chord = quasi_static(model, theta, spec.rated_torque_Nm).te_rad
+    assert sum(used) >= 10
+    exudyn = quasi_static(model, theta, spec.rated_torque_Nm, chord_newton=False).te_rad
+    assert np.abs(chord - exudyn).max() * ARCSEC_PER_RAD < 1e-4
+
+
 def test_torque_cycle_with_open_bearing_clearances_converges(setup):
     """Seed 001's errors with the 12 µm bearing clearances, input locked, 0 → ±T_r → 0: near
     zero torque the unit floats through its free play (Exudyn's static solver used to fail at
