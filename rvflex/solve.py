@@ -550,7 +550,7 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
     kept = _KeptNewton(model) if switch else None  # rigid: Exudyn's Newton from the extrapolation, see KEPT_FALLBACKS
     bisected = []  # recorded steps Exudyn's solver had to bisect (``switch``: the chord Newton takes over)
     history: list[tuple[float, np.ndarray]] = []  # (θ_in, elastic part) of the last converged recorded steps
-    orbit = _OrbitGuess(model) if fe and compiled is None else None  # FE steps: the guess from the last crank turn
+    orbit = _OrbitGuess(model) if fe else None  # FE steps: the guess from the last crank turn
     loaded_by_stepping = False
     skipped = -2  # the last recorded step left out
     last_te = 0.0  # TE of the last converged recorded step (rad)
@@ -576,7 +576,7 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
         if record and compiled is not None and history and done > 0 and done != stopped_at:
             # the steps from here in compiled runs of COMPILED_RUN_STEPS (the same guess, Newton and checks as one
             # by one, without the loop's Python per step), up to the first it cannot take
-            taken = 0
+            start = done
             while done < n:
                 k, history, last_te, q_last = compiled.steps(theta_in[done:done + COMPILED_RUN_STEPS], history,
                                                              last_te, MAX_CYCLE_ANGLE_RAD, out[done:], forces[done:],
@@ -584,13 +584,12 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
                 if k:
                     q, prev_th = q_last, float(theta_in[done + k - 1])
                     done += k
-                    taken += k
                     if progress is not None:
                         progress(done, n)
                 if k < min(COMPILED_RUN_STEPS, n - done + k):
                     stopped_at = done
                     break
-            if taken:
+            if done > start:
                 continue  # the loop skips the steps taken and takes the one that stopped the run its own way
         # the compiled step takes the loading continuation too (Exudyn's solver when it fails): Exudyn's static
         # solves of the first pose were as dear as all the compiled steps of a diagnosis's runs (measured, FB1 H04:

@@ -451,19 +451,9 @@ def first_self_intersection(xy, span):
     comparing each segment with the next ``span`` segments; (-1, -1) when none cross."""
     n = xy.shape[0]
     for i in range(n):
-        i1 = (i + 1) % n
-        ax, ay, bx, by = xy[i, 0], xy[i, 1], xy[i1, 0], xy[i1, 1]
         for dj in range(2, span + 1):
             j = (i + dj) % n
-            j1 = (j + 1) % n
-            if j1 == i:
-                continue
-            cx, cy, dx, dy = xy[j, 0], xy[j, 1], xy[j1, 0], xy[j1, 1]
-            d1 = _orient(ax, ay, bx, by, cx, cy)
-            d2 = _orient(ax, ay, bx, by, dx, dy)
-            d3 = _orient(cx, cy, dx, dy, ax, ay)
-            d4 = _orient(cx, cy, dx, dy, bx, by)
-            if d1 * d2 < 0.0 and d3 * d4 < 0.0:
+            if (j + 1) % n != i and _crosses(xy, i, j):
                 return i, j
     return -1, -1
 
