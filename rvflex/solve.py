@@ -2,9 +2,9 @@
 
 Quasi-static stepping: the input angle is prescribed step by step with the output torque
 applied; each step is a static equilibrium started from the previous one advanced by the ideal
-kinematics: by the compiled step of :mod:`rvflex.engine` for a rigid model (Exudyn's static
-solver where it fails, or throughout with ``RVFLEX_SOLVER=exudyn``), by a chord Newton on
-Exudyn's residual for FE parts. The first loaded step is reached by
+kinematics: by the compiled step of :mod:`rvflex.engine` for a rigid model or one with FE discs and
+carrier (Exudyn's static solver where it fails, or throughout with ``RVFLEX_SOLVER=exudyn``), by a
+chord Newton on Exudyn's residual for the FE housing. The first loaded step is reached by
 continuation from a stiffly held output (DESIGN.md: clearances make the bodies float; weak
 springs carry a negligible share — see :mod:`rvflex.parts.bearings` and
 :data:`rvflex.numerics.OUTPUT_REGULARISER_NM_RAD`).
@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rvflex.engine import compiled_step
+from rvflex.engine import compiled_step, ring_torque
 from rvflex.model import ReducerModel
 from rvflex.numerics import OUTPUT_REGULARISER_NM_RAD, generalized_alpha_settings
 
@@ -56,7 +56,8 @@ class QuasiStaticResult:
     pin_force_N: (steps, discs, pins) normal forces; pin_gap_m likewise;
     torque_out_Nm: the output torque (resisting, positive); wall_s: solve time;
     compiled: the compiled step's counts over the run (:meth:`rvflex.engine.CompiledStep.counts`), None when
-    Exudyn's solvers took it.
+    Exudyn's solvers took it; disc_torque_Nm: (steps, discs) the torque of each disc's pin forces about the
+    output axis (:func:`rvflex.engine.ring_torque`), None for a result made elsewhere.
     """
 
     theta_in: np.ndarray
@@ -68,6 +69,7 @@ class QuasiStaticResult:
     ratio: float
     wall_s: float
     compiled: dict | None = None
+    disc_torque_Nm: np.ndarray | None = None
 
 
 def static_settings():
@@ -479,9 +481,10 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
     the motion. With ``chord_newton`` the steps are solved by :class:`_ChordNewton` from an
     extrapolated guess, else by Exudyn's static solver from the kinematic guess. The default
     (None) takes the compiled step (:func:`rvflex.engine.compiled_step`, the first pose's
-    continuation included) for a rigid model it replicates, Exudyn's static solver for a step it
-    cannot take; the chord Newton for FE bodies, whose Jacobian is dear (2.3× faster); and for
-    other rigid ones (or with ``RVFLEX_SOLVER=exudyn``) Exudyn's Newton (:class:`_KeptNewton`, from the extrapolated guess, until
+    continuation included) for a model it replicates (rigid, FE discs and carrier), Exudyn's static
+    solver for a step it cannot take; the chord Newton for other FE models (the FE housing), whose
+    Exudyn Jacobian is dear (2.3× faster than Exudyn's solver); and for other rigid ones (or with
+    ``RVFLEX_SOLVER=exudyn``) Exudyn's Newton (:class:`_KeptNewton`, from the extrapolated guess, until
     :data:`KEPT_FALLBACKS` steps have fallen back to Exudyn's static solver from the kinematic guess;
     their Jacobian costs about a residual; with the chord Newton for every rigid run the realistic
     self-check took 975 s instead of 852 s) until a recorded step has to be bisected, then the chord
@@ -517,6 +520,7 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
     out = np.full(n, np.nan)
     forces = np.full((n, nd, npins), 0.0 if contact_states else np.nan)
     gaps = forces.copy()
+    torques = np.full((n, nd), 0.0 if contact_states else np.nan)
     t0 = time.perf_counter()
     q = model.kinematic_coordinates(theta_in[0])
     done = 0
@@ -526,7 +530,7 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
         th_out = out[:m]
         return QuasiStaticResult(theta_in[:m], th_out, th_out - theta_in[:m] / model.ratio, forces[:m], gaps[:m],
                                  torque_out_Nm, model.ratio, time.perf_counter() - t0,
-                                 compiled.counts() if compiled is not None else None)
+                                 compiled.counts() if compiled is not None else None, torques[:m])
 
     direction = -1.0 if len(theta_in) > 1 and theta_in[-1] < theta_in[0] else 1.0
     k_work = OUTPUT_REGULARISER_NM_RAD
@@ -542,7 +546,7 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
     fe = bool(model.modal_nodes)
     # rigid default: the compiled step (rvflex.engine) where it replicates the system, else Exudyn's solver
     # until it bisects
-    compiled = _compiled(model) if chord_newton is None and not fe else None
+    compiled = _compiled(model) if chord_newton is None else None
     switch = chord_newton is None and not fe and compiled is None
     if chord_newton is None:
         chord_newton = fe or compiled is not None
@@ -550,7 +554,7 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
     kept = _KeptNewton(model) if switch else None  # rigid: Exudyn's Newton from the extrapolation, see KEPT_FALLBACKS
     bisected = []  # recorded steps Exudyn's solver had to bisect (``switch``: the chord Newton takes over)
     history: list[tuple[float, np.ndarray]] = []  # (θ_in, elastic part) of the last converged recorded steps
-    orbit = _OrbitGuess(model) if fe else None  # FE steps: the guess from the last crank turn
+    orbit = _OrbitGuess(model) if fe and compiled is None else None  # Exudyn's FE steps: the last crank turn's guess
     loaded_by_stepping = False
     skipped = -2  # the last recorded step left out
     last_te = 0.0  # TE of the last converged recorded step (rad)
@@ -580,7 +584,7 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
             while done < n:
                 k, history, last_te, q_last = compiled.steps(theta_in[done:done + COMPILED_RUN_STEPS], history,
                                                              last_te, MAX_CYCLE_ANGLE_RAD, out[done:], forces[done:],
-                                                             gaps[done:], contact_states)
+                                                             gaps[done:], torques[done:], contact_states)
                 if k:
                     q, prev_th = q_last, float(theta_in[done + k - 1])
                     done += k
@@ -649,11 +653,15 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
             out[done] = q[car]
             for d, c in enumerate(model.discs.contacts if contact_states else ()):
                 if compiled is not None and compiled.solved:  # its last evaluation is the step's
-                    forces[done, d], gaps[done, d] = compiled.pin_outputs(d)
+                    forces[done, d], gaps[done, d], torques[done, d] = compiled.pin_outputs(d)
                     continue
                 st = c.pin_state(mbs)
                 forces[done, d] = st.force_N
                 gaps[done, d] = st.gap_m
+                pins = np.ascontiguousarray(c.pins_m, float)
+                torques[done, d] = ring_torque(np.ascontiguousarray(st.force_N, float),
+                                               np.ascontiguousarray(st.point_m[:, 0]),
+                                               np.ascontiguousarray(st.point_m[:, 1]), pins)
             done += 1
             if progress is not None:
                 progress(done, n)

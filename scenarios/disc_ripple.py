@@ -183,19 +183,9 @@ def disc_ripple(spec: ReducerSpec, options: ModelOptions | None = None, *, load_
     load = (spec.rated_torque_Nm / 2 if load_per_disc_Nm is None else load_per_disc_Nm) * nd
     model = build_reducer(spec, None, options)
     theta = np.linspace(0.0, 2 * math.pi * model.ratio / spec.cycloid.pin_count, positions, endpoint=False)
-    torque = np.empty((positions, nd))
-
-    def record(done: int, _total: int) -> None:  # called at each converged position
-        for d, contact in enumerate(model.discs.contacts):
-            st = contact.pin_state(model.mbs)
-            # each pin force acts along the normal through the pin centre: its moment about the axis
-            n = contact.pins_m - st.point_m
-            n /= np.linalg.norm(n, axis=1)[:, None]
-            torque[done - 1, d] = -np.sum(st.force_N * (contact.pins_m[:, 0] * n[:, 1] - contact.pins_m[:, 1] * n[:, 0]))
-
-    res = quasi_static(model, theta, load, progress=record)
+    res = quasi_static(model, theta, load)
     return DiscRipple(spec.name, spec.cranks.count, spec.cycloid.pin_count, tuple(spec.cycloid.disc_phase_rad), load,
-                      res.te_rad * ARCSEC_PER_RAD, torque)
+                      res.te_rad * ARCSEC_PER_RAD, res.disc_torque_Nm)
 
 
 def _table(cases, positions: int, load_fraction: float = 1.0) -> str:

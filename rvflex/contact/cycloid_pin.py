@@ -39,11 +39,11 @@ __all__ = ["ContactError", "ContactLaw", "CycloidPinContact", "PinState", "add_c
 DEFAULT_MAX_PENETRATION_M = 50e-6  # beyond any elastic approach of steel pins (a few µm): a run gone wrong
 DEFAULT_INITIAL_INTERFERENCE_M = 1e-6
 MAX_POINTS = K.MAX_POINTS
-# the kernel, for compiled callers that evaluate a rigid disc without its Exudyn element (rvflex.engine), and
-# the layout of its per-pin outputs
+# the kernel, for compiled callers that evaluate a disc without its Exudyn element (rvflex.engine), and the
+# layout of its per-pin outputs
 evaluate_kernel = K.evaluate
 empty_points = K.empty_points
-N_OUT, O_GAP, O_FORCE = K.N_OUT, K.O_GAP, K.O_FORCE
+N_OUT, O_GAP, O_FORCE, O_PX, O_PY = K.N_OUT, K.O_GAP, K.O_FORCE, K.O_PX, K.O_PY
 ZONE_SAMPLES_PER_TOOTH = 4096  # curvature samples of the concave-zone search: 0.09° of tooth phase
 ZONE_PAD_SAMPLES = 2  # each zone widened by this many samples per side, so sampling cannot clip it
 ZONE_FINE_SAMPLES = 1025  # curvature samples across one zone when placing its slope samples

@@ -19,7 +19,8 @@ from rvflex.parallel import Outcome, map_warm
 
 __all__ = ["CACHE_VERSION", "FAILURE_REVISION", "ModelRunner"]
 
-FAILURE_REVISION = "f4"  # failed runs are remembered per solver revision (f4: a cycle's first step that floats at
+FAILURE_REVISION = "f5"  # failed runs are remembered per solver revision (f5: FE discs and carrier take the
+# compiled step; f4: a cycle's first step that floats at
 # zero torque is taken on the positive side; f3: a compiled step that fails is taken
 # by the chord Newton before Exudyn's solver; f2: a torque cycle's step out of zero
 # torque goes by the continuation once one has needed it; f1: a loading step or a cycle step that
