@@ -49,6 +49,11 @@ LAW_CLEARANCE, LAW_CARTESIAN = 0, 1
 # Newton: the same caps and tolerances as the chord Newton of rvflex.solve (see there why a move is capped)
 CAP_M = 1e-5
 CAP_RADIUS_M = 0.03
+# a crank's spin moves its eccentric (~1.5 mm off its axis) and its gear's teeth (~30 mm): with clearance in
+# its bearings the eccentric floats by µm from one position to the next, its spin by ~0.5 mrad at 576
+# positions (RV-40E, 12 µm), which CAP_RADIUS_M would cap at 0.33 mrad an iteration; at this radius the
+# gear's teeth still move at most 30 µm (measured: 8.5 → 6.8 Newton evaluations per step, TE equal to 1e-9″)
+CRANK_CAP_RADIUS_M = 0.01
 TOLERANCE = 1e-10
 RESIDUAL = 1e-2
 MAX_ITERATIONS = 60
@@ -950,9 +955,9 @@ def compiled_step(model) -> CompiledStep | None:
             return None
     free = np.array([j for j in range(n2) if j not in held], dtype=np.int64)
     cap = np.full(n2, np.inf)
-    for idx in model.planar_index().values():
+    for name, idx in model.planar_index().items():
         cap[idx[:2]] = CAP_M
-        cap[idx[2]] = CAP_M / CAP_RADIUS_M
+        cap[idx[2]] = CAP_M / (CRANK_CAP_RADIUS_M if name.startswith("crank") else CAP_RADIUS_M)
     # point connectors: per marker, the modal coordinates that move it (only those with a nonzero row)
     moved = [[np.flatnonzero(np.any(p.position_rows[:2] != 0.0, axis=0)) if p.modal >= 0 else np.zeros(0, int)
               for p in pts] for pts in sides]

@@ -843,12 +843,13 @@ FLOATING_AT_ZERO = ((("contact_stiffness", [-0.7]), ("needle_bearing_stiffness",
 
 
 def test_a_cycle_that_needed_the_continuation_out_of_zero_torque_takes_the_reversal_by_it(monkeypatch):
-    """Out of zero torque the unit floats in its free play: Newton and Exudyn's solver fail at the cycle's first
+    """Out of zero torque the unit floats in its free play: Exudyn's Newton (its chord Newton and its static
+    solver, ``RVFLEX_SOLVER=exudyn``; the compiled step's retries take this step) fails at the cycle's first
     step (2.06 N·m; before, at each of its bisections too), and the stiff-to-working regulariser continuation
     takes it. The reversal (0 → −2.06 N·m) then starts with the continuation, so Exudyn's solver fails there no
     more (with the bisections, 0.6 s of a 1.5 s cycle before). Without friction the equilibrium does not depend on
     the path: the reversal's angle is the one a cycle started downwards reaches through the fallbacks in turn,
-    within 1e-4″ (the solver's tolerance)."""
+    within 1e-4″ (the solver's tolerance), and the one the compiled step reaches."""
     import rvflex.solve as solve
     from rvflex.model import build_reducer
     from rvflex.solve import hysteresis_cycle, torque_stepping
@@ -856,6 +857,8 @@ def test_a_cycle_that_needed_the_continuation_out_of_zero_torque_takes_the_rever
 
     path = hysteresis_cycle(SPEC.rated_torque_Nm, 40)
     run = PlanRun("hysteresis", "cycle", torque_max_Nm=SPEC.rated_torque_Nm, torque_path_Nm=tuple(path))
+    compiled = torque_stepping(build_reducer(*_variant(FLOATING_AT_ZERO, run)), path, skip_unsolved=True)
+    monkeypatch.setenv(solve.SOLVER_ENV, "exudyn")
     failed = []  # the torques at which Exudyn's static solver failed
     solve_at = solve.solve_at
 
@@ -875,6 +878,8 @@ def test_a_cycle_that_needed_the_continuation_out_of_zero_torque_takes_the_rever
     down = torque_stepping(build_reducer(*_variant(FLOATING_AT_ZERO, run)), [0.0, path[reversal]]).theta_out
     assert failed  # the downward start needed the fallbacks: it went through them in turn
     assert abs(theta[reversal] - down[1]) / ARCSEC < 1e-4, (theta[reversal] / ARCSEC, down[1] / ARCSEC)
+    assert compiled.compiled is not None and np.all(np.isfinite(compiled.theta_out))
+    assert np.abs(compiled.theta_out - theta).max() / ARCSEC < 1e-3
 
 
 # ----------------------------------------------------------------------------- calibrate, then attribute
