@@ -1,10 +1,10 @@
-"""Compiled quasi-static step of a planar reducer, rigid or with FE-reduced discs and carrier: Newton's method
-on the whole system in one numba call.
+"""Compiled quasi-static step of a planar reducer, rigid or with FE-reduced discs, carrier and housing: Newton's
+method on the whole system in one numba call.
 
 Exudyn's static solver takes a step of the rigid model in about 0.3 ms of its own work beside the contact
 kernels (residual and Jacobian through the item list, Python user functions per disc and mesh, the
 connectors' Jacobians by finite differences), and of a model with FE discs in about ten times that (its
-FFRF bodies' Jacobian costs ten residuals). The step itself is a few Newton iterations on 15–110 unknowns,
+FFRF bodies' Jacobian costs ten residuals). The step itself is a few Newton iterations on 15–200 unknowns,
 each one evaluation of the contact kernels and a dense solve. :class:`CompiledStep` reads the assembled
 Exudyn system once per run (bodies, markers, connectors, loads and the contact and mesh elements' own kernel
 data) and solves each step in compiled code with the same force laws:
@@ -21,10 +21,12 @@ data) and solves each step in compiled code with the same force laws:
 - ``ObjectFFRFreducedOrder`` bodies held in the plane: at rest the floating frame's inertia terms vanish and
   the modal coordinates η carry the constant reduced stiffness, −K·η; a ``MarkerSuperElementRigid`` on
   one sits at the frame's position + R(ψz)·(its point + P·η), P the weighted mode rows of its nodes (the
-  offset does not turn with the nodes, as in Exudyn), its tilt the least-squares rotation of its nodes.
+  offset does not turn with the nodes, as in Exudyn), its tilt the least-squares rotation of its nodes;
+- the flexible housing, a linear ``ObjectGenericODE2`` on its modal coordinates ξ (−K·ξ), whose seats carry
+  the pins in the contacts (``rvflex.contact.cycloid_pin.evaluate_housing_kernel``).
 
-Exudyn stays the model of record: a system holding any other item (a flexible housing, a connector law not
-listed, an FE body free out of its plane) gets no compiled step (:func:`compiled_step` returns None) and is
+Exudyn stays the model of record: a system holding any other item (a connector law not listed, an FE body
+free out of its plane) gets no compiled step (:func:`compiled_step` returns None) and is
 solved by Exudyn; the residual at any state equals Exudyn's ``ComputeNewtonResidual`` (tests/test_engine.py)
 and the quasi-static TE equals that of Exudyn's static solver within 1e-4″. The solved state is written back
 to the Exudyn system, so whatever reads the system next sees it.
@@ -217,11 +219,22 @@ def _point_connectors(qa, pc, f, kt, jidx, jv):
 
 
 @_jit
-def _workspace(m_pc):
+def _workspace(m_pc, n_ct):
     """Work arrays of one assembly: a disc's rigid coordinates and rates, the mesh kernel's buffers, the point
-    connectors' marker Jacobians (3 + the most modal coordinates moving a marker)."""
+    connectors' marker Jacobians (3 + the most modal coordinates moving a marker), a contact element's
+    coordinate indices (``n_ct``, its most coordinates)."""
     return (np.zeros(3), np.zeros(3), np.zeros(6), np.zeros(6), np.zeros(6), np.zeros((6, 6)), np.zeros((6, 6)),
-            np.zeros(MESH_STATE), np.zeros((2, 3 + m_pc), dtype=np.int64), np.zeros((2, 3 + m_pc, 2)))
+            np.zeros(MESH_STATE), np.zeros((2, 3 + m_pc), dtype=np.int64), np.zeros((2, 3 + m_pc, 2)),
+            np.zeros(n_ct, dtype=np.int64))
+
+
+@_jit
+def _contact_size(ct):
+    """The most coordinates of a contact element (3 + disc modes + housing modes)."""
+    n = 0
+    for d in range(ct[0].shape[0]):
+        n = max(n, ct[17][d].shape[0])
+    return n
 
 
 @_jit
@@ -232,11 +245,12 @@ def _assemble(x, ref, pc, cs, ld, ct, ff, ms, f, kt, qa, wk):
     offset); ``ld``: coordinate loads (index, value); ``ct``: cycloid–pin contacts (their kernel's data, the
     ODE2 indices of each disc's (x, y, θ) and first modal coordinate, its flank mode rows and buffers);
     ``ff``: FE bodies' modal stiffness (first modal coordinate, count, matrix); ``ms``: involute meshes."""
-    work3, qd, meshq, meshqt, meshf, meshdf, meshdft, meshst, jidx, jv = wk
+    work3, qd, meshq, meshqt, meshf, meshdf, meshdft, meshst, jidx, jv, idx_a = wk
     cs_idx, cs_k, cs_off = cs
     ld_idx, ld_val = ld
     (ct_rig, ct_ref, ct_offset, ct_pins, ct_radii, ct_par, ct_herr, ct_hpsi, ct_law, ct_tcache, ct_zones, ct_window,
-     ct_out, ct_pout, ct_count, ct_mod, ct_phi, ct_f, ct_k, ct_d, ct_eta, ct_etad) = ct
+     ct_out, ct_pout, ct_count, ct_mod, ct_phi, ct_f, ct_k, ct_d, ct_eta, ct_etad, ct_hmod, ct_seat, ct_xi, ct_xid,
+     ct_pf, ct_pk, ct_pd) = ct
     ff_start, ff_m, ff_k = ff
     ms_idx, ms_par = ms
     n = x.shape[0]
@@ -263,24 +277,35 @@ def _assemble(x, ref, pc, cs, ld, ct, ff, ms, f, kt, qa, wk):
     pen = -np.inf
     bad = 0
     for d in range(ct_rig.shape[0]):
-        eta = ct_eta[d]
-        m = eta.shape[0]
+        eta, xi = ct_eta[d], ct_xi[d]
+        m, h = eta.shape[0], xi.shape[0]
         for i in range(3):
             work3[i] = ct_ref[d, i] + x[ct_rig[d, i]]
         for j in range(m):
             eta[j] = x[ct_mod[d] + j]
+        for j in range(h):
+            xi[j] = x[ct_hmod[d] + j]
         fd, kd = ct_f[d], ct_k[d]
-        p, nbad = K.evaluate_kernel(work3, qd, ct_offset[d], ct_pins[d], ct_radii[d], ct_par[d], ct_herr[d],
-                                    ct_hpsi[d], ct_law[d], ct_tcache[d], ct_phi[d], eta, ct_etad[d], fd, kd, ct_d[d],
-                                    ct_out[d], ct_zones[d], ct_window[d], ct_pout[d], ct_count[d])
+        if h:  # pins on a flexible housing's seats
+            p, nbad = K.evaluate_housing_kernel(work3, qd, ct_offset[d], ct_pins[d], ct_radii[d], ct_par[d],
+                                                ct_herr[d], ct_hpsi[d], ct_law[d], ct_tcache[d], ct_phi[d], eta,
+                                                ct_etad[d], ct_seat[d], xi, ct_xid[d], fd, kd, ct_d[d], ct_out[d],
+                                                ct_zones[d], ct_window[d], ct_pout[d], ct_count[d], ct_pf[d],
+                                                ct_pk[d], ct_pd[d])
+        else:
+            p, nbad = K.evaluate_kernel(work3, qd, ct_offset[d], ct_pins[d], ct_radii[d], ct_par[d], ct_herr[d],
+                                        ct_hpsi[d], ct_law[d], ct_tcache[d], ct_phi[d], eta, ct_etad[d], fd, kd,
+                                        ct_d[d], ct_out[d], ct_zones[d], ct_window[d], ct_pout[d], ct_count[d])
         if p > pen:
             pen = p
         bad += nbad
-        for a in range(3 + m):
-            ia = ct_rig[d, a] if a < 3 else ct_mod[d] + a - 3
-            f[ia] += fd[a]
-            for bb in range(3 + m):
-                kt[ia, ct_rig[d, bb] if bb < 3 else ct_mod[d] + bb - 3] += kd[a, bb]
+        # the element's coordinates (x, y, θ, η…, ξ…) in the system's
+        for a in range(3 + m + h):
+            idx_a[a] = ct_rig[d, a] if a < 3 else (ct_mod[d] + a - 3 if a < 3 + m else ct_hmod[d] + a - 3 - m)
+        for a in range(3 + m + h):
+            f[idx_a[a]] += fd[a]
+            for bb in range(3 + m + h):
+                kt[idx_a[a], idx_a[bb]] += kd[a, bb]
     for m in range(ms_idx.shape[0]):
         for s in range(2):
             for i in range(3):
@@ -316,7 +341,7 @@ def _newton(x, free, cap, ref, pc, cs, ld, ct, ff, ms, max_iterations, mode):
     f = np.zeros(n)
     kt = np.zeros((n, n))
     qa = np.zeros(n)
-    wk = _workspace(pc[2].shape[2])
+    wk = _workspace(pc[2].shape[2], _contact_size(ct))
     a = np.zeros((nf, nf))
     r = np.zeros(nf)
     step = np.zeros(nf)
@@ -696,7 +721,7 @@ class CompiledStep:
         x = np.asarray(q_abs, float) - self.model.reference
         f, kt = np.zeros(n), np.zeros((n, n))
         pc, cs, ld, ct, ff, ms = self.packs
-        _assemble(x, self.d["ref"], pc, cs, ld, ct, ff, ms, f, kt, np.zeros(n), _workspace(pc[2].shape[2]))
+        _assemble(x, self.d["ref"], pc, cs, ld, ct, ff, ms, f, kt, np.zeros(n), _workspace(pc[2].shape[2], _contact_size(ct)))
         return f, kt
 
     def _attempt(self, guess: np.ndarray) -> tuple[int, np.ndarray, float, float]:
@@ -811,7 +836,8 @@ class CompiledStep:
 # the contact group's arrays in the order _assemble unpacks them
 _CONTACT_KEYS = ("ct_rig", "ct_ref", "ct_offset", "ct_pins", "ct_radii", "ct_par", "ct_herr", "ct_hpsi", "ct_law",
                  "ct_tcache", "ct_zones", "ct_window", "ct_out", "ct_pout", "ct_count", "ct_mod", "ct_phi", "ct_f",
-                 "ct_k", "ct_d", "ct_eta", "ct_etad")
+                 "ct_k", "ct_d", "ct_eta", "ct_etad", "ct_hmod", "ct_seat", "ct_xi", "ct_xid", "ct_pf", "ct_pk",
+                 "ct_pd")
 
 
 def _bodies(mbs) -> tuple[dict, dict] | None:
@@ -840,7 +866,7 @@ def _bodies(mbs) -> tuple[dict, dict] | None:
 
 def compiled_step(model) -> CompiledStep | None:
     """The compiled step of ``model``, or None when its system holds an item the compiled step does not
-    replicate (a flexible housing, other connector laws, an FE body free out of its plane): that model is
+    replicate (other connector laws, an FE body free out of its plane, user functions on an FE body): that model is
     solved by Exudyn."""
     mbs = model.mbs
     sd = mbs.systemData
@@ -927,9 +953,16 @@ def compiled_step(model) -> CompiledStep | None:
             spring_objects.append(i)
         elif kind == "GenericODE2" and i in contacts:
             c = contacts[i]
-            if c.housing_node >= 0 or int(c.node) not in nodes:
+            if int(c.node) not in nodes or (c.housing_node >= 0 and c.housing_node != model.pins.modal_node):
                 return None
             ct.append(c)
+        elif kind == "GenericODE2" and i == model.pins.body and model.pins.modal_node >= 0:
+            # the flexible housing: a linear body on its modal coordinates, clamped (no frame, no FFRF terms)
+            if o.get("forceUserFunction") or o.get("massMatrixUserFunction") or o.get("jacobianUserFunction"):
+                return None
+            k = o["stiffnessMatrix"]
+            k = np.asarray(k.Convert2DenseMatrix() if hasattr(k, "Convert2DenseMatrix") else k, float)
+            stiffness[int(mbs.GetNodeODE2Index(model.pins.modal_node))] = k
         elif kind == "GenericODE2" and i in meshes:
             h = meshes[i]
             ms_idx.append([mbs.GetNodeODE2Index(h.sun_node), mbs.GetNodeODE2Index(h.planet_node)])
@@ -997,6 +1030,8 @@ def compiled_step(model) -> CompiledStep | None:
         "ct_rig": np.array([nodes[int(c.node)].x + np.asarray(c.rigid_index) for c in ct], dtype=np.int64).reshape(-1, 3),
         "ct_mod": np.array([mbs.GetNodeODE2Index(c.modal_node) if c.modal_node >= 0 else -1 for c in ct],
                            dtype=np.int64),
+        "ct_hmod": np.array([mbs.GetNodeODE2Index(c.housing_node) if c.housing_node >= 0 else -1 for c in ct],
+                            dtype=np.int64),
         "ct_ref": np.array([np.asarray(c.reference, float)[list(c.rigid_index)] for c in ct]).reshape(-1, 3),
         "ct_offset": np.array([c.offset_rad for c in ct], float),
         "ct_window": np.array([c.zone_window_rad for c in ct], float),
@@ -1015,11 +1050,17 @@ def compiled_step(model) -> CompiledStep | None:
                      ("ct_pout", lambda c: K.empty_points(len(c.radii_m))[0]),
                      ("ct_count", lambda c: K.empty_points(len(c.radii_m))[1]),
                      ("ct_phi", lambda c: np.ascontiguousarray(c.phi, float)),
-                     ("ct_f", lambda c: np.zeros(3 + c.n_modes)),
-                     ("ct_k", lambda c: np.zeros((3 + c.n_modes,) * 2)),
-                     ("ct_d", lambda c: np.zeros((3 + c.n_modes,) * 2)),
+                     ("ct_f", lambda c: np.zeros(3 + c.n_modes + c.n_housing_modes)),
+                     ("ct_k", lambda c: np.zeros((3 + c.n_modes + c.n_housing_modes,) * 2)),
+                     ("ct_d", lambda c: np.zeros((3 + c.n_modes + c.n_housing_modes,) * 2)),
                      ("ct_eta", lambda c: np.zeros(c.n_modes)),
-                     ("ct_etad", lambda c: np.zeros(c.n_modes))):
+                     ("ct_etad", lambda c: np.zeros(c.n_modes)),
+                     ("ct_seat", lambda c: np.ascontiguousarray(c.seat, float)),
+                     ("ct_xi", lambda c: np.zeros(c.n_housing_modes)),
+                     ("ct_xid", lambda c: np.zeros(c.n_housing_modes)),
+                     ("ct_pf", lambda c: np.zeros(3 + c.n_modes)),  # the housing kernel's per-pin buffers
+                     ("ct_pk", lambda c: np.zeros((3 + c.n_modes,) * 2)),
+                     ("ct_pd", lambda c: np.zeros((3 + c.n_modes,) * 2))):
         arrays = [get(c) for c in ct]
         # one stacked array where every disc's has the same shape (the usual case: cheaper to pass and index),
         # else a tuple of them (the warm starts always: the contacts' own arrays); the compiled functions index

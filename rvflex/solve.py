@@ -2,9 +2,9 @@
 
 Quasi-static stepping: the input angle is prescribed step by step with the output torque
 applied; each step is a static equilibrium started from the previous one advanced by the ideal
-kinematics: by the compiled step of :mod:`rvflex.engine` for a rigid model or one with FE discs and
-carrier (Exudyn's static solver where it fails, or throughout with ``RVFLEX_SOLVER=exudyn``), by a
-chord Newton on Exudyn's residual for the FE housing. The first loaded step is reached by
+kinematics: by the compiled step of :mod:`rvflex.engine` (rigid models and FE discs, carrier and housing;
+Exudyn's static solver where it fails), or with ``RVFLEX_SOLVER=exudyn`` by Exudyn's solvers: a chord
+Newton on Exudyn's residual for FE parts. The first loaded step is reached by
 continuation from a stiffly held output (DESIGN.md: clearances make the bodies float; weak
 springs carry a negligible share — see :mod:`rvflex.parts.bearings` and
 :data:`rvflex.numerics.OUTPUT_REGULARISER_NM_RAD`).
@@ -135,12 +135,13 @@ def _compiled(model: ReducerModel):
 
 
 class _Backup:
-    """The chord Newton behind a compiled step, made when first needed: the compiled step's full Newton can
-    cycle where a contact sets in while the unit floats in its free play, where the chord Newton's kept
-    Jacobian still contracts (measured: an RV-40E with stiff supports, 3 µm needle-bearing clearance and a
-    5 µm pitch error, torque cycle step 0 → 4.12 N·m: the full Newton cycled through its 60 iterations, and
-    through 100, at residuals 7e-3 … 1e3 N; Exudyn's solver from the kinematic guess diverged to a 145 µm
-    penetration; the chord Newton converged, tests/test_engine.py)."""
+    """The chord Newton on Exudyn's residual behind a compiled step, made when first needed: for a step
+    that the compiled step's own retries (damped, a kept Jacobian, a growing load) cannot take either, before
+    Exudyn's static solver. A full Newton can cycle where a contact sets in while the unit floats in its
+    free play, where a kept Jacobian still contracts (measured: an RV-40E with stiff supports, 3 µm
+    needle-bearing clearance and a 5 µm pitch error, torque cycle step 0 → 4.12 N·m: the full Newton cycled
+    through its 60 iterations, and through 100, at residuals 7e-3 … 1e3 N; Exudyn's solver from the
+    kinematic guess diverged to a 145 µm penetration; a chord Newton converged, tests/test_engine.py)."""
 
     def __init__(self, model: ReducerModel):
         self.model = model
@@ -481,10 +482,10 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
     the motion. With ``chord_newton`` the steps are solved by :class:`_ChordNewton` from an
     extrapolated guess, else by Exudyn's static solver from the kinematic guess. The default
     (None) takes the compiled step (:func:`rvflex.engine.compiled_step`, the first pose's
-    continuation included) for a model it replicates (rigid, FE discs and carrier), Exudyn's static
-    solver for a step it cannot take; the chord Newton for other FE models (the FE housing), whose
-    Exudyn Jacobian is dear (2.3× faster than Exudyn's solver); and for other rigid ones (or with
-    ``RVFLEX_SOLVER=exudyn``) Exudyn's Newton (:class:`_KeptNewton`, from the extrapolated guess, until
+    continuation included) for a model it replicates (rigid, FE discs, carrier and housing), Exudyn's
+    static solver for a step it cannot take; for a model it declines, or with ``RVFLEX_SOLVER=exudyn``, the
+    chord Newton for FE parts, whose Exudyn Jacobian is dear (2.3× faster than Exudyn's solver), and for
+    rigid ones Exudyn's Newton (:class:`_KeptNewton`, from the extrapolated guess, until
     :data:`KEPT_FALLBACKS` steps have fallen back to Exudyn's static solver from the kinematic guess;
     their Jacobian costs about a residual; with the chord Newton for every rigid run the realistic
     self-check took 975 s instead of 852 s) until a recorded step has to be bisected, then the chord

@@ -218,13 +218,17 @@ def fe_model_options(fe_cache):
 
     return {"discs": ModelOptions.flexible_discs().with_fe("discs", **COARSE_DISC),
             "discs and carrier": ModelOptions.flexible_discs_and_carrier().with_fe("discs", **COARSE_DISC)
-            .with_fe("carrier", maxh_m=8e-3, n_modes=6, mesh_order=1)}
+            .with_fe("carrier", maxh_m=8e-3, n_modes=6, mesh_order=1),
+            "discs, carrier and housing": ModelOptions.flexible_all().with_fe("discs", **COARSE_DISC)
+            .with_fe("carrier", maxh_m=8e-3, n_modes=6, mesh_order=1)
+            .with_fe("housing", maxh_m=8e-3, n_modes=8, mesh_order=1)}
 
 
 @pytest.mark.flexible
-@pytest.mark.parametrize("parts", ["discs", "discs and carrier"])
+@pytest.mark.parametrize("parts", ["discs", "discs and carrier", "discs, carrier and housing"])
 def test_the_compiled_residual_of_fe_bodies_is_exudyns(fe_model_options, parts):
-    """FE discs (and carrier) held in the plane, at a loaded equilibrium moved by 1 µm / 1e-6 rad and every
+    """FE discs (and carrier, and housing: its pins on their seats) held in the plane, at a loaded equilibrium
+    moved by 1 µm / 1e-6 rad and every
     modal coordinate by a tenth of its loaded size: the compiled force equals Exudyn's residual (FFRF
     bodies, bore and seat markers on their mesh nodes, the bearings' axial and tilt springs on the modes) to
     1e-9 of its largest entry, and its Jacobian Exudyn's to 1e-4. The carrier's crank seats tilt with its
@@ -274,8 +278,9 @@ def test_the_compiled_residual_of_fe_bodies_is_exudyns(fe_model_options, parts):
 
 
 @pytest.mark.flexible
-def test_compiled_fe_steps_reach_exudyns_equilibria(fe_model_options):
-    """Coarse FE discs and carrier, seed 001's errors (12 µm crank-bearing clearances, runouts, pin errors) at
+@pytest.mark.parametrize("parts", ["discs and carrier", "discs, carrier and housing"])
+def test_compiled_fe_steps_reach_exudyns_equilibria(fe_model_options, parts):
+    """Coarse FE discs and carrier (and housing), seed 001's errors (12 µm crank-bearing clearances, runouts, pin errors) at
     rated load over one crank turn relative to the carrier (24 positions): the compiled step takes every step,
     the first pose's loading included, and gives the TE of Exudyn's static solver within 1e-4″ and its pin
     forces within 1 N."""
@@ -283,7 +288,7 @@ def test_compiled_fe_steps_reach_exudyns_equilibria(fe_model_options):
 
     spec = load_reducer("rv40e")
     theta = np.linspace(0.0, 2 * np.pi * spec.nominal_ratio / spec.cycloid.pin_count, 24, endpoint=False)
-    opts = fe_model_options["discs and carrier"]
+    opts = fe_model_options[parts]
     fast = solve.quasi_static(build_reducer(spec, clearance_errors(spec), opts), theta, spec.rated_torque_Nm)
     exudyn = solve.quasi_static(build_reducer(spec, clearance_errors(spec), opts), theta, spec.rated_torque_Nm,
                                 chord_newton=False)

@@ -42,6 +42,7 @@ MAX_POINTS = K.MAX_POINTS
 # the kernel, for compiled callers that evaluate a disc without its Exudyn element (rvflex.engine), and the
 # layout of its per-pin outputs
 evaluate_kernel = K.evaluate
+evaluate_housing_kernel = K.evaluate_housing
 empty_points = K.empty_points
 N_OUT, O_GAP, O_FORCE, O_PX, O_PY = K.N_OUT, K.O_GAP, K.O_FORCE, K.O_PX, K.O_PY
 ZONE_SAMPLES_PER_TOOTH = 4096  # curvature samples of the concave-zone search: 0.09° of tooth phase
