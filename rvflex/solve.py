@@ -545,8 +545,8 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
     steps += [(th, k_work, 1.0, True) for th in theta_in]
     prev_th = theta_in[0]
     fe = bool(model.modal_nodes)
-    # rigid default: the compiled step (rvflex.engine) where it replicates the system, else Exudyn's solver
-    # until it bisects
+    # default: the compiled step (rvflex.engine) where it replicates the system (rigid or FE), else the chord
+    # Newton for FE parts and Exudyn's solver for rigid ones until it bisects
     compiled = _compiled(model) if chord_newton is None else None
     switch = chord_newton is None and not fe and compiled is None
     if chord_newton is None:
@@ -631,7 +631,7 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
                         nw.reset()  # Exudyn's solver and another chord Newton ran on the system
                 continue
             if skip_unsolved and record and done > 0 and skipped != done - 1:
-                out[done], forces[done], gaps[done] = np.nan, np.nan, np.nan
+                out[done], forces[done], gaps[done], torques[done] = np.nan, np.nan, np.nan, np.nan
                 skipped = done
                 done += 1
                 if newton is not None:
