@@ -385,6 +385,36 @@ def test_the_fidelity_differences_are_measured_again_about_candidates_alike_at_e
     assert not alike("pin_position_h3", [2e-6, 1e-6]) and not alike("pin_ring_runout", [3e-6, 0.0])
 
 
+def test_side_by_side_diagnoses_store_the_same_model_run_at_once(tmp_path):
+    """The self-check diagnoses its cases side by side in forked workers that share one run cache, and two of
+    them may store the same model run at the same moment (the same value object, inherited through the fork):
+    each store writes its own temporary file, so neither's rename finds its file gone (it did once in a
+    self-check: "No such file or directory: ….tmp"), and the entry is whole."""
+    import multiprocessing as mp
+    import pickle
+
+    from rvflex.diagnosis.runs import ModelRunner
+
+    plan = (PlanRun("te", "a", 1, 412.0, temperature_C=40.0),)
+    runner = ModelRunner(SPEC, ErrorSpec(), plan, DiagnosisSettings(), None, tmp_path / "cache")
+    value = (np.arange(20000.0), None, "")
+
+    def store_many(_):
+        for _ in range(300):
+            runner._store("k" * 24, value)
+
+    ctx = mp.get_context("fork")
+    procs = [ctx.Process(target=store_many, args=(i,)) for i in range(3)]
+    for p in procs:
+        p.start()
+    for p in procs:
+        p.join()
+    assert [p.exitcode for p in procs] == [0, 0, 0]
+    entry = pickle.loads((tmp_path / "cache" / f"{'k' * 24}.pkl").read_bytes())
+    assert np.array_equal(entry[0], value[0])
+    assert not list((tmp_path / "cache").glob("*.tmp"))
+
+
 def test_a_pin_friction_fit_and_an_output_friction_fit_without_load_part_are_one_model():
     """The pin friction's Coulomb torque is the output friction with its load-proportional part at zero: the
     same model run. A fit of the output friction whose load part sits at zero is restated as the pin friction

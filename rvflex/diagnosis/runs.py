@@ -14,6 +14,7 @@ import numpy as np
 
 from rvflex.diagnosis.features import features
 from rvflex.diagnosis.replay import EvaluationFailed, ModelRun, combine, joined, plan_evaluation, run_model
+from rvflex.io import write_atomic
 from rvflex.options import ModelOptions
 from rvflex.parallel import Outcome, map_warm
 
@@ -120,10 +121,9 @@ class ModelRunner:
         self._memo[key] = data
         if self.cache_dir is None:
             return
-        self.cache_dir.mkdir(parents=True, exist_ok=True)
-        tmp = self.cache_dir / f".{key}.{id(value)}.tmp"
-        tmp.write_bytes(data)
-        tmp.replace(self.cache_dir / f"{key}.pkl" if value[0] is not None else self._failed_path(key))
+        # a unique temporary file per writer: side-by-side diagnoses sharing the cache (the self-check) may store
+        # the same run at once, and forked workers can share an object's id
+        write_atomic(self.cache_dir / f"{key}.pkl" if value[0] is not None else self._failed_path(key), data)
 
     def run(self, actives: list[tuple]) -> list[tuple]:
         """Evaluate each active set; returns (features | None, response | None, message) per set.
