@@ -68,6 +68,13 @@ LOAD_RAMP_MIN = 1.0 / 64  # the smallest load increment of a step taken under a 
 # status codes of the compiled Newton
 CONVERGED, STALLED, KERNEL_FAILED, SINGULAR = 0, 1, 2, 3
 
+# the contact group's arrays in the order _assemble unpacks them
+_CONTACT_KEYS = ("ct_rig", "ct_ref", "ct_offset", "ct_pins", "ct_radii", "ct_par", "ct_herr", "ct_hpsi", "ct_law",
+                 "ct_tcache", "ct_zones", "ct_window", "ct_out", "ct_pout", "ct_count", "ct_mod", "ct_phi", "ct_f",
+                 "ct_k", "ct_d", "ct_eta", "ct_etad", "ct_hmod", "ct_seat", "ct_xi", "ct_xid", "ct_pf", "ct_pk",
+                 "ct_pd")
+CT_PINS, CT_OUT, CT_F = (_CONTACT_KEYS.index(k) for k in ("ct_pins", "ct_out", "ct_f"))
+
 
 
 def _drop_stale_cache() -> None:
@@ -233,7 +240,7 @@ def _contact_size(ct):
     """The most coordinates of a contact element (3 + disc modes + housing modes)."""
     n = 0
     for d in range(ct[0].shape[0]):
-        n = max(n, ct[17][d].shape[0])
+        n = max(n, ct[CT_F][d].shape[0])
     return n
 
 
@@ -406,6 +413,29 @@ def _newton(x, free, cap, ref, pc, cs, ld, ct, ff, ms, max_iterations, mode):
 
 
 @_jit
+def _solve_retried(x, guess, free, cap, ref, pc, cs, ld, ct, ff, ms, max_iterations):
+    """:func:`_newton` from x, and where it fails again from there, damped and then with a kept Jacobian (x is
+    the solution, ``guess`` a work copy of the start); returns (status, evaluations, retries, max penetration,
+    residual norm)."""
+    for i in range(x.shape[0]):
+        guess[i] = x[i]
+    evaluations = 0
+    retries = 0
+    status, ev, pen, norm = _newton(x, free, cap, ref, pc, cs, ld, ct, ff, ms, max_iterations, PLAIN)
+    evaluations += ev
+    for mode in (DAMPED, CHORD):
+        if status == CONVERGED:
+            break
+        for i in range(x.shape[0]):
+            x[i] = guess[i]
+        status, ev, pen, norm = _newton(x, free, cap, ref, pc, cs, ld, ct, ff, ms,
+                                        max_iterations if mode == DAMPED else CHORD_ITERATIONS, mode)
+        evaluations += ev
+        retries += 1
+    return status, evaluations, retries, pen, norm
+
+
+@_jit
 def ideal_kinematics(q, theta_in, ratio, pin_count, sun, carrier, crank_axes, crank_x, crank_y, crank_th, disc_base,
                       eccentricity, disc_phase, disc_x, disc_y, disc_th, modal):
     """:meth:`rvflex.model.ReducerModel.kinematic_coordinates` in place on ``q`` (the reference coordinates; m,
@@ -464,7 +494,7 @@ def _steps(theta, ratio, kin, hist_th, hist_e, nh, last_te, max_jump, max_pen, c
     ring torques; ``x_out`` holds the last converged state (absolute). Returns (steps done, status of the
     step that stopped the run or CONVERGED, evaluations, retries, the last TE, nh)."""
     n = theta.shape[0]
-    ct_out = ct[12]  # the contacts' per-pin outputs of their last evaluation (ct[3]: the pins' centres)
+    ct_out, ct_pins = ct[CT_OUT], ct[CT_PINS]  # the contacts' per-pin outputs of their last evaluation, pins
     guess = np.zeros(x.shape[0])
     evaluations = 0
     retried = 0
@@ -487,19 +517,9 @@ def _steps(theta, ratio, kin, hist_th, hist_e, nh, last_te, max_jump, max_pen, c
         cs[2][regulariser] = th / ratio
         for i in range(fixed_idx.shape[0]):
             x[fixed_idx[i]] = fixed_value[i]
-        for i in range(x.shape[0]):
-            guess[i] = x[i]
-        status, ev, pen, norm = _newton(x, free, cap, ref, pc, cs, ld, ct, ff, ms, max_iterations, PLAIN)
+        status, ev, tries, pen, norm = _solve_retried(x, guess, free, cap, ref, pc, cs, ld, ct, ff, ms, max_iterations)
         evaluations += ev
-        for mode in (DAMPED, CHORD):  # again from the guess, damped, then with a kept Jacobian
-            if status == CONVERGED:
-                break
-            for i in range(x.shape[0]):
-                x[i] = guess[i]
-            status, ev, pen, norm = _newton(x, free, cap, ref, pc, cs, ld, ct, ff, ms,
-                                            max_iterations if mode == DAMPED else CHORD_ITERATIONS, mode)
-            evaluations += ev
-            retried += 1
+        retried += tries
         if status != CONVERGED:
             return s, status, evaluations, retried, last_te, nh
         if pen > max_pen:
@@ -514,7 +534,7 @@ def _steps(theta, ratio, kin, hist_th, hist_e, nh, last_te, max_jump, max_pen, c
                 for p in range(forces.shape[2]):
                     forces[s, d, p] = ct_out[d][p, K.O_FORCE]
                     gaps[s, d, p] = ct_out[d][p, K.O_GAP]
-                torques[s, d] = ring_torque(ct_out[d][:, K.O_FORCE], ct_out[d][:, K.O_PX], ct_out[d][:, K.O_PY], ct[3][d])
+                torques[s, d] = ring_torque(ct_out[d][:, K.O_FORCE], ct_out[d][:, K.O_PX], ct_out[d][:, K.O_PY], ct_pins[d])
         if nh == 3:  # keep the last three
             for j in range(2):
                 hist_th[j] = hist_th[j + 1]
@@ -626,15 +646,16 @@ def _rigid_rows(positions: np.ndarray, rows: np.ndarray, w: np.ndarray) -> np.nd
     return np.linalg.solve(a, b)
 
 
-def _marker(mbs, marker: int, bodies: dict, nodes: dict) -> _Marker | None:
-    """The marker ``marker`` for the compiled step; None when it is not one it knows."""
+def _marker(mbs, marker: int, objects: list[dict], bodies: dict, nodes: dict) -> _Marker | None:
+    """The marker ``marker`` for the compiled step (``objects``, ``bodies``, ``nodes`` as :func:`_bodies`'s);
+    None when it is not one it knows."""
     m = mbs.GetMarker(marker)
     kind = m["markerType"]
     if kind == "BodyRigid":
         b = int(m["bodyNumber"])
         lp = np.asarray(m["localPosition"], float)
-        if mbs.GetObject(b)["objectType"] == "Ground":
-            return _Marker(-1, -1, np.asarray(mbs.GetObject(b)["referencePosition"], float)[:2] + lp[:2])
+        if objects[b]["objectType"] == "Ground":
+            return _Marker(-1, -1, np.asarray(objects[b]["referencePosition"], float)[:2] + lp[:2])
         body = bodies.get(b)
         if body is None or body.modal >= 0:
             return None
@@ -725,19 +746,15 @@ class CompiledStep:
         return f, kt
 
     def _attempt(self, guess: np.ndarray) -> tuple[int, np.ndarray, float, float]:
-        """Newton from ``guess`` (displacements), plain, then damped, then with a kept Jacobian: (status,
-        state, max penetration, residual norm)."""
+        """Newton from ``guess`` (displacements) with its retries (:func:`_solve_retried`): (status, state,
+        max penetration, residual norm)."""
         d = self.d
-        for mode in (PLAIN, DAMPED, CHORD):
-            if mode != PLAIN:
-                self.retried += 1
-            x = guess.copy()
-            status, ev, pen, norm = _newton(x, d["free"], d["cap"], d["ref"], *self.packs,
-                                            CHORD_ITERATIONS if mode == CHORD else MAX_ITERATIONS, mode)
-            self.evaluations += ev
-            self.iterations += ev  # each evaluation is followed by one linear solve (or a halving)
-            if status == CONVERGED:
-                break
+        x = guess.copy()
+        status, ev, tries, pen, norm = _solve_retried(x, np.empty_like(x), d["free"], d["cap"], d["ref"],
+                                                      *self.packs, MAX_ITERATIONS)
+        self.evaluations += ev
+        self.iterations += ev  # each evaluation is followed by one linear solve (or a halving)
+        self.retried += tries
         return status, x, pen, norm
 
     def solve(self, q_abs: np.ndarray) -> np.ndarray:
@@ -833,21 +850,13 @@ class CompiledStep:
                 float(ring_torque(out[:, K.O_FORCE], out[:, K.O_PX], out[:, K.O_PY], self.d["ct_pins"][disc])))
 
 
-# the contact group's arrays in the order _assemble unpacks them
-_CONTACT_KEYS = ("ct_rig", "ct_ref", "ct_offset", "ct_pins", "ct_radii", "ct_par", "ct_herr", "ct_hpsi", "ct_law",
-                 "ct_tcache", "ct_zones", "ct_window", "ct_out", "ct_pout", "ct_count", "ct_mod", "ct_phi", "ct_f",
-                 "ct_k", "ct_d", "ct_eta", "ct_etad", "ct_hmod", "ct_seat", "ct_xi", "ct_xid", "ct_pf", "ct_pk",
-                 "ct_pd")
 
-
-def _bodies(mbs) -> tuple[dict, dict] | None:
-    """Every body of the system by object and by node (:class:`_Body`); None when one of them is of a kind the
-    compiled step does not replicate (an FE body with user functions or out-of-plane freedom is declined
-    later, by its constraints)."""
-    sd = mbs.systemData
+def _bodies(mbs, objects: list[dict]) -> tuple[dict, dict] | None:
+    """Every body of the system (``objects``: its objects' parameters, in order) by object and by node
+    (:class:`_Body`); None when one of them is of a kind the compiled step does not replicate (an FE body with
+    user functions or out-of-plane freedom is declined later, by its constraints)."""
     bodies, nodes = {}, {}
-    for i in range(sd.NumberOfObjects()):
-        o = mbs.GetObject(i)
+    for i, o in enumerate(objects):
         if o["objectType"] == "RigidBody2D":
             x = int(mbs.GetNodeODE2Index(o["nodeNumber"]))
             bodies[i] = nodes[int(o["nodeNumber"])] = _Body(x, x + 2)
@@ -877,7 +886,8 @@ def compiled_step(model) -> CompiledStep | None:
         bearing_law[p.bearing.connector] = (p.bearing.clearance_m, p.bearing.smoothing_m)
     contacts = {c.object_index: c for c in model.discs.contacts}
     meshes = {h.mesh_object: h for h in model.cranks.meshes}
-    found = _bodies(mbs)
+    objects = [mbs.GetObject(i) for i in range(sd.NumberOfObjects())]  # read once: an FE body's are megabytes
+    found = _bodies(mbs, objects)
     if found is None:
         return None
     bodies, nodes = found
@@ -906,8 +916,7 @@ def compiled_step(model) -> CompiledStep | None:
             stiffness[p.modal] = stiffness[p.modal] + k_axial * np.outer(z, z) + k_tilt * tilt.T @ tilt
         return True
 
-    for i in range(sd.NumberOfObjects()):
-        o = mbs.GetObject(i)
+    for i, o in enumerate(objects):
         kind = o["objectType"]
         if kind in ("Ground", "RigidBody2D"):
             continue
@@ -920,7 +929,7 @@ def compiled_step(model) -> CompiledStep | None:
         if not o.get("activeConnector", True):
             continue
         if kind in ("ConnectorRigidBodySpringDamper", "ConnectorCartesianSpringDamper"):
-            pts = [_marker(mbs, m, bodies, nodes) for m in o["markerNumbers"]]
+            pts = [_marker(mbs, m, objects, bodies, nodes) for m in o["markerNumbers"]]
             if None in pts or np.any(np.asarray(o["offset"], float)[:2] != 0.0) and kind != "ConnectorCartesianSpringDamper":
                 return None
             if kind == "ConnectorRigidBodySpringDamper":
