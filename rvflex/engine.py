@@ -72,7 +72,7 @@ CONVERGED, STALLED, KERNEL_FAILED, SINGULAR = 0, 1, 2, 3
 _CONTACT_KEYS = ("ct_rig", "ct_ref", "ct_offset", "ct_pins", "ct_radii", "ct_par", "ct_herr", "ct_hpsi", "ct_law",
                  "ct_tcache", "ct_zones", "ct_window", "ct_out", "ct_pout", "ct_count", "ct_mod", "ct_phi", "ct_f",
                  "ct_k", "ct_d", "ct_eta", "ct_etad", "ct_hmod", "ct_seat", "ct_xi", "ct_xid", "ct_pf", "ct_pk",
-                 "ct_pd")
+                 "ct_pd", "ct_last")
 CT_PINS, CT_OUT, CT_F = (_CONTACT_KEYS.index(k) for k in ("ct_pins", "ct_out", "ct_f"))
 
 
@@ -245,8 +245,10 @@ def _contact_size(ct):
 
 
 @_jit
-def _assemble(x, ref, pc, cs, ld, ct, ff, ms, f, kt, qa, wk):
+def _assemble(x, ref, pc, cs, ld, ct, ff, ms, f, kt, qa, wk, skip_open):
     """Force (RHS) and LHS Jacobian of the whole system at displacement x; returns (max penetration, bad pins).
+    With ``skip_open`` a rigid disc's pins that surely stand open are not evaluated again (their gaps in
+    the contacts' outputs are then those of their last evaluation; :func:`~rvflex.contact.cycloid_pin.evaluate_tracked_kernel`).
 
     ``pc``: point connectors (:func:`_point_connectors`); ``cs``: coordinate springs to ground (index, k,
     offset); ``ld``: coordinate loads (index, value); ``ct``: cycloid–pin contacts (their kernel's data, the
@@ -257,7 +259,7 @@ def _assemble(x, ref, pc, cs, ld, ct, ff, ms, f, kt, qa, wk):
     ld_idx, ld_val = ld
     (ct_rig, ct_ref, ct_offset, ct_pins, ct_radii, ct_par, ct_herr, ct_hpsi, ct_law, ct_tcache, ct_zones, ct_window,
      ct_out, ct_pout, ct_count, ct_mod, ct_phi, ct_f, ct_k, ct_d, ct_eta, ct_etad, ct_hmod, ct_seat, ct_xi, ct_xid,
-     ct_pf, ct_pk, ct_pd) = ct
+     ct_pf, ct_pk, ct_pd, ct_last) = ct
     ff_start, ff_m, ff_k = ff
     ms_idx, ms_par = ms
     n = x.shape[0]
@@ -300,9 +302,10 @@ def _assemble(x, ref, pc, cs, ld, ct, ff, ms, f, kt, qa, wk):
                                                 ct_zones[d], ct_window[d], ct_pout[d], ct_count[d], ct_pf[d],
                                                 ct_pk[d], ct_pd[d])
         else:
-            p, nbad = K.evaluate_kernel(work3, qd, ct_offset[d], ct_pins[d], ct_radii[d], ct_par[d], ct_herr[d],
-                                        ct_hpsi[d], ct_law[d], ct_tcache[d], ct_phi[d], eta, ct_etad[d], fd, kd,
-                                        ct_d[d], ct_out[d], ct_zones[d], ct_window[d], ct_pout[d], ct_count[d])
+            p, nbad = K.evaluate_tracked_kernel(work3, qd, ct_offset[d], ct_pins[d], ct_radii[d], ct_par[d],
+                                                ct_herr[d], ct_hpsi[d], ct_law[d], ct_tcache[d], ct_phi[d], eta,
+                                                ct_etad[d], fd, kd, ct_d[d], ct_out[d], ct_zones[d], ct_window[d],
+                                                ct_pout[d], ct_count[d], ct_last[d], skip_open)
         if p > pen:
             pen = p
         bad += nbad
@@ -331,7 +334,7 @@ def _assemble(x, ref, pc, cs, ld, ct, ff, ms, f, kt, qa, wk):
 
 
 @_jit
-def _newton(x, free, cap, ref, pc, cs, ld, ct, ff, ms, max_iterations, mode):
+def _newton(x, free, cap, ref, pc, cs, ld, ct, ff, ms, max_iterations, mode, skip_open):
     """Newton's method on the free coordinates from x (updated in place); returns (status, evaluations,
     max penetration, residual norm).
 
@@ -360,7 +363,7 @@ def _newton(x, free, cap, ref, pc, cs, ld, ct, ff, ms, max_iterations, mode):
     last = np.inf  # the residual norm at the last accepted state
     halvings = 0
     for it in range(max_iterations + 1):
-        pen, bad = _assemble(x, ref, pc, cs, ld, ct, ff, ms, f, kt, qa, wk)
+        pen, bad = _assemble(x, ref, pc, cs, ld, ct, ff, ms, f, kt, qa, wk, skip_open)
         evaluations += 1
         norm = 0.0
         if not bad:
@@ -413,7 +416,7 @@ def _newton(x, free, cap, ref, pc, cs, ld, ct, ff, ms, max_iterations, mode):
 
 
 @_jit
-def _solve_retried(x, guess, free, cap, ref, pc, cs, ld, ct, ff, ms, max_iterations):
+def _solve_retried(x, guess, free, cap, ref, pc, cs, ld, ct, ff, ms, max_iterations, skip_open):
     """:func:`_newton` from x, and where it fails again from there, damped and then with a kept Jacobian (x is
     the solution, ``guess`` a work copy of the start); returns (status, evaluations, retries, max penetration,
     residual norm)."""
@@ -421,7 +424,7 @@ def _solve_retried(x, guess, free, cap, ref, pc, cs, ld, ct, ff, ms, max_iterati
         guess[i] = x[i]
     evaluations = 0
     retries = 0
-    status, ev, pen, norm = _newton(x, free, cap, ref, pc, cs, ld, ct, ff, ms, max_iterations, PLAIN)
+    status, ev, pen, norm = _newton(x, free, cap, ref, pc, cs, ld, ct, ff, ms, max_iterations, PLAIN, skip_open)
     evaluations += ev
     for mode in (DAMPED, CHORD):
         if status == CONVERGED:
@@ -429,7 +432,7 @@ def _solve_retried(x, guess, free, cap, ref, pc, cs, ld, ct, ff, ms, max_iterati
         for i in range(x.shape[0]):
             x[i] = guess[i]
         status, ev, pen, norm = _newton(x, free, cap, ref, pc, cs, ld, ct, ff, ms,
-                                        max_iterations if mode == DAMPED else CHORD_ITERATIONS, mode)
+                                        max_iterations if mode == DAMPED else CHORD_ITERATIONS, mode, skip_open)
         evaluations += ev
         retries += 1
     return status, evaluations, retries, pen, norm
@@ -491,7 +494,8 @@ def _steps(theta, ratio, kin, hist_th, hist_e, nh, last_te, max_jump, max_pen, c
     set to the step's angle, Newton, the contacts' penetration guard and the jump check against the last TE.
     A step the plain Newton cannot take is tried again from its guess, damped and then with a kept
     Jacobian. Records the output angle (``out``), and with ``states`` the pins' forces and gaps and the discs'
-    ring torques; ``x_out`` holds the last converged state (absolute). Returns (steps done, status of the
+    ring torques; without, the pins of a rigid disc that surely stand open are not evaluated again
+    (``skip_open`` of :func:`_assemble`). ``x_out`` holds the last converged state (absolute). Returns (steps done, status of the
     step that stopped the run or CONVERGED, evaluations, retries, the last TE, nh)."""
     n = theta.shape[0]
     ct_out, ct_pins = ct[CT_OUT], ct[CT_PINS]  # the contacts' per-pin outputs of their last evaluation, pins
@@ -517,7 +521,8 @@ def _steps(theta, ratio, kin, hist_th, hist_e, nh, last_te, max_jump, max_pen, c
         cs[2][regulariser] = th / ratio
         for i in range(fixed_idx.shape[0]):
             x[fixed_idx[i]] = fixed_value[i]
-        status, ev, tries, pen, norm = _solve_retried(x, guess, free, cap, ref, pc, cs, ld, ct, ff, ms, max_iterations)
+        status, ev, tries, pen, norm = _solve_retried(x, guess, free, cap, ref, pc, cs, ld, ct, ff, ms, max_iterations,
+                                                      not states)
         evaluations += ev
         retried += tries
         if status != CONVERGED:
@@ -742,7 +747,8 @@ class CompiledStep:
         x = np.asarray(q_abs, float) - self.model.reference
         f, kt = np.zeros(n), np.zeros((n, n))
         pc, cs, ld, ct, ff, ms = self.packs
-        _assemble(x, self.d["ref"], pc, cs, ld, ct, ff, ms, f, kt, np.zeros(n), _workspace(pc[2].shape[2], _contact_size(ct)))
+        _assemble(x, self.d["ref"], pc, cs, ld, ct, ff, ms, f, kt, np.zeros(n), _workspace(pc[2].shape[2], _contact_size(ct)),
+                  False)
         return f, kt
 
     def _attempt(self, guess: np.ndarray) -> tuple[int, np.ndarray, float, float]:
@@ -750,8 +756,9 @@ class CompiledStep:
         max penetration, residual norm)."""
         d = self.d
         x = guess.copy()
+        # every pin evaluated: the caller may read the pins' outputs of this step (pin_outputs)
         status, ev, tries, pen, norm = _solve_retried(x, np.empty_like(x), d["free"], d["cap"], d["ref"],
-                                                      *self.packs, MAX_ITERATIONS)
+                                                      *self.packs, MAX_ITERATIONS, False)
         self.evaluations += ev
         self.iterations += ev  # each evaluation is followed by one linear solve (or a halving)
         self.retried += tries
@@ -839,7 +846,9 @@ class CompiledStep:
         mbs.SetObjectParameter(model.sun.drive, "offset", th)
         mbs.SetObjectParameter(model.carrier.regulariser, "offset", th / model.ratio)
         mbs.systemData.SetODE2Coordinates(x_out - model.reference, configuration=_current())
-        self.solved = status == CONVERGED  # else ct_out holds the failed step's last evaluation
+        # the pins' outputs are the last step's where it converged and every pin was evaluated (with ``states``;
+        # else the open pins' gaps are those of their last evaluation)
+        self.solved = status == CONVERGED and bool(states)
         return done, [(float(hist_th[j]), hist_e[j].copy()) for j in range(nh)], last_te, x_out
 
     def pin_outputs(self, disc: int) -> tuple[np.ndarray, np.ndarray, float]:
@@ -1069,7 +1078,9 @@ def compiled_step(model) -> CompiledStep | None:
                      ("ct_xid", lambda c: np.zeros(c.n_housing_modes)),
                      ("ct_pf", lambda c: np.zeros(3 + c.n_modes)),  # the housing kernel's per-pin buffers
                      ("ct_pk", lambda c: np.zeros((3 + c.n_modes,) * 2)),
-                     ("ct_pd", lambda c: np.zeros((3 + c.n_modes,) * 2))):
+                     ("ct_pd", lambda c: np.zeros((3 + c.n_modes,) * 2)),
+                     # each pin's centre and certified gap at its last evaluation (none yet)
+                     ("ct_last", lambda c: np.tile([0.0, 0.0, -np.inf], (len(c.radii_m), 1)))):
         arrays = [get(c) for c in ct]
         # one stacked array where every disc's has the same shape (the usual case: cheaper to pass and index),
         # else a tuple of them (the warm starts always: the contacts' own arrays); the compiled functions index

@@ -127,6 +127,67 @@ def test_runs_of_compiled_steps_are_the_step_by_step_loop(monkeypatch):
     stopped = run()
     assert np.abs(stopped.te_rad - loop.te_rad).max() * ARCSEC_PER_RAD < 1e-9
 
+def test_pins_skipped_as_surely_open_change_nothing():
+    """The kernel's skip of a pin whose last gap exceeds how far its centre has moved since
+    (``evaluate_tracked`` with ``skip_open``) leaves the force and Jacobian of a disc exactly those of every
+    pin evaluated, at loaded states a Newton iteration (1 µm, 1e-5 rad) and a whole step (0.4 mm, 0.1 rad)
+    away from the recorded one; within the iteration it skips most pins (the loaded ones it never skips)."""
+    from rvflex.contact import _cycloid_kernel as K
+    from rvflex.solve import quasi_static
+
+    spec = load_reducer("rv40e")
+    model = build_reducer(spec, clearance_errors(spec), "rigid")
+    quasi_static(model, np.linspace(0.0, 0.3, 8), spec.rated_torque_Nm, contact_states=False)
+    import exudyn as exu
+
+    c = model.discs.contacts[0]
+    ri = list(c.rigid_index)
+    q0 = (c.reference + np.asarray(model.mbs.GetNodeOutput(c.node, exu.OutputVariableType.Coordinates)))[ri]
+    n, npin = 3, len(c.radii_m)
+
+    def call(q, last, skip, t_cache):
+        f, k, d, out = np.zeros(n), np.zeros((n, n)), np.zeros((n, n)), np.zeros((npin, K.N_OUT))
+        pout, count = K.empty_points(npin)
+        K.evaluate_tracked(q, np.zeros(3), c.offset_rad, c.pins_m, c.radii_m, c.profile.par, c.profile.herr,
+                           c.profile.hpsi, c._law_vec, t_cache, c.phi, np.zeros(0), np.zeros(0), f, k, d, out, c.zones,
+                           c.zone_window_rad, pout, count, last, skip)
+        return f, k, out
+
+    for move in (np.array([1e-6, -1e-6, 1e-5]), np.array([4e-4, 1e-4, 0.1])):
+        last = np.tile([0.0, 0.0, -np.inf], (npin, 1))
+        t_cache = np.full(npin, np.nan)
+        _, _, out0 = call(q0, last, False, t_cache)  # records every pin
+        assert np.isfinite(last[:, 2]).all() and (out0[:, K.O_FORCE] > 0).sum() >= 1
+        recorded = last.copy()
+        f_all, k_all, out_all = call(q0 + move, last.copy(), False, t_cache.copy())
+        f_skip, k_skip, out_skip = call(q0 + move, last, True, t_cache.copy())
+        np.testing.assert_array_equal(f_skip, f_all)
+        np.testing.assert_array_equal(k_skip, k_all)
+        np.testing.assert_array_equal(out_skip[:, K.O_FORCE], out_all[:, K.O_FORCE])
+        skipped = (last == recorded).all(axis=1)  # a skipped pin's record stays as it was
+        assert not (skipped & (out_all[:, K.O_FORCE] > 0)).any()
+        if move[2] < 1e-4:
+            assert skipped.sum() > npin // 2
+        else:
+            assert not skipped.any()
+
+
+def test_a_run_without_pin_states_gives_the_te_of_one_with_them():
+    """Without pin states the compiled runs skip the surely open pins; the TE is the same to 1e-9″ (the skipped
+    pins' closest-point warm starts are older, the same minimum to rounding) on every built-in unit with seed
+    001-like clearances at rated load."""
+    from rvflex.solve import quasi_static
+
+    for unit in ("rv40e", "rv80e", "rv160n"):
+        spec = load_reducer(unit)
+        theta = np.linspace(0.0, 2 * np.pi * spec.nominal_ratio / 4, 512, endpoint=False)
+        model = build_reducer(spec, clearance_errors(spec), "rigid")
+        full = quasi_static(model, theta, spec.rated_torque_Nm, contact_states=True)
+        lean = quasi_static(model, theta, spec.rated_torque_Nm, contact_states=False)
+        assert np.abs(full.te_rad - lean.te_rad).max() * ARCSEC_PER_RAD < 1e-9
+        assert np.ptp(full.te_rad) * ARCSEC_PER_RAD > 1.0
+
+
 def test_a_system_with_an_item_the_compiled_step_does_not_replicate_is_left_to_exudyn():
     """An extra connector the compiled step has no law for (a coordinate spring between two bodies) makes
     it decline the system: that model is solved by Exudyn's solver."""

@@ -288,6 +288,14 @@ def _zone_points(c, r_pin, t1, zones, window, par, herr, hpsi, pts, npts):
 @_jit
 def evaluate(q, qd, offset, pins, radii, par, herr, hpsi, law, t_cache, phi, eta, eta_d, force, kmat, dmat, out,
              zones, zone_window, pout, npts_out):
+    """:func:`evaluate_tracked` with every pin evaluated (no record of the pins' last gaps)."""
+    return evaluate_tracked(q, qd, offset, pins, radii, par, herr, hpsi, law, t_cache, phi, eta, eta_d, force, kmat,
+                            dmat, out, zones, zone_window, pout, npts_out, np.empty((0, 3)), False)
+
+
+@_jit
+def evaluate_tracked(q, qd, offset, pins, radii, par, herr, hpsi, law, t_cache, phi, eta, eta_d, force, kmat, dmat,
+                     out, zones, zone_window, pout, npts_out, last, skip_open):
     """Generalised force (3 + m,), LHS Jacobians K, D ((3 + m)²) and per-pin outputs (n, N_OUT)
     of a disc with rigid coordinates ``q = (x, y, θ)`` and m modal coordinates ``eta``.
 
@@ -305,8 +313,17 @@ def evaluate(q, qd, offset, pins, radii, par, herr, hpsi, law, t_cache, phi, eta
     of the previous call on these arrays, rows past it unused (NaN, zero force): fresh arrays
     come from :func:`empty_points`.
 
-    Returns the largest penetration (m) and the number of closest-point failures (a pin
-    with more than MAX_POINTS points counts as a failure).
+    ``last`` (n, 3) records, per pin of a rigid disc, where its centre was in the profile frame (c_x, c_y)
+    when it was last evaluated and the gap it then had, certified as a lower bound of its distance to the
+    whole profile (−inf: none; a flexible disc records none); a call with ``last`` of another length records
+    nothing. With ``skip_open``, a pin whose recorded gap exceeds how far its centre has moved since is
+    skipped: the distance to a curve changes no faster than the point moves, so it is still open, its
+    force zero, and its outputs stay those of its last evaluation (exact but for its gap, which is not
+    updated). Within a Newton step the disc moves by micrometres and most pins stand open by more: they cost
+    nothing after the step's first evaluation.
+
+    Returns the largest penetration (m) over the pins evaluated and the number of closest-point failures (a
+    pin with more than MAX_POINTS points counts as a failure).
     """
     x0 = q[0]
     y0 = q[1]
@@ -330,12 +347,18 @@ def evaluate(q, qd, offset, pins, radii, par, herr, hpsi, law, t_cache, phi, eta
     gt = np.empty(3)
     pts = np.empty((pout.shape[1], 7))  # a pin's contact points: t, d, Q.x, Q.y, N.x, N.y, κ
     nz = zones.shape[0]
+    track = last.shape[0] == pins.shape[0]
     for i in range(pins.shape[0]):
         # pin centre in the profile frame: c = R(−θ)(P − C)
         dx = pins[i, 0] - x0
         dy = pins[i, 1] - y0
         cx = ct * dx + st * dy
         cy = -st * dx + ct * dy
+        if skip_open and track:
+            mx = cx - last[i, 0]
+            my = cy - last[i, 1]
+            if last[i, 2] > math.sqrt(mx * mx + my * my):
+                continue
         c = complex(cx, cy)
         t, d, qp, nq, kap, ok = closest_point(c, par, herr, hpsi, t_cache[i])
         if ok:
@@ -519,6 +542,15 @@ def evaluate(q, qd, offset, pins, radii, par, herr, hpsi, law, t_cache, phi, eta
                         kmat[a, b] += mu * th_v * gt[a] * (-df_el * gq[b])
                 # friction acts on the rigid coordinates only: the tangential flank displacement of
                 # the modes is left out (friction is off in the catalogue models)
+        if track:
+            last[i, 0] = cx
+            last[i, 1] = cy
+            # the gap certified for the whole profile: the closest point's (every minimum of the distance found,
+            # on a profile without concave zones the only one); with zones, minima beyond the contact range
+            # are not searched, so no more than that range. None for a flexible disc (its flank moves with η)
+            # or a failed solve
+            g = out[i, O_GAP] if nz == 0 else min(out[i, O_GAP], CONTACT_RANGE_M)
+            last[i, 2] = g if ok and m == 0 else -math.inf
     return max_pen, bad
 
 

@@ -34,7 +34,7 @@ from rvflex.spec import CycloidStage, ErrorSpec, Material
 
 __all__ = ["ContactError", "ContactLaw", "CycloidPinContact", "PinState", "add_cycloid_pin_contact",
            "concave_zones", "install_penetration_guard", "DEFAULT_MAX_PENETRATION_M", "MAX_POINTS", "N_OUT", "O_FORCE",
-           "O_GAP", "empty_points", "evaluate_kernel"]
+           "O_GAP", "empty_points", "evaluate_kernel", "evaluate_tracked_kernel"]
 
 DEFAULT_MAX_PENETRATION_M = 50e-6  # beyond any elastic approach of steel pins (a few µm): a run gone wrong
 DEFAULT_INITIAL_INTERFERENCE_M = 1e-6
@@ -42,6 +42,7 @@ MAX_POINTS = K.MAX_POINTS
 # the kernel, for compiled callers that evaluate a disc without its Exudyn element (rvflex.engine), and the
 # layout of its per-pin outputs
 evaluate_kernel = K.evaluate
+evaluate_tracked_kernel = K.evaluate_tracked
 evaluate_housing_kernel = K.evaluate_housing
 empty_points = K.empty_points
 N_OUT, O_GAP, O_FORCE, O_PX, O_PY = K.N_OUT, K.O_GAP, K.O_FORCE, K.O_PX, K.O_PY

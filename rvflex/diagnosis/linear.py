@@ -192,12 +192,13 @@ def lin_fit(prob: Problem, base: np.ndarray, J: np.ndarray, x_ref: np.ndarray, l
 def _search_delta(prob, base, A, rows, w) -> float:
     """The origin shift δ of the unbounded fit with the columns ``A``: grid, then refined locally."""
     grid = np.linspace(0.0, 2 * np.pi, DELTA_GRID, endpoint=False)
+    Q = np.linalg.qr(A)[0] if A.shape[1] else np.zeros((A.shape[0], 0))  # (both searches project on A's span)
     if len(rows) == prob.lay.n:
-        delta = _best_delta_all_rows(prob, base, A, grid)
+        delta = _best_delta_all_rows(prob, base, Q, grid)
     else:
-        delta = _best_delta(prob, base, A, rows, w, grid)
+        delta = _best_delta(prob, base, Q, rows, w, grid)
     step = 2 * np.pi / DELTA_GRID
-    return _best_delta(prob, base, A, rows, w, delta + np.linspace(-step, step, 41))
+    return _best_delta(prob, base, Q, rows, w, delta + np.linspace(-step, step, 41))
 
 
 def _bounded_fit(prob, base, A, rows, w, x_ref, lo, hi, prior, delta):
@@ -216,7 +217,11 @@ def _bounded_fit(prob, base, A, rows, w, x_ref, lo, hi, prior, delta):
         P[np.arange(len(keep)), keep] = pw[keep]
         A_fit = np.vstack([A, P])
         r_fit = np.r_[r, -pw[keep] * (x_ref[keep] - pc[keep])]
-    sol = lsq_linear(A_fit, r_fit, bounds=(lb, ub), method="bvls" if A.shape[1] < 40 else "trf")
+    # the bounded solver on the triangular factor: ‖A·x − r‖² = ‖R·x − Qᵀr‖² + ‖r − QQᵀr‖² for A = QR, so
+    # the same minimiser from k rows instead of thousands (each of the active-set solver's steps is a least
+    # squares solve: 0.13 ms on 2100 × 12, a few µs on 12 × 12)
+    q, rt = np.linalg.qr(A_fit)
+    sol = lsq_linear(rt, q.T @ r_fit, bounds=(lb, ub), method="bvls" if A.shape[1] < 40 else "trf")
     res = r_fit - A_fit @ sol.x
     return x_ref + sol.x[:p], sol.x[p:], delta, float(res @ res), A
 
@@ -234,20 +239,20 @@ def prior_penalty(effects, x: np.ndarray) -> float:
     return float(np.sum((pw * (np.asarray(x, float) - pc)) ** 2)) if len(pw) else 0.0
 
 
-def _best_delta(prob, base, A, rows, w, grid) -> float:
+def _best_delta(prob, base, Q, rows, w, grid) -> float:
+    """The shift of ``grid`` whose weighted residual off the span of ``Q`` (orthonormal columns, the fit's design
+    matrix ``A`` on ``rows``) is least."""
     Y = (shift_measured(prob.y, prob.lay, grid) - base[:, None])[rows] * w[:, None]
-    if A.shape[1]:
-        Q, _ = np.linalg.qr(A)
+    if Q.shape[1]:
         Y = Y - Q @ (Q.T @ Y)
     rss = np.einsum("ij,ij->j", Y, Y)
     return float(grid[int(np.argmin(rss))])
 
 
-def _best_delta_all_rows(prob, base, A, grid) -> float:
+def _best_delta_all_rows(prob, base, Q, grid) -> float:
     """:func:`_best_delta` over all rows on the coarse grid: ‖P⊥(Y − b)‖² = ‖Y‖² − 2 bᵀY + ‖b‖² − ‖Qᵀ(Y − b)‖²,
     the products with the shifted features Y(δ) by FFT over δ (:meth:`Problem.shifted_products`)."""
     bw = base * prob.w
-    Q = np.linalg.qr(A)[0] if A.shape[1] else np.zeros((len(bw), 0))
     F = prob.shifted_products(np.column_stack([bw, Q]))
     rss = prob.shifted_w_sq - 2.0 * F[0] + bw @ bw
     if Q.shape[1]:

@@ -386,87 +386,129 @@ def verdict_grade(diag) -> str:
 
 # ----------------------------------------------------------------------------- plots and Markdown
 
-def _plots(diag, out: Path) -> list[Path]:
+def _fig_te(diag):
+    """Measured, model and corrected TE of every TE run (None without TE runs)."""
     from matplotlib.figure import Figure  # no pyplot: the caller's backend and figures stay untouched
+
+    te_runs = diag.layout.te_runs
+    if not te_runs:
+        return None
+    fig = Figure(figsize=(11, 3.0 * len(te_runs)), layout="constrained")
+    axes = fig.subplots(len(te_runs), 1, squeeze=False)
+    for ax, r in zip(axes[:, 0], te_runs):
+        draw_run(ax, diag, r)
+        if r != te_runs[-1]:
+            ax.set_xlabel("")
+    axes[0, 0].legend(fontsize=8, loc="best")
+    return fig
+
+
+def _fig_orders(diag):
+    """The residual order spectrum of every TE run before and after the accepted effect."""
+    from matplotlib.figure import Figure
 
     lay = diag.layout
     base, ch = diag.baseline, diag.chosen
-    paths = []
     te_runs = lay.te_runs
-    if te_runs:
-        fig = Figure(figsize=(11, 3.0 * len(te_runs)), layout="constrained")
-        axes = fig.subplots(len(te_runs), 1,
-                                 squeeze=False)
-        for ax, r in zip(axes[:, 0], te_runs):
-            draw_run(ax, diag, r)
-            if r != te_runs[-1]:
-                ax.set_xlabel("")
-        axes[0, 0].legend(fontsize=8, loc="best")
-        p = out / "te_measured_model_corrected.png"
-        fig.savefig(p, dpi=110)
-        paths.append(p)
-
-        fig = Figure(figsize=(11, 2.6 * len(te_runs)), layout="constrained")
-        axes = fig.subplots(len(te_runs), 1,
-                                 squeeze=False)
-        k = np.arange(1, lay.max_order + 1)
-        for ax, r in zip(axes[:, 0], te_runs):
-            for c, col, lab in ((base, "C0", "before (model)"), (ch, "C3", "after (corrected)")):
-                if c is None:
-                    continue
-                y = shift_measured(diag.measured, lay, c.delta)[:, 0]
-                amp = np.hypot(y[lay.cos[r]] - c.model_features[lay.cos[r]], y[lay.sin[r]] - c.model_features[lay.sin[r]])
-                # one line collection per run, not 255 bar patches (a third of the report's plotting time)
-                ax.vlines(k + (0.2 if c is ch else -0.2), 1e-3, np.maximum(amp, 1e-3), color=col, lw=1.0, label=lab)
-            ax.set_yscale("log")
-            ax.set_ylim(bottom=1e-3)
-            ax.set_title(f"residual order spectrum — {diag.plan[r].label}", fontsize=9)
-            ax.set_ylabel("|residual| (arcsec)")
-            ax.grid(alpha=0.3)
-        axes[-1, 0].set_xlabel("order (per output revolution)")
-        axes[0, 0].legend(fontsize=8)
-        p = out / "residual_orders.png"
-        fig.savefig(p, dpi=110)
-        paths.append(p)
-    hyst = sorted(lay.hyst)
-    if hyst:
-        fig = Figure(figsize=(7 * len(hyst), 4.8), layout="constrained")
-        axes = fig.subplots(1, len(hyst), squeeze=False)
-        for ax, r in zip(axes[0], hyst):
-            draw_run(ax, diag, r)
-        p = out / "hysteresis_loops.png"
-        fig.savefig(p, dpi=110)
-        paths.append(p)
-    cands = list(diag.candidates[:10])
-    if cands:
-        fig = Figure(figsize=(13, 0.45 * len(cands) + 1.6), layout="constrained")
-        a0, a1 = fig.subplots(1, 2,
-                                     width_ratios=(1, 1.2))
-        yy = np.arange(len(cands))[::-1]
-        a0.barh(yy, [max(c.score, 0.0) for c in cands],
-                color=["C3" if c.accepted else ("C0" if c.refined else "0.7") for c in cands])
-        a0.set_yticks(yy, [c.name for c in cands], fontsize=8)
-        a0.set_xlabel("score = BIC(calibrated model) − BIC(candidate)")
-        a0.set_xscale("symlog")
-        a0.grid(alpha=0.3)
-        for y_, c in zip(yy, cands):
-            if not c.attributed:
+    if not te_runs:
+        return None
+    fig = Figure(figsize=(11, 2.6 * len(te_runs)), layout="constrained")
+    axes = fig.subplots(len(te_runs), 1, squeeze=False)
+    k = np.arange(1, lay.max_order + 1)
+    for ax, r in zip(axes[:, 0], te_runs):
+        for c, col, lab in ((base, "C0", "before (model)"), (ch, "C3", "after (corrected)")):
+            if c is None:
                 continue
-            e = c.attributed[0]
-            i = list(c.effects).index(e)
-            m, (lo, hi) = c.magnitude[i], c.magnitude_interval[i]
-            hi_b = float(np.linalg.norm(np.maximum(np.abs(e.lower), np.abs(e.upper))))
-            a1.errorbar([m / hi_b], [y_], xerr=[[max(m - lo, 0) / hi_b], [max(hi - m, 0) / hi_b]], fmt="o",
-                        color="C3" if c.accepted else "C0", capsize=3)
-            a1.text(1.02, y_, f"{e.name}: {_mag_text(e, m, lo, hi)}", fontsize=7, va="center",
-                    transform=a1.get_yaxis_transform())
-        a1.set_yticks(yy, [""] * len(yy))
-        a1.set_xlim(0, 1)
-        a1.set_xlabel("fitted magnitude / bound (first effect), 95 % interval")
-        a1.grid(alpha=0.3)
-        p = out / "effect_ranking.png"
-        fig.savefig(p, dpi=110)
-        paths.append(p)
+            y = shift_measured(diag.measured, lay, c.delta)[:, 0]
+            amp = np.hypot(y[lay.cos[r]] - c.model_features[lay.cos[r]], y[lay.sin[r]] - c.model_features[lay.sin[r]])
+            # one line collection per run, not 255 bar patches (a third of the report's plotting time)
+            ax.vlines(k + (0.2 if c is ch else -0.2), 1e-3, np.maximum(amp, 1e-3), color=col, lw=1.0, label=lab)
+        ax.set_yscale("log")
+        ax.set_ylim(bottom=1e-3)
+        ax.set_title(f"residual order spectrum — {diag.plan[r].label}", fontsize=9)
+        ax.set_ylabel("|residual| (arcsec)")
+        ax.grid(alpha=0.3)
+    axes[-1, 0].set_xlabel("order (per output revolution)")
+    axes[0, 0].legend(fontsize=8)
+    return fig
+
+
+def _fig_hysteresis(diag):
+    """Measured, model and corrected torque cycles (None without torque cycles)."""
+    from matplotlib.figure import Figure
+
+    hyst = sorted(diag.layout.hyst)
+    if not hyst:
+        return None
+    fig = Figure(figsize=(7 * len(hyst), 4.8), layout="constrained")
+    axes = fig.subplots(1, len(hyst), squeeze=False)
+    for ax, r in zip(axes[0], hyst):
+        draw_run(ax, diag, r)
+    return fig
+
+
+def _fig_ranking(diag):
+    """The first ten candidates' scores and fitted magnitudes against their bounds."""
+    from matplotlib.figure import Figure
+
+    cands = list(diag.candidates[:10])
+    if not cands:
+        return None
+    fig = Figure(figsize=(13, 0.45 * len(cands) + 1.6), layout="constrained")
+    a0, a1 = fig.subplots(1, 2, width_ratios=(1, 1.2))
+    yy = np.arange(len(cands))[::-1]
+    a0.barh(yy, [max(c.score, 0.0) for c in cands],
+            color=["C3" if c.accepted else ("C0" if c.refined else "0.7") for c in cands])
+    a0.set_yticks(yy, [c.name for c in cands], fontsize=8)
+    a0.set_xlabel("score = BIC(calibrated model) − BIC(candidate)")
+    a0.set_xscale("symlog")
+    a0.grid(alpha=0.3)
+    for y_, c in zip(yy, cands):
+        if not c.attributed:
+            continue
+        e = c.attributed[0]
+        i = list(c.effects).index(e)
+        m, (lo, hi) = c.magnitude[i], c.magnitude_interval[i]
+        hi_b = float(np.linalg.norm(np.maximum(np.abs(e.lower), np.abs(e.upper))))
+        a1.errorbar([m / hi_b], [y_], xerr=[[max(m - lo, 0) / hi_b], [max(hi - m, 0) / hi_b]], fmt="o",
+                    color="C3" if c.accepted else "C0", capsize=3)
+        a1.text(1.02, y_, f"{e.name}: {_mag_text(e, m, lo, hi)}", fontsize=7, va="center",
+                transform=a1.get_yaxis_transform())
+    a1.set_yticks(yy, [""] * len(yy))
+    a1.set_xlim(0, 1)
+    a1.set_xlabel("fitted magnitude / bound (first effect), 95 % interval")
+    a1.grid(alpha=0.3)
+    return fig
+
+
+PLOTS = {"te_measured_model_corrected.png": _fig_te, "residual_orders.png": _fig_orders,
+         "hysteresis_loops.png": _fig_hysteresis, "effect_ranking.png": _fig_ranking}
+"""The report's plots: file name → the function drawing its figure from a diagnosis (None: nothing to show)."""
+PLOT_DPI = 110
+
+
+def _png(item) -> bytes | None:
+    """The PNG of plot ``name`` of ``diag`` (item = (diag, name)), None when it shows nothing."""
+    import io
+
+    diag, name = item
+    fig = PLOTS[name](diag)
+    if fig is None:
+        return None
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=PLOT_DPI)
+    return buf.getvalue()
+
+
+def _plots(diag, out: Path) -> list[Path]:
+    """Draw the report's plots into ``out``; returns the files written."""
+    paths = []
+    for name in PLOTS:
+        png = _png((diag, name))
+        if png is not None:
+            p = out / name
+            p.write_bytes(png)
+            paths.append(p)
     return paths
 
 
