@@ -706,6 +706,7 @@ class CompiledStep:
         self.iterations = 0
         self.evaluations = 0
         self.solved = False  # the last solve converged (its pin outputs are the step's)
+        self.skip_open = False  # single solves skip the surely open pins (no pin outputs then; _assemble)
         self.backup = None  # the caller's Newton to try when this one fails (rvflex.solve sets its chord Newton)
         d = data
         # the compiled functions' argument groups (arrays shared with ``d``: _runtime's updates reach them)
@@ -756,9 +757,8 @@ class CompiledStep:
         max penetration, residual norm)."""
         d = self.d
         x = guess.copy()
-        # every pin evaluated: the caller may read the pins' outputs of this step (pin_outputs)
         status, ev, tries, pen, norm = _solve_retried(x, np.empty_like(x), d["free"], d["cap"], d["ref"],
-                                                      *self.packs, MAX_ITERATIONS, False)
+                                                      *self.packs, MAX_ITERATIONS, self.skip_open)
         self.evaluations += ev
         self.iterations += ev  # each evaluation is followed by one linear solve (or a halving)
         self.retried += tries
@@ -805,7 +805,7 @@ class CompiledStep:
         # the system holds the state, as after Exudyn's solver: whatever reads it next (a pin state, the
         # loaded state a torque stepping hands on, Exudyn's solver taking the next step) sees this one
         self.model.mbs.systemData.SetODE2Coordinates(x, configuration=_current())
-        self.solved = True
+        self.solved = not self.skip_open  # the pins' outputs are this step's where every pin was evaluated
         return x + self.model.reference
 
     def steps(self, theta: np.ndarray, history: list, last_te: float, max_jump: float, out: np.ndarray,

@@ -548,6 +548,8 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
     # default: the compiled step (rvflex.engine) where it replicates the system (rigid or FE), else the chord
     # Newton for FE parts and Exudyn's solver for rigid ones until it bisects
     compiled = _compiled(model) if chord_newton is None else None
+    if compiled is not None:
+        compiled.skip_open = not contact_states  # without pin states the surely open pins need no evaluation
     switch = chord_newton is None and not fe and compiled is None
     if chord_newton is None:
         chord_newton = fe or compiled is not None
@@ -776,6 +778,8 @@ def torque_stepping(model: ReducerModel, torques_Nm: np.ndarray, *, progress=Non
     mbs.SetObjectParameter(model.carrier.regulariser, "stiffness", OUTPUT_REGULARISER_NM_RAD)
     # the compiled step (rvflex.engine) where it replicates the system, else the chord Newton on Exudyn's residual
     compiled = _compiled(model) if chord_newton else None
+    if compiled is not None:
+        compiled.skip_open = True  # no pin state is recorded: the surely open pins need no evaluation
     newton = compiled or (_ChordNewton(model) if chord_newton else None)
 
     def result(m: int) -> TorqueStepResult:

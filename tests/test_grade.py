@@ -16,7 +16,7 @@ from rvflex.diagnosis.ensemble import EnsembleMismatch
 from rvflex.diagnosis.grade import CONSISTENT, ESTABLISHED
 from rvflex.diagnosis.null import NULL_PATH, load_null
 from rvflex.diagnosis.orders import effects_at as effects_at_order
-from rvflex.diagnosis.report import json_document
+from rvflex.diagnosis.report import PLOTS, json_document
 from rvflex.diagnosis.selfcheck import GeneratorModel, generate_case
 from rvflex.diagnosis.settings import DiagnosisSettings
 from rvflex.units import ARCSEC
@@ -67,6 +67,15 @@ def test_a_finding_below_the_null_is_consistent_and_never_written_as_explaining_
     assert doc["grade"] == CONSISTENT
     row = next(e for e in doc["effects"] if e["name"] == "thermal_expansion")
     assert row["grade"] == CONSISTENT and row["null_evidence_threshold"] == pytest.approx(10 * found.chosen.score)
+    # the report of each: its four plots (drawn side by side in two workers) and the Markdown, which says
+    # "explains the gap" only of the established finding
+    for diag, says in ((found, True), (held, False)):
+        paths = diag.write(tmp_path / f"report_{says}")
+        pngs = [p for p in paths if p.suffix == ".png"]
+        assert sorted(p.name for p in pngs) == sorted(PLOTS)
+        assert all(p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and p.stat().st_size > 20_000 for p in pngs)
+        md = (tmp_path / f"report_{says}" / "report.md").read_text(encoding="utf-8")
+        assert ("thermal_expansion explains the gap" in md) is says
 
 
 @pytest.mark.slow

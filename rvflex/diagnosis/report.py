@@ -501,10 +501,27 @@ def _png(item) -> bytes | None:
 
 
 def _plots(diag, out: Path) -> list[Path]:
-    """Draw the report's plots into ``out``; returns the files written."""
+    """Draw the report's plots into ``out``; returns the files written. With more than one worker
+    (``diag.settings.workers``) they are drawn side by side, forked from this process once it has drawn a
+    line of text (the backend and the fonts then loaded here once, not in each worker: measured, four plots
+    of a four-run diagnosis 0.36 + 0.9 s against 1.6 s one after the other); a plot whose worker fails is
+    drawn here."""
+    import io
+
+    from matplotlib.figure import Figure
+
+    from rvflex.parallel import map_warm
+
+    names = list(PLOTS)
+    workers = min(diag.settings.workers, len(names)) if diag.settings.workers > 1 else 0
+    if workers:
+        warm = Figure(figsize=(1, 1))
+        warm.text(0.5, 0.5, "0″")
+        warm.savefig(io.BytesIO(), format="png")
+    done = map_warm(_png, [(diag, n) for n in names], workers)
     paths = []
-    for name in PLOTS:
-        png = _png((diag, name))
+    for name, o in zip(names, done):
+        png = o.value if o.ok else _png((diag, name))
         if png is not None:
             p = out / name
             p.write_bytes(png)
