@@ -247,8 +247,8 @@ def _contact_size(ct):
 @_jit
 def _assemble(x, ref, pc, cs, ld, ct, ff, ms, f, kt, qa, wk, skip_open):
     """Force (RHS) and LHS Jacobian of the whole system at displacement x; returns (max penetration, bad pins).
-    With ``skip_open`` a rigid disc's pins that surely stand open are not evaluated again (their gaps in
-    the contacts' outputs are then those of their last evaluation; :func:`~rvflex.contact.cycloid_pin.evaluate_tracked_kernel`).
+    With ``skip_open`` a rigid disc's pins that surely stand open are not evaluated again (their gaps in the
+    contacts' outputs are then those of their last evaluation; ``evaluate_tracked`` of the contact kernel).
 
     ``pc``: point connectors (:func:`_point_connectors`); ``cs``: coordinate springs to ground (index, k,
     offset); ``ld``: coordinate loads (index, value); ``ct``: cycloid–pin contacts (their kernel's data, the
@@ -495,8 +495,8 @@ def _steps(theta, ratio, kin, hist_th, hist_e, nh, last_te, max_jump, max_pen, c
     A step the plain Newton cannot take is tried again from its guess, damped and then with a kept
     Jacobian. Records the output angle (``out``), and with ``states`` the pins' forces and gaps and the discs'
     ring torques; without, the pins of a rigid disc that surely stand open are not evaluated again
-    (``skip_open`` of :func:`_assemble`). ``x_out`` holds the last converged state (absolute). Returns (steps done, status of the
-    step that stopped the run or CONVERGED, evaluations, retries, the last TE, nh)."""
+    (``skip_open`` of :func:`_assemble`). ``x_out`` holds the last converged state (absolute). Returns (steps
+    done, status of the step that stopped the run or CONVERGED, evaluations, retries, the last TE, nh)."""
     n = theta.shape[0]
     ct_out, ct_pins = ct[CT_OUT], ct[CT_PINS]  # the contacts' per-pin outputs of their last evaluation, pins
     guess = np.zeros(x.shape[0])
