@@ -483,6 +483,9 @@ def build_parser() -> argparse.ArgumentParser:
     from rvflex import validate
 
     validate.register(sub)
+    from rvflex.scenarios import moment_rigidity
+
+    moment_rigidity.register(sub)
     return p
 
 

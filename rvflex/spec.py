@@ -10,8 +10,11 @@ runs where specs enter: :func:`loads_spec`/:func:`load_spec` (and so the catalog
 ``build_reducer``, not on every ``replace``.
 
 TOML mirrors the dataclasses one table per nested dataclass. :func:`loads_spec` is
-strict: an unknown (e.g. misspelled) or a missing key is refused. Error files
-(:func:`loads_errors`) may omit keys: an omitted error source is zero.
+strict: an unknown (e.g. misspelled) or a missing key is refused, except the optional ones, the
+fields typed ``X | None`` whose default is None (``[bearings.main_pair]``,
+``allowable_moment_Nm``, ``catalogue_moment_rigidity_Nm_per_arcmin``): omitted, they are None,
+and a None is not written. Error files (:func:`loads_errors`) may omit keys: an omitted error
+source is zero.
 """
 
 from __future__ import annotations
@@ -19,6 +22,7 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import tomllib
+import types
 import typing
 from dataclasses import fields
 from pathlib import Path
@@ -28,6 +32,7 @@ import tomli_w
 from rvflex.geometry.profile import check_stage
 from rvflex.io import write_text
 from rvflex.spec_types import (
+    AngularContactPair,
     Bearing,
     Bearings,
     Carrier,
@@ -51,6 +56,7 @@ __all__ = [
     "CycloidStage",
     "Cranks",
     "Bearing",
+    "AngularContactPair",
     "Bearings",
     "Carrier",
     "ReducerSpec",
@@ -81,8 +87,20 @@ def _is_dataclass_type(tp: object) -> bool:
     return isinstance(tp, type) and dataclasses.is_dataclass(tp)
 
 
+def _optional_inner(tp: object) -> object | None:
+    """``X`` of an annotation ``X | None`` (None for any other annotation)."""
+    if typing.get_origin(tp) in (typing.Union, types.UnionType):
+        args = [a for a in typing.get_args(tp) if a is not type(None)]
+        if len(args) == 1 and len(typing.get_args(tp)) == 2:
+            return args[0]
+    return None
+
+
 def _convert(tp: object, value: object, name: str) -> object:
     """Convert a TOML value to the annotated type, refusing type mismatches."""
+    inner = _optional_inner(tp)
+    if inner is not None:  # TOML has no null: a present value is the inner type
+        return _convert(inner, value, name)
     origin = typing.get_origin(tp)
     if _is_dataclass_type(tp):
         if not isinstance(value, dict):
@@ -111,6 +129,7 @@ def _convert(tp: object, value: object, name: str) -> object:
 def _from_dict(cls: type, data: dict, prefix: str = "", *, partial: bool = False) -> object:
     hints = typing.get_type_hints(cls)
     names = [f.name for f in fields(cls)]
+    optional = {f.name for f in fields(cls) if f.default is None and _optional_inner(hints[f.name]) is not None}
     for key in data:
         if key not in names:
             close = difflib.get_close_matches(key, names, n=1)
@@ -122,7 +141,7 @@ def _from_dict(cls: type, data: dict, prefix: str = "", *, partial: bool = False
     for n in names:
         full = f"{prefix}.{n}" if prefix else n
         if n not in data:
-            if partial:
+            if partial or n in optional:
                 continue
             raise SpecError(full, None, "missing key")
         kwargs[n] = _convert(hints[n], data[n], full)
@@ -134,8 +153,8 @@ def _from_dict(cls: type, data: dict, prefix: str = "", *, partial: bool = False
 
 def _to_dict(obj: object) -> dict:
     def conv(v: object) -> object:
-        if dataclasses.is_dataclass(v):
-            return {f.name: conv(getattr(v, f.name)) for f in fields(v)}
+        if dataclasses.is_dataclass(v):  # None is an omitted optional field (TOML has no null)
+            return {f.name: conv(getattr(v, f.name)) for f in fields(v) if getattr(v, f.name) is not None}
         if isinstance(v, tuple):
             return [conv(x) for x in v]
         return v

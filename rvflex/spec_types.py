@@ -29,11 +29,13 @@ __all__ = [
     "CycloidStage",
     "Cranks",
     "Bearing",
+    "AngularContactPair",
     "Bearings",
     "Carrier",
     "ReducerSpec",
     "ErrorSpec",
     "BEARING_KINDS",
+    "PAIR_ARRANGEMENTS",
 ]
 
 BEARING_KINDS = (
@@ -44,6 +46,10 @@ BEARING_KINDS = (
     "deep_groove_ball",
     "crossed_roller",
 )
+
+PAIR_ARRANGEMENTS = ("back_to_back", "face_to_face")
+"""Arrangements of an angular-contact pair: back-to-back (O: the contact lines spread apart away
+from the rows, as in RV-E main bearings) and face-to-face (X: they meet between the rows)."""
 
 
 class SpecError(ValueError):
@@ -337,12 +343,92 @@ class Bearing:
 
 
 @dataclass(frozen=True, slots=True)
+class AngularContactPair:
+    """Geometry and preload of a pair of angular-contact ball rows (the main bearing pair).
+
+    The two rows are coaxial with the reducer axis, ``row_spacing_m`` apart (ball centre to ball
+    centre), symmetric about the middle plane; the outer rings sit in the housing, the inner
+    raceways on the output carrier. Groove radii are ``inner_conformity`` and
+    ``outer_conformity`` times the ball diameter (f = r_groove / D, > 0.5). ``preload_N`` is the
+    axial force each row carries when no external load acts (0: the balls just touch).
+
+    Parameters
+    ----------
+    kind : str
+        ``"angular_contact_ball"`` (the only kind modelled).
+    arrangement : str
+        ``"back_to_back"`` (O) or ``"face_to_face"`` (X), :data:`PAIR_ARRANGEMENTS`.
+    pitch_diameter_m : float
+        Diameter of the circle of ball centres, m.
+    row_spacing_m : float
+        Axial distance between the two rows' ball-centre planes, m.
+    contact_angle_rad : float
+        Nominal (unloaded) contact angle from the radial plane, rad, in (0, π/2).
+    balls_per_row : int
+        Rolling elements in each row (count).
+    ball_diameter_m : float
+        Ball diameter, m.
+    inner_conformity, outer_conformity : float
+        Groove radius over ball diameter of the inner and outer raceway (–), in (0.5, 0.6].
+    preload_N : float
+        Axial preload of each row, N (≥ 0).
+    material : Material
+        Elastic constants of balls and raceways (both taken alike).
+    """
+
+    kind: str
+    arrangement: str
+    pitch_diameter_m: float
+    row_spacing_m: float
+    contact_angle_rad: float
+    balls_per_row: int
+    ball_diameter_m: float
+    inner_conformity: float
+    outer_conformity: float
+    preload_N: float
+    material: Material
+
+    def __post_init__(self) -> None:
+        if self.kind != "angular_contact_ball":
+            raise SpecError("kind", self.kind, "must be 'angular_contact_ball' (the only pair kind modelled)")
+        if self.arrangement not in PAIR_ARRANGEMENTS:
+            raise SpecError("arrangement", self.arrangement, f"must be one of {', '.join(PAIR_ARRANGEMENTS)}")
+        _range("pitch_diameter_m", self.pitch_diameter_m, 10 * MM, 2.0, "expected metres, 10 mm to 2 m")
+        _range("ball_diameter_m", self.ball_diameter_m, 0.5 * MM, 0.1, "expected metres, 0.5 mm to 100 mm")
+        if not self.ball_diameter_m < 0.25 * self.pitch_diameter_m:
+            raise SpecError("ball_diameter_m", self.ball_diameter_m,
+                            f"must be below a quarter of the pitch diameter ({self.pitch_diameter_m:g} m)")
+        _range("row_spacing_m", self.row_spacing_m, self.ball_diameter_m, 1.0,
+               "expected metres, from one ball diameter (rows side by side) to 1 m")
+        if not (isinstance(self.contact_angle_rad, (int, float)) and 0.0 < self.contact_angle_rad < math.pi / 2):
+            raise SpecError("contact_angle_rad", self.contact_angle_rad,
+                            "must lie in (0, π/2) rad, open (40° is 0.698)")
+        _int_range("balls_per_row", self.balls_per_row, 3, 1000)
+        pitch = math.pi * self.pitch_diameter_m / self.balls_per_row
+        if not pitch > self.ball_diameter_m:
+            raise SpecError("balls_per_row", self.balls_per_row,
+                            f"{self.balls_per_row} balls of {self.ball_diameter_m * 1e3:g} mm do not fit on a "
+                            f"{self.pitch_diameter_m * 1e3:g} mm pitch circle (ball pitch {pitch * 1e3:.3f} mm)")
+        for name in ("inner_conformity", "outer_conformity"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and 0.5 < value <= 0.6):
+                raise SpecError(name, value, "groove radius over ball diameter must lie in (0.5, 0.6] (0.52 is usual)")
+        _range("preload_N", self.preload_N, 0.0, 1e7, "expected an axial force in N, from 0 to 1e7 (not negative)")
+
+
+@dataclass(frozen=True, slots=True)
 class Bearings:
-    """The reducer's bearings: crank supports in the carrier, eccentric (disc) bearings, main bearing."""
+    """The reducer's bearings: crank supports in the carrier, eccentric (disc) bearings, main bearing.
+
+    ``main`` is the main bearing lumped as one bushing (the planar model); ``main_pair``, when
+    given, is its geometry as a pair of angular-contact rows (the spatial output support:
+    ``rvflex moment-rigidity``). A spec without it runs every planar command.
+    """
 
     crank_support: Bearing
     eccentric: Bearing
     main: Bearing
+    main_pair: AngularContactPair | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -402,6 +488,12 @@ class ReducerSpec:
         The output carrier.
     materials : Materials
         Elastic constants of the parts.
+    allowable_moment_Nm : float or None, optional
+        Allowable tilting moment on the output, N·m (None: not stated; commands that load the
+        output with a moment then need it).
+    catalogue_moment_rigidity_Nm_per_arcmin : float or None, optional
+        The maker's moment rigidity, N·m/arcmin, where a source gives one (a reference, never
+        an input of the model).
     """
 
     name: str
@@ -416,8 +508,15 @@ class ReducerSpec:
     bearings: Bearings
     carrier: Carrier
     materials: Materials
+    allowable_moment_Nm: float | None = None
+    catalogue_moment_rigidity_Nm_per_arcmin: float | None = None
 
     def __post_init__(self) -> None:
+        for name in ("allowable_moment_Nm", "catalogue_moment_rigidity_Nm_per_arcmin"):
+            value = getattr(self, name)
+            if value is not None:
+                unit = "N·m" if name == "allowable_moment_Nm" else "N·m/arcmin"
+                _positive(name, value, unit)
         if not self.name or not self.name.replace("_", "").replace("-", "").isalnum():
             raise SpecError("name", self.name, "must be a non-empty identifier (letters, digits, - or _)")
         _positive("rated_torque_Nm", self.rated_torque_Nm, "N·m")
@@ -465,6 +564,30 @@ class ReducerSpec:
             bracket = "[0" if allow_zero else "(0"
             raise SpecError(field_name, value, f"must lie in {bracket}, {self.momentary_max_torque_Nm:g}] N·m "
                                                f"(the momentary maximum torque of {self.name})")
+
+    def check_moment(self, field_name: str, value: float) -> None:
+        """Refuse a tilting moment outside (0, allowable moment] N·m.
+
+        Parameters
+        ----------
+        field_name : str
+            The name the error gives the value (the caller's parameter or flag).
+        value : float
+            The moment, N·m.
+
+        Raises
+        ------
+        SpecError
+            Naming ``field_name``, the value and the allowed range; or naming
+            ``allowable_moment_Nm`` when the spec states none.
+        """
+        if self.allowable_moment_Nm is None:
+            raise SpecError("allowable_moment_Nm", None, f"{self.name} states no allowable moment; add "
+                                                         "allowable_moment_Nm (N·m) to the spec's top level")
+        if not (isinstance(value, (int, float)) and math.isfinite(value)
+                and 0.0 < value <= self.allowable_moment_Nm):
+            raise SpecError(field_name, value, f"must lie in (0, {self.allowable_moment_Nm:g}] N·m "
+                                               f"(the allowable moment of {self.name})")
 
     @property
     def nominal_ratio(self) -> float:
