@@ -87,6 +87,10 @@ def test_scaling_every_stiffness_by_two_halves_the_torque_cycle_compliance():
         c.append(compliance(f, lay, plan)[0])
     assert c[0] > 0 and c[1] / c[0] == pytest.approx(0.5, abs=0.015)
     assert scale_stiffness(SPEC, 1.0) is SPEC
+    # the main bearing pair's stiffness is its balls' Hertz contacts: their modulus scales
+    pair, doubled = SPEC.bearings.main_pair, scale_stiffness(SPEC, 2.0).bearings.main_pair
+    assert doubled.material.youngs_modulus_Pa == 2.0 * pair.material.youngs_modulus_Pa
+    assert doubled.ball_diameter_m == pair.ball_diameter_m
 
 
 def test_a_series_compliance_twists_the_output_with_the_torque_and_adds_no_ripple():
