@@ -79,7 +79,7 @@ class ModelRunner:
         # not run again when there is no disk cache either
         self._memo: dict[str, bytes] = {}
         self._runs: dict[str, tuple] = {}  # the model runs other than the diagnosing model's, by key (in memory)
-        self._geometry_warm = False
+        self._process_warm = False
         from rvflex.spec import dumps_errors, dumps_spec
 
         # the plan as plain tuples: a pickled PlanRun carries its module path, and moving the class would void
@@ -191,7 +191,7 @@ class ModelRunner:
         combined()
         args = (self.spec, self.errors, self.plan, self.settings, self.law)
         if workers:
-            self._warm_geometry()
+            self._warm_process()
             self._warm_fe([runs[k] for k in new])
         map_warm(_run_item, [(*args, runs[k], part) for k, part in items], workers, on_outcome=done)
         return [o if o is not None else self._load(k) for o, k in zip(out, keys)]
@@ -236,16 +236,16 @@ class ModelRunner:
         except (ValueError, ArithmeticError) as err:  # a response the features cannot read is a failed evaluation
             return None, None, f"{type(err).__name__}: {err}"
 
-    def _warm_geometry(self) -> None:
+    def _warm_process(self) -> None:
         """Build the unit's rigid model here once, before the first pool forks, and take a few steps with it:
         the disc profiles' checks and contact zones are kept per curve in the process
         (:class:`~rvflex.geometry.profile.CurveKey`), and the compiled step's machine code, once loaded from
         numba's disk cache, stays in the process; so every worker forked later builds the same discs without
         checking them again (a tenth of a rigid run) and steps without loading the compiled code (0.1 s, ten
         times a rigid part's run), in every worker of every batch otherwise."""
-        if self._geometry_warm:
+        if self._process_warm:
             return
-        self._geometry_warm = True
+        self._process_warm = True
         from rvflex.model import build_reducer
         from rvflex.solve import quasi_static, torque_stepping
 
