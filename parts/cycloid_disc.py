@@ -17,7 +17,7 @@ from rvflex.parts import bearings
 from rvflex.spec import ErrorSpec, ReducerSpec
 
 __all__ = ["DiscHandles", "FEDiscPlacement", "build", "bore_positions", "contact_mode_table", "fe_disc_placements",
-           "fe_disc_spec"]
+           "fe_disc_spec", "slice_planes"]
 
 
 @dataclass(frozen=True)
@@ -29,6 +29,7 @@ class DiscHandles:
     contacts: tuple[CycloidPinContact, ...]
     eccentric_bearings: tuple[tuple[bearings.BearingPair, ...], ...]
     modal_nodes: tuple[int, ...] = ()  # flexible discs: the NodeGenericODE2 of each disc's modes
+    slices: int = 1  # contacts per disc along the face width: ``contacts[d * slices + s]`` is disc d's slice s
 
 
 def contact_mode_table(flank, offset_rad: float, grid_per_tooth: int, teeth: int) -> np.ndarray:
@@ -62,7 +63,7 @@ def bore_positions(spec: ReducerSpec, errors: ErrorSpec, disc: int) -> np.ndarra
 
 def build(mbs, spec: ReducerSpec, errors: ErrorSpec, cranks, law: ContactLaw, eccentric_offsets: np.ndarray,
           axes: np.ndarray, *, fidelity: BodyFidelity = "rigid", reduced=None, ground_coordinate: int = -1,
-          housing=None) -> DiscHandles:
+          housing=None, face_slices: int = 1) -> DiscHandles:
     """Add the discs at their reference poses (output angle 0): disc d's centre is where its
     eccentrics put it, crank axis + eccentric − bore (averaged over the cranks).
 
@@ -76,14 +77,18 @@ def build(mbs, spec: ReducerSpec, errors: ErrorSpec, cranks, law: ContactLaw, ec
 
     ``housing``: the pin ring's :class:`~rvflex.parts.pin_ring.PinRingHandles`; a flexible one
     (``modal_node`` ≥ 0) carries the pins on its seats in every disc's contact.
+
+    ``face_slices``: each disc's pin contact as that many contact elements side by side along the face width
+    (:func:`slice_planes`), each with the law of its share (:meth:`ContactLaw.sliced`).
     """
     check_choice("fidelity", fidelity, BodyFidelity)
     carried = {}
     if housing is not None and housing.modal_node >= 0:
         carried = {"housing_node": housing.modal_node, "seat": housing.seat_rows}
+    sliced = (law.sliced(face_slices), slice_planes(spec, face_slices))
     if fidelity == "flexible":
         return _build_flexible(mbs, spec, errors, cranks, law, eccentric_offsets, axes, reduced, ground_coordinate,
-                               carried)
+                               carried, sliced)
     from exudyn.itemInterface import MarkerBodyRigid, NodeRigidBody2D, ObjectRigidBody2D
 
     cy = spec.cycloid
@@ -106,13 +111,23 @@ def build(mbs, spec: ReducerSpec, errors: ErrorSpec, cranks, law: ContactLaw, ec
                                         extra_clearance_m=extra))
         # pin and disc errors may make pins interfere by a few µm at the nominal pose (the first
         # static step resolves it); deeper than 50 µm would be a broken spec
-        contacts.append(add_cycloid_pin_contact(mbs, node, cy, law, disc=d, errors=errors,
-                                                initial_interference_m=50e-6,
-                                                axial_m=disc_planes(spec)[d], **carried))
+        slice_law, planes = sliced
+        for z in planes[d]:
+            contacts.append(add_cycloid_pin_contact(mbs, node, cy, slice_law, disc=d, errors=errors,
+                                                    initial_interference_m=50e-6, axial_m=z, **carried))
         nodes.append(int(node))
         bodies.append(int(body))
         ecc_bearings.append(tuple(pairs))
-    return DiscHandles(tuple(nodes), tuple(bodies), tuple(contacts), tuple(ecc_bearings))
+    return DiscHandles(tuple(nodes), tuple(bodies), tuple(contacts), tuple(ecc_bearings), slices=face_slices)
+
+
+def slice_planes(spec: ReducerSpec, slices: int = 1) -> np.ndarray:
+    """Axial positions of each disc's contact slices from the discs' mid-plane, shape (discs, slices) (m): the
+    centres of ``slices`` equal parts of the disc's thickness around its eccentric's plane
+    (:func:`rvflex.geometry.pins.disc_planes`); one slice: the disc's mid-plane."""
+    b = spec.cycloid.disc_thickness_m
+    zeta = ((np.arange(slices) + 0.5) / slices - 0.5) * b
+    return disc_planes(spec)[:, None] + zeta[None, :]
 
 
 def _marker_nodes(positions: np.ndarray, ring: np.ndarray) -> np.ndarray:
@@ -214,7 +229,7 @@ def fe_disc_spec(spec: ReducerSpec, holes_turn_rad: float) -> ReducerSpec:
 
 
 def _build_flexible(mbs, spec, errors, cranks, law, eccentric_offsets, axes, reduced, ground_coordinate,
-                    carried) -> DiscHandles:
+                    carried, sliced) -> DiscHandles:
     """FFRF reduced-order discs (ObjectFFRFreducedOrder on a NodeRigidBodyRxyz held in the
     plane): bearings on MarkerSuperElementRigid at the bores, the contact with the modal flank
     displacement. Global deformation is in the modes; the local Hertz approach stays in the
@@ -270,11 +285,15 @@ def _build_flexible(mbs, spec, errors, cranks, law, eccentric_offsets, axes, red
         # profile frame against the FE (node) frame: −φ_d/z_c − β, a whole number of teeth
         offset = -cy.disc_phase_rad[d] / cy.disc_teeth - beta
         phi = contact_mode_table(red.flank, offset, grid_per_tooth, cy.disc_teeth)
-        contacts.append(add_cycloid_pin_contact(mbs, node, cy, law, disc=d, errors=errors,
-                                                initial_interference_m=50e-6, modal_node=modal, phi=phi,
-                                                offset_rad=offset, axial_m=disc_planes(spec)[d], **carried))
+        # every slice sees the flank's in-plane modal motion (the modes are taken at the mid-plane)
+        slice_law, planes = sliced
+        for z in planes[d]:
+            contacts.append(add_cycloid_pin_contact(mbs, node, cy, slice_law, disc=d, errors=errors,
+                                                    initial_interference_m=50e-6, modal_node=modal, phi=phi,
+                                                    offset_rad=offset, axial_m=z, **carried))
         nodes.append(node)
         bodies.append(body)
         modal_nodes.append(modal)
         ecc_bearings.append(tuple(pairs))
-    return DiscHandles(tuple(nodes), tuple(bodies), tuple(contacts), tuple(ecc_bearings), tuple(modal_nodes))
+    return DiscHandles(tuple(nodes), tuple(bodies), tuple(contacts), tuple(ecc_bearings), tuple(modal_nodes),
+                       slices=len(planes[0]))

@@ -7,7 +7,9 @@ temporary name and renamed, so a failed run leaves no half-written output.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import io
+import math
 import os
 import sys
 import traceback
@@ -18,6 +20,7 @@ from rvflex import catalog
 from rvflex.choices import Executor, Fidelity, RunCostKind, TEMode, choices
 from rvflex.io import emit, write_json, write_text
 from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
+from rvflex.tilt import MOMENT_SLICES
 
 __all__ = ["main"]
 
@@ -25,7 +28,8 @@ __all__ = ["main"]
 # (``load_Nm``), the command's errors the flag (``--load``), with the flag's own spelling of
 # the value where it differs.
 _TE_FLAGS = {"load_Nm": "--load", "revolutions": "--revs", "positions_per_rev": "--positions", "mode": "--mode",
-             "speed_out_rpm": "--speed-out", "direction": "--direction", "options": "--fidelity"}
+             "speed_out_rpm": "--speed-out", "direction": "--direction", "options": "--fidelity",
+             "moment_Nm": "--moment", "moment_angle_rad": "--moment-angle-deg", "face_slices": "--slices"}
 _LOST_MOTION_FLAGS = {"torque_Nm": "--torque", "steps": "--steps", "options": "--fidelity"}
 _BACKLASH_FLAGS = {"load_Nm": "--load", "options": "--fidelity"}
 _SWEEP_FLAGS = {"executor": "--executor", "scheduler": "--scheduler", "workers": "--workers"}
@@ -88,13 +92,25 @@ def _cmd_geometry(args: argparse.Namespace) -> int:
 
 
 def _cmd_te(args: argparse.Namespace) -> int:
+    import numpy as np
+
     import rvflex
+    from rvflex.geometry.pins import disc_planes
 
     spec, errors = _model_inputs(args)
+    moment = 0.0 if args.moment is None else args.moment
+    slices = args.slices if args.slices is not None else (MOMENT_SLICES if moment else 1)
+    options = dataclasses.replace(_options(args), face_slices=slices)
     scenario = rvflex.LoadedTE(spec, errors, spec.rated_torque_Nm if args.load is None else args.load,
                                args.revs, args.positions, 1 if args.direction == "forward" else -1, args.mode,
                                spec.rated_output_speed_rpm if args.speed_out is None else args.speed_out,
-                               options=_options(args))
+                               options=options, moment_Nm=moment, moment_angle_rad=math.radians(args.moment_angle_deg))
+    tilt = scenario.tilt
+    if tilt is not None:
+        print(f"tilting moment {tilt.moment_Nm:g} N·m at {args.moment_angle_deg:g}°: the carrier tilts "
+              f"{tilt.tilt_arcmin:.3f}′ on its main bearing pair ({tilt.balls_in_contact} balls loaded); the discs "
+              f"move {np.mean([np.hypot(*tilt.disc_shift_m(z)) for z in disc_planes(spec)]) * 1e6:.2f} µm "
+              f"against the pins at their mid-planes")
     result, wall = _with_progress(scenario.n_positions, "loaded TE",
                                   lambda progress: rvflex.run(scenario, progress=progress))
     met, n = result.metrics, len(result.raw.te_rad)
@@ -102,12 +118,24 @@ def _cmd_te(args: argparse.Namespace) -> int:
         "te_pp_arcsec": met.te_pp_arcsec, "te_min_arcsec": met.te_min_arcsec, "te_max_arcsec": met.te_max_arcsec,
         "mean_windup_arcsec": met.mean_windup_arcsec,
         "orders": [{"order": o, "amplitude_arcsec": a} for o, a in met.orders],
-        "n_positions": n, "wall_s": wall, "solve_s": result.raw.wall_s,
+        "n_positions": n, "wall_s": wall, "solve_s": result.raw.wall_s, "face_slices": slices,
     }
     print(f"TE peak-to-peak {met.te_pp_arcsec:.3f}″ (min {met.te_min_arcsec:.2f}″, max {met.te_max_arcsec:.2f}″), "
           f"mean wind-up {met.mean_windup_arcsec:.2f}″, {n} positions in {wall:.1f} s "
           f"(solver {result.raw.wall_s:.1f} s, the rest builds the model)")
     print("strongest orders: " + ", ".join(f"{o}: {a:.3f}″" for o, a in met.orders[:5]))
+    if tilt is not None:
+        doc["moment"] = {"moment_Nm": tilt.moment_Nm, "moment_angle_deg": args.moment_angle_deg,
+                         "carrier_tilt_rad": list(tilt.tilt_rad), "carrier_tilt_arcmin": tilt.tilt_arcmin,
+                         "carrier_shift_m": list(tilt.shift_m)}
+    loads = result.pin_end_loads()
+    if loads is not None:
+        doc["pin_loads"] = {k: np.asarray(v).tolist() for k, v in loads.items()}
+        ends = loads["end_line_load_N_m"] / 1e3
+        print("largest line load on the pins (N/mm) at the discs' faces −z / +z: " + "; ".join(
+            f"disc {d + 1} {lo:.1f} / {hi:.1f}" for d, (lo, hi) in enumerate(ends))
+              + f" (mean over the face width at most {loads['mid_line_load_N_m'].max() / 1e3:.1f}; "
+                f"{slices} slices)")
     return emit(args, doc, result.write)
 
 
@@ -390,7 +418,16 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--positions", type=int, default=2048, help="positions per output revolution (default 2048)")
     t.add_argument("--direction", choices=("forward", "reverse"), default="forward",
                    help="direction of the input rotation (default forward)")
-    _output_arguments(t, "te.csv, te.png, load_sharing.png and te.nc (the labelled result, netCDF)")
+    t.add_argument("--moment", type=float,
+                   help="tilting moment on the output, N·m, up to the spec's allowable moment: the carrier tilts on "
+                        "its main bearing pair and the discs with it against the pins (default: none)")
+    t.add_argument("--moment-angle-deg", type=float, default=0.0,
+                   help="direction of the moment vector in the housing frame, degrees from +x (default 0)")
+    t.add_argument("--slices", type=int,
+                   help=f"slices of the pin contact along the face width (default {MOMENT_SLICES} with --moment, "
+                        f"else 1; docs/spatial.md: convergence)")
+    _output_arguments(t, "te.csv, te.png, load_sharing.png, pin_loads.png (with --slices ≥ 2) and te.nc "
+                         "(the labelled result, netCDF)")
     t.set_defaults(func=_cmd_te, flags=_TE_FLAGS)
     lm = sub.add_parser("lost-motion", help="torsional hysteresis: lost motion, stiffness, backlash")
     _model_arguments(lm)

@@ -479,13 +479,37 @@ def ring_torque(force, px, py, pins):
     return t
 
 
+@_jit
+def _resultant_into(r, force, px, py, pins):
+    """``r`` (2,) set to the resultant (x, y) of a disc's pin forces on the disc (N): :func:`pin_resultant`."""
+    r[0] = 0.0
+    r[1] = 0.0
+    for p in range(force.shape[0]):
+        if not force[p] > 0.0:
+            continue
+        nx, ny = px[p] - pins[p, 0], py[p] - pins[p, 1]
+        ln = math.sqrt(nx * nx + ny * ny)
+        if ln > 0.0:
+            r[0] += force[p] * nx / ln
+            r[1] += force[p] * ny / ln
+
+
+def pin_resultant(force, px, py, pins) -> np.ndarray:
+    """Resultant (x, y) of a disc's pin forces on the disc (N), each along the normal from the pin's centre
+    through its contact point, as in :func:`ring_torque`."""
+    r = np.zeros(2)
+    _resultant_into(r, np.ascontiguousarray(force, float), np.ascontiguousarray(px, float),
+                    np.ascontiguousarray(py, float), np.ascontiguousarray(pins, float))
+    return r
+
+
 # why a run of steps stopped (beside the Newton statuses): a penetration beyond the contacts' guard, a jump
 PENETRATED, JUMPED = 10, 11
 
 
 @_jit
 def _steps(theta, ratio, kin, hist_th, hist_e, nh, last_te, max_jump, max_pen, car, drive, regulariser, x_out,
-           out, forces, gaps, torques, states, x, free, cap, ref, fixed_idx, fixed_value, pc, cs, ld, ct, ff, ms,
+           out, forces, gaps, torques, resultants, states, x, free, cap, ref, fixed_idx, fixed_value, pc, cs, ld, ct, ff, ms,
            max_iterations, sun, carrier, crank_axes, crank_x, crank_y, crank_th, disc_base, eccentricity, disc_phase,
            disc_x, disc_y, disc_th, modal, pin_count):
     """The recorded steps at input angles ``theta`` in one call, each as :meth:`CompiledStep.solve` and the
@@ -494,7 +518,7 @@ def _steps(theta, ratio, kin, hist_th, hist_e, nh, last_te, max_jump, max_pen, c
     set to the step's angle, Newton, the contacts' penetration guard and the jump check against the last TE.
     A step the plain Newton cannot take is tried again from its guess, damped and then with a kept
     Jacobian. Records the output angle (``out``), and with ``states`` the pins' forces and gaps and the discs'
-    ring torques; without, the pins of a rigid disc that surely stand open are not evaluated again
+    ring torques and pin-force resultants; without, the pins of a rigid disc that surely stand open are not evaluated again
     (``skip_open`` of :func:`_assemble`). ``x_out`` holds the last converged state (absolute). Returns (steps
     done, status of the step that stopped the run or CONVERGED, evaluations, retries, the last TE, nh)."""
     n = theta.shape[0]
@@ -540,6 +564,8 @@ def _steps(theta, ratio, kin, hist_th, hist_e, nh, last_te, max_jump, max_pen, c
                     forces[s, d, p] = ct_out[d][p, K.O_FORCE]
                     gaps[s, d, p] = ct_out[d][p, K.O_GAP]
                 torques[s, d] = ring_torque(ct_out[d][:, K.O_FORCE], ct_out[d][:, K.O_PX], ct_out[d][:, K.O_PY], ct_pins[d])
+                _resultant_into(resultants[s, d], ct_out[d][:, K.O_FORCE], ct_out[d][:, K.O_PX], ct_out[d][:, K.O_PY],
+                                ct_pins[d])
         if nh == 3:  # keep the last three
             for j in range(2):
                 hist_th[j] = hist_th[j + 1]
@@ -809,13 +835,14 @@ class CompiledStep:
         return x + self.model.reference
 
     def steps(self, theta: np.ndarray, history: list, last_te: float, max_jump: float, out: np.ndarray,
-              forces: np.ndarray, gaps: np.ndarray, torques: np.ndarray,
+              forces: np.ndarray, gaps: np.ndarray, torques: np.ndarray, resultants: np.ndarray,
               states: bool) -> tuple[int, list, float, np.ndarray | None]:
         """Recorded steps at the input angles ``theta`` (rad) in one compiled call, as the caller's loop takes them
         one by one with :meth:`solve` (the extrapolated guess from ``history``, a list of (θ_in, elastic part)
         of the last converged steps, the penetration guard and the jump check beyond ``max_jump`` rad against
         ``last_te``), under the load and regulariser stiffness currently set in the Exudyn system. Fills
-        ``out``, and with ``states`` ``forces``, ``gaps`` and the discs' ring ``torques``, for the steps taken and stops before the first
+        ``out``, and with ``states`` ``forces``, ``gaps``, the discs' ring ``torques`` and pin-force ``resultants``
+        (steps, contacts, 2), for the steps taken and stops before the first
         that fails (which the caller takes its own way). Returns (steps taken, history, last TE, last state or
         None when none was taken); the Exudyn system is left at the last state with its drive and regulariser."""
         d, model = self.d, self.model
@@ -832,7 +859,8 @@ class CompiledStep:
         done, status, ev, retried, last_te, nh = _steps(
             np.ascontiguousarray(theta, float), float(model.ratio), kin, hist_th, hist_e, min(nh, 3), float(last_te),
             float(max_jump), float(min(c.max_penetration_m for c in contacts)), int(model.output_index),
-            d["drive_slot"], d["regulariser_slot"], x_out, out, forces, gaps, torques, bool(states), x, d["free"],
+            d["drive_slot"], d["regulariser_slot"], x_out, out, forces, gaps, torques, resultants, bool(states), x,
+            d["free"],
             d["cap"],
             d["ref"], d["fixed_idx"], d["fixed_value"], *self.packs, MAX_ITERATIONS, *model._kinematics,
             float(model.spec.cycloid.pin_count))
@@ -851,12 +879,14 @@ class CompiledStep:
         self.solved = status == CONVERGED and bool(states)
         return done, [(float(hist_th[j]), hist_e[j].copy()) for j in range(nh)], last_te, x_out
 
-    def pin_outputs(self, disc: int) -> tuple[np.ndarray, np.ndarray, float]:
-        """Per-pin normal force (N) and gap (m) of disc ``disc`` at the last solved state, and its ring torque
-        (N·m, :func:`ring_torque`)."""
-        out = self.d["ct_out"][disc]
+    def pin_outputs(self, disc: int) -> tuple[np.ndarray, np.ndarray, float, np.ndarray]:
+        """Per-pin normal force (N) and gap (m) of contact ``disc`` at the last solved state, its ring torque
+        (N·m, :func:`ring_torque`) and the resultant (x, y) of its pin forces on the disc (N,
+        :func:`pin_resultant`)."""
+        out, pins = self.d["ct_out"][disc], self.d["ct_pins"][disc]
         return (out[:, K.O_FORCE].copy(), out[:, K.O_GAP].copy(),
-                float(ring_torque(out[:, K.O_FORCE], out[:, K.O_PX], out[:, K.O_PY], self.d["ct_pins"][disc])))
+                float(ring_torque(out[:, K.O_FORCE], out[:, K.O_PX], out[:, K.O_PY], pins)),
+                pin_resultant(out[:, K.O_FORCE], out[:, K.O_PX], out[:, K.O_PY], pins))
 
 
 

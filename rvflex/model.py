@@ -350,7 +350,8 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None,
         reduced_disc = reduced_discs[0]
     discs = cycloid_disc.build(mbs, spec, errors, cranks, law, ecc, axes,
                                fidelity="flexible" if options.flexible_discs_on else "rigid",
-                               reduced=reduced_discs or None, ground_coordinate=ground_coord, housing=pins)
+                               reduced=reduced_discs or None, ground_coordinate=ground_coord, housing=pins,
+                               face_slices=options.face_slices)
     mbs.Assemble()
     ref = np.asarray(mbs.systemData.GetODE2Coordinates(configuration=exu.ConfigurationType.Reference))
     centres = np.array([np.asarray(mbs.GetNode(n)["referenceCoordinates"])[:2] for n in discs.nodes])

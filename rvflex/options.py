@@ -67,7 +67,7 @@ HOUSING_FE: PartSettings = DEFAULTS["housing"]
 default): mount face clamped to ground, two in-plane attachment modes per pin seat, 8
 fixed-interface modes, 8 mm quadratic tets (docs/flexible.md: convergence)."""
 
-MODEL_TABLE_KEYS = ("fidelity", "discs", "carrier", "housing", "carrier_seat_marker")
+MODEL_TABLE_KEYS = ("fidelity", "discs", "carrier", "housing", "carrier_seat_marker", "face_slices")
 """Keys of a TOML ``[model]`` table (:meth:`ModelOptions.from_table`)."""
 
 
@@ -88,6 +88,11 @@ class ModelOptions:
     contact_law : ContactLaw or None
         The cycloid–pin law; None: the spec's line contact
         (:func:`rvflex.model.default_contact_law`).
+    face_slices : int
+        Slices of each disc's pin contact along the face width (≥ 1): each slice a contact element at its own
+        axial position carrying its share of the width (:meth:`ContactLaw.sliced`), so a disc moved against the
+        pins differently at its two faces (a tilted output, :mod:`rvflex.tilt`) loads its pins' ends unequally.
+        1, the default: one contact at each disc's mid-plane.
     """
 
     discs: PartSettings | PartFidelity = "rigid"
@@ -95,6 +100,7 @@ class ModelOptions:
     housing: PartSettings | PartFidelity = "rigid"
     carrier_seat_marker: SeatMarker = "virtual"
     contact_law: ContactLaw | None = None
+    face_slices: int = 1
 
     def __post_init__(self) -> None:
         for name in ("discs", "carrier", "housing"):
@@ -104,6 +110,9 @@ class ModelOptions:
         if isinstance(self.carrier, PartSettings):
             check_choice("carrier.seat_coupling", self.carrier.seat_coupling, SeatCoupling)
         check_choice("carrier_seat_marker", self.carrier_seat_marker, SeatMarker)
+        if isinstance(self.face_slices, bool) or not isinstance(self.face_slices, int) or not 1 <= self.face_slices <= 64:
+            raise SpecError("face_slices", self.face_slices, "must be an integer from 1 to 64 (slices of the pin "
+                                                             "contact along the face width)")
         if self.contact_law is not None:
             from rvflex.contact.cycloid_pin import ContactLaw
 
@@ -161,7 +170,8 @@ class ModelOptions:
         ``housing`` override fields of that
         preset's reduction of the part (:class:`PartSettings` field names, SI: ``maxh_m``,
         ``n_modes``, ``attach_per_tooth`` …; the part must be flexible in the preset);
-        ``carrier_seat_marker`` is a :data:`SeatMarker`. No other key is accepted.
+        ``carrier_seat_marker`` is a :data:`SeatMarker`; ``face_slices`` the pin contact's slices along the face
+        width. No other key is accepted.
 
         Parameters
         ----------
@@ -195,6 +205,11 @@ class ModelOptions:
         if "carrier_seat_marker" in table:
             check_choice(f"{where}.carrier_seat_marker", table["carrier_seat_marker"], SeatMarker, source)
             options = dataclasses.replace(options, carrier_seat_marker=table["carrier_seat_marker"])
+        if "face_slices" in table:
+            try:
+                options = dataclasses.replace(options, face_slices=table["face_slices"])
+            except SpecError as err:
+                raise err.within(where, source) from None
         fields = tuple(f.name for f in dataclasses.fields(PartSettings))
         for part in ("discs", "carrier", "housing"):
             if part not in table:
@@ -296,7 +311,8 @@ class ModelOptions:
         hou = "rigid" if not self.flexible_housing_on else (
             f"FE {self.housing.maxh_m * 1e3:g} mm order {self.housing.mesh_order}, {self.housing.n_modes} modes, "
             f"2 attachment modes/pin seat")
-        return f"discs {part(self.discs)}; carrier {car}; housing {hou}"
+        sliced = f"; pin contact in {self.face_slices} slices along the face width" if self.face_slices > 1 else ""
+        return f"discs {part(self.discs)}; carrier {car}; housing {hou}{sliced}"
 
     def as_dict(self) -> dict:
         """Plain values (for result attributes and JSON).
@@ -310,7 +326,8 @@ class ModelOptions:
             return dataclasses.asdict(p) if isinstance(p, PartSettings) else p
         return {"discs": part(self.discs), "carrier": part(self.carrier), "housing": part(self.housing),
                 "carrier_seat_marker": self.carrier_seat_marker,
-                "contact_law": "default (line)" if self.contact_law is None else self.contact_law.kind}
+                "contact_law": "default (line)" if self.contact_law is None else self.contact_law.kind,
+                "face_slices": self.face_slices}
 
 
 def as_options(value: ModelOptions | Fidelity | None, field: str = "options") -> ModelOptions:

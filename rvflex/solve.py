@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rvflex.engine import compiled_step, ring_torque
+from rvflex.engine import compiled_step, pin_resultant, ring_torque
 from rvflex.model import ReducerModel
 from rvflex.numerics import OUTPUT_REGULARISER_NM_RAD, generalized_alpha_settings
 
@@ -58,6 +58,11 @@ class QuasiStaticResult:
     compiled: the compiled step's counts over the run (:meth:`rvflex.engine.CompiledStep.counts`), None when
     Exudyn's solvers took it; disc_torque_Nm: (steps, discs) the torque of each disc's pin forces about the
     output axis (:func:`rvflex.engine.ring_torque`), None for a result made elsewhere.
+    With the contact in slices along the face width (``ModelOptions.face_slices`` > 1) a pin's force is the sum
+    over its slices, its gap the smallest, and pin_slice_force_N (steps, discs, slices, pins) holds each slice's
+    force (slice 0 at the disc's face towards −z, :func:`rvflex.parts.cycloid_disc.slice_planes`) and
+    slice_resultant_N (steps, discs, slices, 2) the resultant (x, y) of each slice's pin forces on the disc; None
+    with one.
     """
 
     theta_in: np.ndarray
@@ -70,6 +75,8 @@ class QuasiStaticResult:
     wall_s: float
     compiled: dict | None = None
     disc_torque_Nm: np.ndarray | None = None
+    pin_slice_force_N: np.ndarray | None = None
+    slice_resultant_N: np.ndarray | None = None
 
 
 def static_settings():
@@ -517,11 +524,13 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
         ss.staticSolver.minimumStepSize = CYCLE_MIN_LOAD_STEP
     car = model.output_index
     theta_in = np.asarray(theta_in, float)
-    n, nd, npins = len(theta_in), len(model.discs.nodes), model.spec.cycloid.pin_count
+    nd, ns = len(model.discs.nodes), model.discs.slices
+    n, nc, npins = len(theta_in), len(model.discs.contacts), model.spec.cycloid.pin_count
     out = np.full(n, np.nan)
-    forces = np.full((n, nd, npins), 0.0 if contact_states else np.nan)
+    forces = np.full((n, nc, npins), 0.0 if contact_states else np.nan)  # per contact: a disc's slice
     gaps = forces.copy()
-    torques = np.full((n, nd), 0.0 if contact_states else np.nan)
+    torques = np.full((n, nc), 0.0 if contact_states else np.nan)
+    resultants = np.full((n, nc, 2), 0.0 if contact_states else np.nan)
     t0 = time.perf_counter()
     q = model.kinematic_coordinates(theta_in[0])
     done = 0
@@ -529,9 +538,14 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
     def result() -> QuasiStaticResult:
         m = done
         th_out = out[:m]
-        return QuasiStaticResult(theta_in[:m], th_out, th_out - theta_in[:m] / model.ratio, forces[:m], gaps[:m],
+        f, g, tq, per_slice, res = forces[:m], gaps[:m], torques[:m], None, None
+        if ns > 1:  # per disc: the slices' sum (the gap: the closest slice), each slice's force beside
+            per_slice = f.reshape(m, nd, ns, npins)
+            f, g, tq = per_slice.sum(axis=2), g.reshape(m, nd, ns, npins).min(axis=2), tq.reshape(m, nd, ns).sum(axis=2)
+            res = resultants[:m].reshape(m, nd, ns, 2)
+        return QuasiStaticResult(theta_in[:m], th_out, th_out - theta_in[:m] / model.ratio, f, g,
                                  torque_out_Nm, model.ratio, time.perf_counter() - t0,
-                                 compiled.counts() if compiled is not None else None, torques[:m])
+                                 compiled.counts() if compiled is not None else None, tq, per_slice, res)
 
     direction = -1.0 if len(theta_in) > 1 and theta_in[-1] < theta_in[0] else 1.0
     k_work = OUTPUT_REGULARISER_NM_RAD
@@ -587,7 +601,8 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
             while done < n:
                 k, history, last_te, q_last = compiled.steps(theta_in[done:done + COMPILED_RUN_STEPS], history,
                                                              last_te, MAX_CYCLE_ANGLE_RAD, out[done:], forces[done:],
-                                                             gaps[done:], torques[done:], contact_states)
+                                                             gaps[done:], torques[done:], resultants[done:],
+                                                             contact_states)
                 if k:
                     q, prev_th = q_last, float(theta_in[done + k - 1])
                     done += k
@@ -633,7 +648,7 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
                         nw.reset()  # Exudyn's solver and another chord Newton ran on the system
                 continue
             if skip_unsolved and record and done > 0 and skipped != done - 1:
-                out[done], forces[done], gaps[done], torques[done] = np.nan, np.nan, np.nan, np.nan
+                out[done], forces[done], gaps[done], torques[done], resultants[done] = np.nan, np.nan, np.nan, np.nan, np.nan
                 skipped = done
                 done += 1
                 if newton is not None:
@@ -656,15 +671,15 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
             out[done] = q[car]
             for d, c in enumerate(model.discs.contacts if contact_states else ()):
                 if compiled is not None and compiled.solved:  # its last evaluation is the step's
-                    forces[done, d], gaps[done, d], torques[done, d] = compiled.pin_outputs(d)
+                    forces[done, d], gaps[done, d], torques[done, d], resultants[done, d] = compiled.pin_outputs(d)
                     continue
                 st = c.pin_state(mbs)
                 forces[done, d] = st.force_N
                 gaps[done, d] = st.gap_m
                 pins = np.ascontiguousarray(c.pins_m, float)
-                torques[done, d] = ring_torque(np.ascontiguousarray(st.force_N, float),
-                                               np.ascontiguousarray(st.point_m[:, 0]),
-                                               np.ascontiguousarray(st.point_m[:, 1]), pins)
+                px, py = np.ascontiguousarray(st.point_m[:, 0]), np.ascontiguousarray(st.point_m[:, 1])
+                torques[done, d] = ring_torque(np.ascontiguousarray(st.force_N, float), px, py, pins)
+                resultants[done, d] = pin_resultant(st.force_N, px, py, pins)
             done += 1
             if progress is not None:
                 progress(done, n)

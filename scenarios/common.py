@@ -28,17 +28,21 @@ def check_scenario_inputs(scenario) -> None:
 def check_model(scenario, model: ReducerModel | None) -> ReducerModel:
     """``model`` if it was built from the scenario's spec, errors and options, else a SpecError
     naming what differs; None builds the model."""
+    # a scenario that moves parts (a tilting moment on the output) builds its model with those errors added
+    errors = getattr(scenario, "model_errors", scenario.errors)
     if model is None:
-        return build_reducer(scenario.spec, scenario.errors, scenario.options)
+        return build_reducer(scenario.spec, errors, scenario.options)
     if not isinstance(model, ReducerModel):
         raise TypeError(f"model: expected a ReducerModel (rvflex.build_reducer(...)) or None, "
                         f"got {type(model).__name__}")
+    want = {"spec": scenario.spec, "errors": errors, "options": scenario.options}
     for name in ("spec", "errors", "options"):
-        if getattr(model, name) != getattr(scenario, name):
+        if getattr(model, name) != want[name]:
             def show(x):
                 return x.name if name == "spec" else x.describe() if name == "options" else x
-            got, want = show(getattr(model, name)), show(getattr(scenario, name))
+            got, need = show(getattr(model, name)), show(want[name])
+            how = "scenario.model_errors" if hasattr(scenario, "model_errors") else "scenario.errors"
             raise SpecError("model", f"{name} {got}",
-                            f"the model was built from another {name} than the scenario's ({want}): "
-                            f"build it with rvflex.build_reducer(scenario.spec, scenario.errors, scenario.options)")
+                            f"the model was built from another {name} than the scenario's ({need}): "
+                            f"build it with rvflex.build_reducer(scenario.spec, {how}, scenario.options)")
     return model

@@ -55,7 +55,14 @@ class LoadedTE:
         Time step of the dynamic mode, s.
     options : ModelOptions or str, optional
         Model fidelity per part: a :class:`~rvflex.options.ModelOptions` or a preset name
-        (``"rigid"``, ``"flexible"``, ``"flexible-carrier"``).
+        (``"rigid"``, ``"flexible"``, ``"flexible-carrier"``); ``ModelOptions(face_slices=…)`` for the load
+        along the pins' length.
+    moment_Nm : float, optional
+        Tilting moment on the output, N·m (0: none); needs the spec's ``bearings.main_pair`` and
+        ``allowable_moment_Nm``. The carrier tilts on its main bearing pair and the discs with it against the
+        pins (:mod:`rvflex.tilt`).
+    moment_angle_rad : float, optional
+        Direction of the moment vector in the housing frame, rad (0: about +x).
 
     Raises
     ------
@@ -80,9 +87,13 @@ class LoadedTE:
     speed_out_rpm: float = 15.0
     step_s: float = 1e-4
     options: ModelOptions | str = ModelOptions()
+    moment_Nm: float = 0.0
+    moment_angle_rad: float = 0.0
 
     def __post_init__(self) -> None:
         check_scenario_inputs(self)
+        if self.moment_Nm != 0.0:
+            _ = self.tilt  # checks the moment, its direction and the spec's main bearing pair
         if self.load_Nm is None:
             object.__setattr__(self, "load_Nm", self.spec.rated_torque_Nm)
         self.spec.check_torque("load_Nm", self.load_Nm, allow_zero=True)
@@ -97,6 +108,22 @@ class LoadedTE:
             raise SpecError("speed_out_rpm", self.speed_out_rpm, "must be positive in dynamic mode (rpm at the output)")
         if self.mode == "dynamic" and self.direction < 0:
             raise SpecError("direction", self.direction, "dynamic runs go forward (reverse: quasi-static)")
+
+    @property
+    def tilt(self):
+        """The carrier's tilt under ``moment_Nm`` (:class:`rvflex.tilt.OutputTilt`), None without a moment."""
+        from rvflex.tilt import carrier_tilt
+
+        return carrier_tilt(self.spec, self.moment_Nm, self.moment_angle_rad) if self.moment_Nm != 0.0 else None
+
+    @property
+    def model_errors(self) -> ErrorSpec:
+        """The errors the model is built with: the unit's, with the pins moved against the tilted carrier under a
+        moment (:func:`rvflex.tilt.tilted_errors`)."""
+        from rvflex.tilt import tilted_errors
+
+        tilt = self.tilt
+        return self.errors if tilt is None else tilted_errors(self.errors, tilt)
 
     @property
     def n_positions(self) -> int:
@@ -170,11 +197,95 @@ class LoadedTEResult(Result):
             coords["pin"] = variable(("pin",), np.arange(1, zb + 1), "1", "pin number")
             data["pin_force"] = variable(("position", "disc", "pin"), r.pin_force_N, "N", "pin normal force")
             data["pin_gap"] = variable(("position", "disc", "pin"), r.pin_gap_m, "m", "pin normal gap")
+        if r.pin_slice_force_N is not None:
+            from rvflex.parts.cycloid_disc import slice_planes
+
+            ns = r.pin_slice_force_N.shape[2]
+            coords["slice"] = variable(("slice",), np.arange(1, ns + 1), "1", "contact slice along the face width")
+            coords["slice_axial"] = variable(("disc", "slice"), slice_planes(self.scenario.spec, ns), "m",
+                                             "axial position of the slice from the discs' mid-plane")
+            data["pin_slice_force"] = variable(("position", "disc", "slice", "pin"), r.pin_slice_force_N, "N",
+                                               "pin normal force of each contact slice")
         m = self.metrics
+        extra = {}
+        tilt = self.scenario.tilt
+        if tilt is not None:
+            extra = {"moment_Nm": tilt.moment_Nm, "moment_angle_rad": tilt.moment_angle_rad,
+                     "carrier_tilt_rad": list(tilt.tilt_rad)}
         attrs = scenario_attrs(self.scenario, te_pp_arcsec=m.te_pp_arcsec, te_min_arcsec=m.te_min_arcsec,
                                te_max_arcsec=m.te_max_arcsec, mean_windup_arcsec=m.mean_windup_arcsec,
-                               output_torque_Nm=float(r.torque_out_Nm), ratio=float(r.ratio))
+                               output_torque_Nm=float(r.torque_out_Nm), ratio=float(r.ratio), **extra)
         return xr.Dataset(data, coords=coords, attrs=attrs)
+
+    def pin_end_loads(self) -> dict | None:
+        """The load along the pins' length (a run with the contact in slices; None otherwise).
+
+        Returns
+        -------
+        dict or None
+            ``axial_m`` (discs, slices): each slice's axial position (m); ``line_load_N_m`` (discs, slices): the
+            largest line load of each slice over the run's positions and pins (N/m); ``end_line_load_N_m``
+            (discs, 2): the largest line load at each face of each disc (−z, +z), extrapolated linearly from the
+            two outer slices to the face (N/m); ``mid_line_load_N_m`` (discs,): the largest of the mean over the
+            face width (N/m); ``end_ratio`` (discs,): the +z over the −z face's largest line load.
+        """
+        from rvflex.parts.cycloid_disc import slice_planes
+
+        f = self.raw.pin_slice_force_N
+        if f is None:
+            return None
+        ns = f.shape[2]
+        w = self.scenario.spec.cycloid.disc_thickness_m / ns
+        q = f / w  # N/m
+        lo, hi = 1.5 * q[:, :, 0] - 0.5 * q[:, :, 1], 1.5 * q[:, :, -1] - 0.5 * q[:, :, -2]
+        ends = np.stack([lo.max(axis=(0, 2)), hi.max(axis=(0, 2))], axis=1)
+        return {"axial_m": slice_planes(self.scenario.spec, ns), "line_load_N_m": q.max(axis=(0, 3)),
+                "end_line_load_N_m": ends, "mid_line_load_N_m": q.mean(axis=2).max(axis=(0, 2)),
+                "end_ratio": ends[:, 1] / ends[:, 0]}
+
+    def plot_pin_loads(self, ax=None):
+        """The load along the pins' length, per disc: the line load (N/mm) of each contact slice against its axial
+        position (mm) for the pin and position of the disc's largest pin force (solid), and the largest of each
+        slice over the whole run (dashed); the faces' values extrapolated from the two outer slices.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw on; None draws on a new Figure's axes (pyplot and the backend untouched).
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            The axes drawn on.
+        """
+        loads = self.pin_end_loads()
+        if loads is None:
+            raise SpecError("plot_pin_loads", self.scenario.options.face_slices,
+                            "needs the contact in slices along the face width (ModelOptions(face_slices ≥ 2))")
+        ax = new_axes(ax, figsize=(7, 4.2))
+        sc = self.scenario
+        b = sc.spec.cycloid.disc_thickness_m
+        f = self.raw.pin_slice_force_N / (b / self.raw.pin_slice_force_N.shape[2])
+
+        def faces(z, q):
+            mid = z.mean()
+            return (np.concatenate([[mid - b / 2], z, [mid + b / 2]]) * 1e3,
+                    np.concatenate([[1.5 * q[0] - 0.5 * q[1]], q, [1.5 * q[-1] - 0.5 * q[-2]]]) / 1e3)
+
+        for d, z in enumerate(loads["axial_m"]):
+            step, pin = np.unravel_index(np.argmax(self.raw.pin_force_N[:, d]), self.raw.pin_force_N[:, d].shape)
+            line = ax.plot(*faces(z, f[step, d, :, pin]), "-o", ms=4, lw=1.4,
+                           label=f"disc {d + 1}, pin {pin + 1} at its largest load")[0]
+            ax.plot(*faces(z, loads["line_load_N_m"][d]), "--", lw=0.9, color=line.get_color(),
+                    label=f"disc {d + 1}, each slice's largest over the run")
+        moment = f", moment {sc.moment_Nm:g} N·m" if sc.moment_Nm else ", no moment"
+        ax.set_xlabel("axial position from the discs' mid-plane (mm)")
+        ax.set_ylabel("line load on the pin (N/mm)")
+        ax.set_title(f"load along the pins: {sc.load_Nm:g} N·m{moment}")
+        ax.set_ylim(bottom=0.0)
+        ax.legend(fontsize=8)
+        ax.grid(alpha=0.3)
+        return ax
 
     def to_dataframe(self):
         """One row per position: ``position_rad``, ``theta_in_rad``, ``theta_out_rad``, ``te_arcsec``.
@@ -345,7 +456,12 @@ def write_te_outputs(out: Path, res: QuasiStaticResult, metrics: TEMetrics, scen
     ax = result.plot_load_sharing()
     share_png = out / "load_sharing.png"
     ax.figure.savefig(share_png, dpi=120)
-    return [csv, te_png, share_png]
+    if res.pin_slice_force_N is None:
+        return [csv, te_png, share_png]
+    ax = result.plot_pin_loads()
+    pins_png = out / "pin_loads.png"
+    ax.figure.savefig(pins_png, dpi=120)
+    return [csv, te_png, share_png, pins_png]
 
 
 def seed001_errors(spec: ReducerSpec, seed: int = 1) -> ErrorSpec:

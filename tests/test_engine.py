@@ -117,11 +117,11 @@ def test_runs_of_compiled_steps_are_the_step_by_step_loop(monkeypatch):
     assert np.ptp(batched.te_rad) * ARCSEC_PER_RAD > 1.0
 
     # a run that stops at step 50 (as a Newton that does not converge there would): the loop takes step 50
-    def stopping(self, theta, history, last_te, max_jump, out, forces, gaps, torques, states):
+    def stopping(self, theta, history, last_te, max_jump, out, forces, gaps, torques, resultants, states):
         start = len(batched.te_rad) - len(theta)
         stop = max(0, 50 - start) if start <= 50 else len(theta)
-        return real_steps(self, theta[:stop], history, last_te, max_jump, out, forces, gaps, torques, states) if stop \
-            else (0, history, last_te, None)
+        return real_steps(self, theta[:stop], history, last_te, max_jump, out, forces, gaps, torques, resultants,
+                          states) if stop else (0, history, last_te, None)
 
     monkeypatch.setattr(engine.CompiledStep, "steps", stopping)
     stopped = run()

@@ -20,6 +20,7 @@ flexible pin housing moves the pins by its modal seat displacement (``housing_no
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 from dataclasses import dataclass, field
@@ -146,6 +147,19 @@ class ContactLaw:
                    disc_compliance_1_Pa=(1 - disc.poisson_ratio**2) / disc.youngs_modulus_Pa,
                    pin_compliance_1_Pa=(1 - pin.poisson_ratio**2) / pin.youngs_modulus_Pa,
                    body_radius_m=body_radius_m, **friction)
+
+    def sliced(self, slices: int) -> "ContactLaw":
+        """The law of one of ``slices`` equal slices of the contact along the face width: each carries its share
+        of the load at the same approach, so ``slices`` of them side by side at one gap give this law's force
+        (a line law's width, another law's stiffness and every law's damping divided by ``slices``; the seed 002
+        approach depends on the force per unit width alone)."""
+        if not (isinstance(slices, int) and slices >= 1):
+            raise ValueError(f"slices = {slices!r}: must be an integer ≥ 1")
+        if slices == 1:
+            return self
+        if self.kind == "line":
+            return dataclasses.replace(self, width_m=self.width_m / slices, damping_Ns_m=self.damping_Ns_m / slices)
+        return dataclasses.replace(self, stiffness=self.stiffness / slices, damping_Ns_m=self.damping_Ns_m / slices)
 
     def vector(self) -> np.ndarray:
         """Parameter vector of the kernel."""
