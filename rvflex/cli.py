@@ -27,11 +27,12 @@ __all__ = ["main"]
 # The flag of each Python parameter a command sets: the library's errors name the parameter
 # (``load_Nm``), the command's errors the flag (``--load``), with the flag's own spelling of
 # the value where it differs.
+_LOAD_FLAGS = {"moment_Nm": "--moment", "moment_angle_rad": "--moment-angle-deg", "axial_force_N": "--axial-force",
+               "radial_force_N": "--radial-force", "radial_angle_rad": "--radial-angle-deg", "face_slices": "--slices"}
 _TE_FLAGS = {"load_Nm": "--load", "revolutions": "--revs", "positions_per_rev": "--positions", "mode": "--mode",
-             "speed_out_rpm": "--speed-out", "direction": "--direction", "options": "--fidelity",
-             "moment_Nm": "--moment", "moment_angle_rad": "--moment-angle-deg", "face_slices": "--slices"}
-_LOST_MOTION_FLAGS = {"torque_Nm": "--torque", "steps": "--steps", "options": "--fidelity"}
-_BACKLASH_FLAGS = {"load_Nm": "--load", "options": "--fidelity"}
+             "speed_out_rpm": "--speed-out", "direction": "--direction", "options": "--fidelity", **_LOAD_FLAGS}
+_LOST_MOTION_FLAGS = {"torque_Nm": "--torque", "steps": "--steps", "options": "--fidelity", **_LOAD_FLAGS}
+_BACKLASH_FLAGS = {"load_Nm": "--load", "options": "--fidelity", **_LOAD_FLAGS}
 _SWEEP_FLAGS = {"executor": "--executor", "scheduler": "--scheduler", "workers": "--workers"}
 _FLAG_VALUES = {"--direction": {1: "forward", -1: "reverse"}}
 
@@ -91,26 +92,58 @@ def _cmd_geometry(args: argparse.Namespace) -> int:
     return 0
 
 
+def _output_load(args: argparse.Namespace):
+    """The :class:`~rvflex.tilt.OutputLoad` of ``--moment``, ``--axial-force`` and ``--radial-force`` (None: none)."""
+    from rvflex.tilt import OutputLoad
+
+    load = OutputLoad(args.moment or 0.0, math.radians(args.moment_angle_deg), args.axial_force or 0.0,
+                      args.radial_force or 0.0, math.radians(args.radial_angle_deg))
+    return load if load.any else None
+
+
+def _loaded_options(args: argparse.Namespace, load):
+    """``_options(args)`` with ``--slices`` (default :data:`~rvflex.tilt.MOMENT_SLICES` under an output load)."""
+    slices = args.slices if args.slices is not None else (MOMENT_SLICES if load is not None else 1)
+    return dataclasses.replace(_options(args), face_slices=slices)
+
+
+def _tilt_report(scenario, doc: dict) -> None:
+    """Print how the output load moves the carrier and add it to ``doc`` (nothing without a load)."""
+    import numpy as np
+
+    from rvflex.geometry.pins import disc_planes
+
+    tilt = scenario.tilt
+    if tilt is None:
+        return
+    ld = tilt.load
+    parts = [f"moment {ld.moment_Nm:g} N·m at {math.degrees(ld.moment_angle_rad):g}°"] if ld.moment_Nm else []
+    parts += [f"axial force {ld.axial_force_N:g} N"] if ld.axial_force_N else []
+    parts += [f"radial force {ld.radial_force_N:g} N at {math.degrees(ld.radial_angle_rad):g}°"] if ld.radial_force_N else []
+    shift = np.mean([np.hypot(*tilt.disc_shift_m(z)) for z in disc_planes(scenario.spec)])
+    print(f"output load {', '.join(parts)}: the carrier tilts {tilt.tilt_arcmin:.3f}′ and moves "
+          f"{np.hypot(*tilt.shift_m) * 1e6:.2f} µm on its main bearing pair ({tilt.balls_in_contact} balls loaded, "
+          f"{tilt.peak_pressure_Pa / 1e9:.2f} GPa at the most loaded); the discs move {shift * 1e6:.2f} µm against "
+          f"the pins at their mid-planes")
+    doc["output_load"] = {**{k: float(v) for k, v in dataclasses.asdict(ld).items()},
+                          "carrier_tilt_rad": list(tilt.tilt_rad), "carrier_tilt_arcmin": tilt.tilt_arcmin,
+                          "carrier_shift_m": list(tilt.shift_m), "peak_ball_pressure_Pa": tilt.peak_pressure_Pa}
+
+
 def _cmd_te(args: argparse.Namespace) -> int:
     import numpy as np
 
     import rvflex
-    from rvflex.geometry.pins import disc_planes
 
     spec, errors = _model_inputs(args)
-    moment = 0.0 if args.moment is None else args.moment
-    slices = args.slices if args.slices is not None else (MOMENT_SLICES if moment else 1)
-    options = dataclasses.replace(_options(args), face_slices=slices)
+    load = _output_load(args)
+    options = _loaded_options(args, load)
     scenario = rvflex.LoadedTE(spec, errors, spec.rated_torque_Nm if args.load is None else args.load,
                                args.revs, args.positions, 1 if args.direction == "forward" else -1, args.mode,
                                spec.rated_output_speed_rpm if args.speed_out is None else args.speed_out,
-                               options=options, moment_Nm=moment, moment_angle_rad=math.radians(args.moment_angle_deg))
-    tilt = scenario.tilt
-    if tilt is not None:
-        print(f"tilting moment {tilt.moment_Nm:g} N·m at {args.moment_angle_deg:g}°: the carrier tilts "
-              f"{tilt.tilt_arcmin:.3f}′ on its main bearing pair ({tilt.balls_in_contact} balls loaded); the discs "
-              f"move {np.mean([np.hypot(*tilt.disc_shift_m(z)) for z in disc_planes(spec)]) * 1e6:.2f} µm "
-              f"against the pins at their mid-planes")
+                               options=options, output_load=load)
+    doc = {}
+    _tilt_report(scenario, doc)
     result, wall = _with_progress(scenario.n_positions, "loaded TE",
                                   lambda progress: rvflex.run(scenario, progress=progress))
     met, n = result.metrics, len(result.raw.te_rad)
@@ -118,16 +151,12 @@ def _cmd_te(args: argparse.Namespace) -> int:
         "te_pp_arcsec": met.te_pp_arcsec, "te_min_arcsec": met.te_min_arcsec, "te_max_arcsec": met.te_max_arcsec,
         "mean_windup_arcsec": met.mean_windup_arcsec,
         "orders": [{"order": o, "amplitude_arcsec": a} for o, a in met.orders],
-        "n_positions": n, "wall_s": wall, "solve_s": result.raw.wall_s, "face_slices": slices,
+        "n_positions": n, "wall_s": wall, "solve_s": result.raw.wall_s, "face_slices": options.face_slices, **doc,
     }
     print(f"TE peak-to-peak {met.te_pp_arcsec:.3f}″ (min {met.te_min_arcsec:.2f}″, max {met.te_max_arcsec:.2f}″), "
           f"mean wind-up {met.mean_windup_arcsec:.2f}″, {n} positions in {wall:.1f} s "
           f"(solver {result.raw.wall_s:.1f} s, the rest builds the model)")
     print("strongest orders: " + ", ".join(f"{o}: {a:.3f}″" for o, a in met.orders[:5]))
-    if tilt is not None:
-        doc["moment"] = {"moment_Nm": tilt.moment_Nm, "moment_angle_deg": args.moment_angle_deg,
-                         "carrier_tilt_rad": list(tilt.tilt_rad), "carrier_tilt_arcmin": tilt.tilt_arcmin,
-                         "carrier_shift_m": list(tilt.shift_m)}
     loads = result.pin_end_loads()
     if loads is not None:
         doc["pin_loads"] = {k: np.asarray(v).tolist() for k, v in loads.items()}
@@ -135,7 +164,7 @@ def _cmd_te(args: argparse.Namespace) -> int:
         print("largest line load on the pins (N/mm) at the discs' faces −z / +z: " + "; ".join(
             f"disc {d + 1} {lo:.1f} / {hi:.1f}" for d, (lo, hi) in enumerate(ends))
               + f" (mean over the face width at most {loads['mid_line_load_N_m'].max() / 1e3:.1f}; "
-                f"{slices} slices)")
+                f"{options.face_slices} slices)")
     return emit(args, doc, result.write)
 
 
@@ -143,12 +172,15 @@ def _cmd_lost_motion(args: argparse.Namespace) -> int:
     import rvflex
 
     spec, errors = _model_inputs(args)
+    load = _output_load(args)
     sc = rvflex.LostMotion(spec, errors, spec.rated_torque_Nm if args.torque is None else args.torque,
-                           args.steps, _options(args))
+                           args.steps, _loaded_options(args, load), output_load=load)
+    extra = {}
+    _tilt_report(sc, extra)
     result, wall = _with_progress(len(sc.torques_Nm), "hysteresis",
                                   lambda progress: rvflex.run(sc, progress=progress))
     met = result.metrics
-    doc = {**result.metrics_dict(), "wall_s": wall}
+    doc = {**result.metrics_dict(), "wall_s": wall, **extra}
     print(f"lost motion {met.lost_motion_arcmin:.4f}′, hysteresis loss {met.hysteresis_loss_arcmin:.4f}′, "
           f"torsional stiffness {met.torsional_stiffness_Nm_per_arcmin:.2f} N·m/arcmin "
           f"(secant ±T {met.secant_stiffness_Nm_per_arcmin:.2f}), "
@@ -160,9 +192,12 @@ def _cmd_backlash(args: argparse.Namespace) -> int:
     import rvflex
 
     spec, errors = _model_inputs(args)
-    sc = rvflex.ReversalBacklash(spec, errors, args.load, options=_options(args))
+    load = _output_load(args)
+    sc = rvflex.ReversalBacklash(spec, errors, args.load, options=_loaded_options(args, load), output_load=load)
+    extra = {}
+    _tilt_report(sc, extra)
     result = rvflex.run(sc)
-    doc = {**result.metrics_dict(), "wall_s": result.wall_s}
+    doc = {**result.metrics_dict(), "wall_s": result.wall_s, **extra}
     print(f"reversal backlash {result.metrics.reversal_backlash_arcmin:.4f}′ at ±{sc.load_Nm:g} N·m "
           f"({doc['wall_s']:.1f} s)")
     return emit(args, doc, result.write)
@@ -381,6 +416,23 @@ def _options(args: argparse.Namespace):
     return options.with_fe("discs", **{k[3:]: v for k, v in given.items()})
 
 
+def _load_arguments(p: argparse.ArgumentParser) -> None:
+    """--moment, --axial-force, --radial-force (with their directions) and --slices of the model commands."""
+    p.add_argument("--moment", type=float,
+                   help="tilting moment on the output, N·m, up to the spec's allowable moment: the carrier tilts on "
+                        "its main bearing pair and the discs with it against the pins (default: none)")
+    p.add_argument("--moment-angle-deg", type=float, default=0.0,
+                   help="direction of the moment vector in the housing frame, degrees from +x (default 0)")
+    p.add_argument("--axial-force", type=float, help="axial force on the output, N, positive along +z (default 0)")
+    p.add_argument("--radial-force", type=float, help="radial force on the output at the main bearing pair's centre, "
+                                                      "N ≥ 0 (default 0)")
+    p.add_argument("--radial-angle-deg", type=float, default=0.0,
+                   help="direction of the radial force in the housing frame, degrees from +x (default 0)")
+    p.add_argument("--slices", type=int,
+                   help=f"slices of the pin contact along the face width (default {MOMENT_SLICES} under an output "
+                        f"load, else 1; docs/spatial.md: convergence)")
+
+
 def _output_arguments(p: argparse.ArgumentParser, files: str) -> None:
     """--errors, --perfect, --json and --out of the model commands."""
     p.add_argument("--errors", help="ErrorSpec TOML file (omitted keys are zero) or a built-in set (rv40e_seed001); "
@@ -418,14 +470,7 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--positions", type=int, default=2048, help="positions per output revolution (default 2048)")
     t.add_argument("--direction", choices=("forward", "reverse"), default="forward",
                    help="direction of the input rotation (default forward)")
-    t.add_argument("--moment", type=float,
-                   help="tilting moment on the output, N·m, up to the spec's allowable moment: the carrier tilts on "
-                        "its main bearing pair and the discs with it against the pins (default: none)")
-    t.add_argument("--moment-angle-deg", type=float, default=0.0,
-                   help="direction of the moment vector in the housing frame, degrees from +x (default 0)")
-    t.add_argument("--slices", type=int,
-                   help=f"slices of the pin contact along the face width (default {MOMENT_SLICES} with --moment, "
-                        f"else 1; docs/spatial.md: convergence)")
+    _load_arguments(t)
     _output_arguments(t, "te.csv, te.png, load_sharing.png, pin_loads.png (with --slices ≥ 2) and te.nc "
                          "(the labelled result, netCDF)")
     t.set_defaults(func=_cmd_te, flags=_TE_FLAGS)
@@ -433,11 +478,13 @@ def build_parser() -> argparse.ArgumentParser:
     _model_arguments(lm)
     lm.add_argument("--torque", type=float, help="torque amplitude, N·m (default: rated)")
     lm.add_argument("--steps", type=int, default=200, help="torque steps over the cycle (default 200)")
+    _load_arguments(lm)
     _output_arguments(lm, "hysteresis.csv, hysteresis.png and hysteresis.nc")
     lm.set_defaults(func=_cmd_lost_motion, flags=_LOST_MOTION_FLAGS)
     bl = sub.add_parser("backlash", help="reversal backlash: output angle lost when the input reverses")
     _model_arguments(bl)
     bl.add_argument("--load", type=float, help="load resisting the motion, N·m (default: 3 %% of rated)")
+    _load_arguments(bl)
     _output_arguments(bl, "backlash.csv, backlash.png and backlash.nc")
     bl.set_defaults(func=_cmd_backlash, flags=_BACKLASH_FLAGS)
     sw = sub.add_parser("sweep", help="parameter sweep / tolerance design from a design TOML",

@@ -1,8 +1,8 @@
-"""A tilting moment on the output: the carrier's tilt on its main bearing pair, carried into the gear train.
+"""Loads on the output besides its torque: the carrier's tilt on its main bearing pair, carried into the gear train.
 
-A robot arm loads the reducer's output with a tilting moment beside the torque. The output carrier runs on the
-main bearing pair (``spec.bearings.main_pair``, :mod:`rvflex.contact.angular_contact`), which takes the moment and
-lets the carrier tilt by θ = (θx, θy) (and move by a little, δ). The cranks run in the carrier's end plates and
+A robot arm loads the reducer's output with a tilting moment, an axial and a radial force beside the torque
+(:class:`OutputLoad`). The output carrier runs on the main bearing pair (``spec.bearings.main_pair``,
+:mod:`rvflex.contact.angular_contact`), which takes them and lets the carrier tilt by θ = (θx, θy) and move by δ. The cranks run in the carrier's end plates and
 the discs on the cranks' eccentrics, so each disc tilts with the carrier while the pins stay in the housing: a
 point of a disc at axial position z (from the discs' mid-plane, where the pair's centre is taken to lie) moves
 by θ × z plus δ against the pins. For the planar model of the gear train that is the pin ring moved the other
@@ -25,7 +25,8 @@ import numpy as np
 
 from rvflex.spec_types import ErrorSpec, ReducerSpec, SpecError
 
-__all__ = ["MOMENT_SLICES", "OutputTilt", "carrier_tilt", "gear_train_moment_Nm", "tilted_errors"]
+__all__ = ["MOMENT_SLICES", "OutputLoad", "OutputTilt", "STATIC_PRESSURE_LIMIT_PA", "carrier_tilt",
+           "gear_train_moment_Nm", "tilted_errors"]
 
 ARCMIN_PER_RAD = 180.0 * 60.0 / math.pi
 
@@ -36,29 +37,83 @@ ripple within 0.005″ and the faces' line loads within 1 % of eight slices' fro
 cost."""
 
 
+STATIC_PRESSURE_LIMIT_PA = 4.2e9
+"""ISO 76's static-rating contact stress of ball bearings: an output load that takes a main bearing ball beyond it
+is refused."""
+
+
 @dataclass(frozen=True)
-class OutputTilt:
-    """The carrier on its main bearing pair under a tilting moment (:func:`carrier_tilt`).
+class OutputLoad:
+    """Loads on the output besides its torque, at the main bearing pair's centre (on the axis, in the discs'
+    mid-plane); directions in the housing frame, from +x towards +y.
 
     Parameters
     ----------
     moment_Nm : float
-        The tilting moment's magnitude, N·m.
+        Tilting moment, N·m: 0 or in (0, the spec's ``allowable_moment_Nm``].
     moment_angle_rad : float
-        Direction of the moment vector in the housing frame (from +x towards +y), rad.
+        Direction of the moment vector, rad (0: about +x).
+    axial_force_N : float
+        Force along the reducer axis, N (positive along +z).
+    radial_force_N : float
+        Radial force, N (≥ 0), towards ``radial_angle_rad``.
+    radial_angle_rad : float
+        Direction of the radial force, rad.
+    """
+
+    moment_Nm: float = 0.0
+    moment_angle_rad: float = 0.0
+    axial_force_N: float = 0.0
+    radial_force_N: float = 0.0
+    radial_angle_rad: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("moment_Nm", "moment_angle_rad", "axial_force_N", "radial_force_N", "radial_angle_rad"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise SpecError(name, v, "must be a finite number (SI: N·m, N, rad)")
+        if self.radial_force_N < 0.0:
+            raise SpecError("radial_force_N", self.radial_force_N, "must not be negative (its direction goes in "
+                                                                   "radial_angle_rad)")
+
+    @property
+    def any(self) -> bool:
+        """True when the output carries a moment or a force."""
+        return bool(self.moment_Nm or self.axial_force_N or self.radial_force_N)
+
+    def pair_load(self):
+        """The load as the pair model takes it (:class:`rvflex.contact.angular_contact.PairLoad`)."""
+        from rvflex.contact.angular_contact import PairLoad
+
+        m, r = self.moment_Nm, self.radial_force_N
+        return PairLoad(force_N=(r * math.cos(self.radial_angle_rad), r * math.sin(self.radial_angle_rad),
+                                 float(self.axial_force_N)),
+                        moment_Nm=(m * math.cos(self.moment_angle_rad), m * math.sin(self.moment_angle_rad)))
+
+
+@dataclass(frozen=True)
+class OutputTilt:
+    """The carrier on its main bearing pair under an output load (:func:`carrier_tilt`).
+
+    Parameters
+    ----------
+    load : OutputLoad
+        The load.
     tilt_rad : tuple of float
         The carrier's small rotation (θx, θy), rad.
     shift_m : tuple of float
         The carrier's displacement (δx, δy) at the pair's centre, m.
     balls_in_contact : int
         Balls of the pair carrying load.
+    peak_pressure_Pa : float
+        The most loaded ball's peak Hertz pressure, Pa.
     """
 
-    moment_Nm: float
-    moment_angle_rad: float
+    load: OutputLoad
     tilt_rad: tuple[float, float]
     shift_m: tuple[float, float]
     balls_in_contact: int
+    peak_pressure_Pa: float
 
     @property
     def tilt_magnitude_rad(self) -> float:
@@ -76,17 +131,17 @@ class OutputTilt:
         return np.array([self.shift_m[0] + ty * axial_m, self.shift_m[1] - tx * axial_m])
 
 
-def carrier_tilt(spec: ReducerSpec, moment_Nm: float, moment_angle_rad: float = 0.0) -> OutputTilt:
-    """The carrier's tilt and shift on ``spec``'s main bearing pair under a tilting moment.
+def carrier_tilt(spec: ReducerSpec, load: OutputLoad | float, moment_angle_rad: float = 0.0) -> OutputTilt:
+    """The carrier's tilt and shift on ``spec``'s main bearing pair under an output load.
 
     Parameters
     ----------
     spec : ReducerSpec
-        Needs ``bearings.main_pair`` and ``allowable_moment_Nm``.
-    moment_Nm : float
-        Magnitude, N·m, in (0, allowable moment].
+        Needs ``bearings.main_pair`` (and ``allowable_moment_Nm`` for a moment).
+    load : OutputLoad or float
+        The load, or a tilting moment alone (N·m) towards ``moment_angle_rad``.
     moment_angle_rad : float, optional
-        Direction of the moment vector in the housing frame, rad (default 0: about +x).
+        With a moment given as a number: its direction, rad.
 
     Returns
     -------
@@ -95,22 +150,29 @@ def carrier_tilt(spec: ReducerSpec, moment_Nm: float, moment_angle_rad: float = 
     Raises
     ------
     SpecError
-        No main bearing pair (naming ``bearings.main_pair``), no allowable moment, or a moment outside
-        (0, allowable] (naming ``moment_Nm``); a direction that is not finite (naming ``moment_angle_rad``).
+        No main bearing pair (naming ``bearings.main_pair``), no allowable moment, a moment outside
+        (0, allowable] (naming ``moment_Nm``), or a load that takes a ball beyond
+        :data:`STATIC_PRESSURE_LIMIT_PA` (naming the force).
     """
-    from rvflex.contact.angular_contact import PairLoad, pair_model, solve
+    from rvflex.contact.angular_contact import pair_model, solve
 
+    if not isinstance(load, OutputLoad):
+        load = OutputLoad(moment_Nm=load, moment_angle_rad=moment_angle_rad)
     if spec.bearings.main_pair is None:
         raise SpecError("bearings.main_pair", None, f"{spec.name} gives no main bearing pair geometry: add a "
-                                                    "[bearings.main_pair] table to load the output with a moment")
-    spec.check_moment("moment_Nm", moment_Nm)
-    if not (isinstance(moment_angle_rad, (int, float)) and math.isfinite(moment_angle_rad)):
-        raise SpecError("moment_angle_rad", moment_angle_rad, "must be a finite angle in radians")
-    m = np.array([math.cos(moment_angle_rad), math.sin(moment_angle_rad)]) * moment_Nm
-    state = solve(pair_model(spec.bearings.main_pair), PairLoad(moment_Nm=(float(m[0]), float(m[1]))))
+                                                    "[bearings.main_pair] table to load the output with a moment or "
+                                                    "a force")
+    if load.moment_Nm:
+        spec.check_moment("moment_Nm", load.moment_Nm)
+    state = solve(pair_model(spec.bearings.main_pair), load.pair_load())
+    peak = float(state.peak_pressure_Pa.max())
+    if peak > STATIC_PRESSURE_LIMIT_PA:
+        name = "radial_force_N" if load.radial_force_N else "axial_force_N" if load.axial_force_N else "moment_Nm"
+        raise SpecError(name, getattr(load, name), f"with the rest of the output load the main bearing pair's most "
+                                                   f"loaded ball reaches {peak / 1e9:.2f} GPa, beyond the "
+                                                   f"{STATIC_PRESSURE_LIMIT_PA / 1e9:g} GPa static limit (ISO 76)")
     q = state.q
-    return OutputTilt(float(moment_Nm), float(moment_angle_rad), (float(q[3]), float(q[4])),
-                      (float(q[0]), float(q[1])), int(state.balls_in_contact))
+    return OutputTilt(load, (float(q[3]), float(q[4])), (float(q[0]), float(q[1])), int(state.balls_in_contact), peak)
 
 
 def tilted_errors(errors: ErrorSpec | None, tilt: OutputTilt) -> ErrorSpec:

@@ -7,7 +7,7 @@ from rvflex.model import ReducerModel, build_reducer
 from rvflex.options import as_options
 from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
 
-__all__ = ["check_model", "check_scenario_inputs"]
+__all__ = ["OutputLoaded", "check_model", "check_scenario_inputs"]
 
 
 def check_scenario_inputs(scenario) -> None:
@@ -46,3 +46,38 @@ def check_model(scenario, model: ReducerModel | None) -> ReducerModel:
                             f"the model was built from another {name} than the scenario's ({need}): "
                             f"build it with rvflex.build_reducer(scenario.spec, {how}, scenario.options)")
     return model
+
+
+class OutputLoaded:
+    """What a model scenario with an ``output_load`` field (:class:`rvflex.tilt.OutputLoad` or None) derives from
+    it: the carrier's tilt on its main bearing pair and the errors its model is built with."""
+
+    def _check_output_load(self) -> None:
+        """Check the load against the spec (in ``__post_init__``): a moment within the allowable, the main
+        bearing pair given, no ball beyond its static limit; an empty load becomes None."""
+        from rvflex.tilt import OutputLoad
+
+        load = self.output_load
+        if load is not None and not isinstance(load, OutputLoad):
+            raise TypeError(f"{type(self).__name__}.output_load: expected an rvflex.tilt.OutputLoad or None, "
+                            f"got {type(load).__name__}")
+        if load is not None and not load.any:
+            object.__setattr__(self, "output_load", None)
+        _ = self.tilt
+
+    @property
+    def tilt(self):
+        """The carrier on its main bearing pair under ``output_load`` (:class:`rvflex.tilt.OutputTilt`); None
+        without one."""
+        from rvflex.tilt import carrier_tilt
+
+        return None if self.output_load is None else carrier_tilt(self.spec, self.output_load)
+
+    @property
+    def model_errors(self) -> ErrorSpec:
+        """The errors the model is built with: the unit's, with the pins moved against the carrier displaced by
+        ``output_load`` (:func:`rvflex.tilt.tilted_errors`)."""
+        from rvflex.tilt import tilted_errors
+
+        tilt = self.tilt
+        return self.errors if tilt is None else tilted_errors(self.errors, tilt)

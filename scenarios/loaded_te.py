@@ -21,16 +21,17 @@ from rvflex.metrics import TEMetrics, order_spectrum, te_metrics
 from rvflex.model import ReducerModel
 from rvflex.options import ModelOptions
 from rvflex.result import Result, new_axes, new_figure, scenario_attrs, variable
-from rvflex.scenarios.common import check_model, check_scenario_inputs
+from rvflex.scenarios.common import OutputLoaded, check_model, check_scenario_inputs
 from rvflex.solve import QuasiStaticResult, dynamic, quasi_static
 from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
+from rvflex.tilt import OutputLoad
 
 __all__ = ["LoadedTE", "LoadedTEResult", "perfect_spec", "run_loaded_te", "seed001_errors",
            "write_te_outputs"]
 
 
 @dataclass(frozen=True)
-class LoadedTE:
+class LoadedTE(OutputLoaded):
     """Loaded transmission error over whole output revolutions (``rvflex te``).
 
     Parameters
@@ -57,12 +58,10 @@ class LoadedTE:
         Model fidelity per part: a :class:`~rvflex.options.ModelOptions` or a preset name
         (``"rigid"``, ``"flexible"``, ``"flexible-carrier"``); ``ModelOptions(face_slices=…)`` for the load
         along the pins' length.
-    moment_Nm : float, optional
-        Tilting moment on the output, N·m (0: none); needs the spec's ``bearings.main_pair`` and
-        ``allowable_moment_Nm``. The carrier tilts on its main bearing pair and the discs with it against the
-        pins (:mod:`rvflex.tilt`).
-    moment_angle_rad : float, optional
-        Direction of the moment vector in the housing frame, rad (0: about +x).
+    output_load : rvflex.tilt.OutputLoad, optional
+        Tilting moment, axial and radial force on the output (None: none); needs the spec's
+        ``bearings.main_pair`` (and ``allowable_moment_Nm`` for a moment). The carrier tilts and moves on its main
+        bearing pair and the discs with it against the pins (:mod:`rvflex.tilt`).
 
     Raises
     ------
@@ -87,13 +86,11 @@ class LoadedTE:
     speed_out_rpm: float = 15.0
     step_s: float = 1e-4
     options: ModelOptions | str = ModelOptions()
-    moment_Nm: float = 0.0
-    moment_angle_rad: float = 0.0
+    output_load: OutputLoad | None = None
 
     def __post_init__(self) -> None:
         check_scenario_inputs(self)
-        if self.moment_Nm != 0.0:
-            _ = self.tilt  # checks the moment, its direction and the spec's main bearing pair
+        self._check_output_load()
         if self.load_Nm is None:
             object.__setattr__(self, "load_Nm", self.spec.rated_torque_Nm)
         self.spec.check_torque("load_Nm", self.load_Nm, allow_zero=True)
@@ -108,22 +105,6 @@ class LoadedTE:
             raise SpecError("speed_out_rpm", self.speed_out_rpm, "must be positive in dynamic mode (rpm at the output)")
         if self.mode == "dynamic" and self.direction < 0:
             raise SpecError("direction", self.direction, "dynamic runs go forward (reverse: quasi-static)")
-
-    @property
-    def tilt(self):
-        """The carrier's tilt under ``moment_Nm`` (:class:`rvflex.tilt.OutputTilt`), None without a moment."""
-        from rvflex.tilt import carrier_tilt
-
-        return carrier_tilt(self.spec, self.moment_Nm, self.moment_angle_rad) if self.moment_Nm != 0.0 else None
-
-    @property
-    def model_errors(self) -> ErrorSpec:
-        """The errors the model is built with: the unit's, with the pins moved against the tilted carrier under a
-        moment (:func:`rvflex.tilt.tilted_errors`)."""
-        from rvflex.tilt import tilted_errors
-
-        tilt = self.tilt
-        return self.errors if tilt is None else tilted_errors(self.errors, tilt)
 
     @property
     def n_positions(self) -> int:
@@ -210,8 +191,8 @@ class LoadedTEResult(Result):
         extra = {}
         tilt = self.scenario.tilt
         if tilt is not None:
-            extra = {"moment_Nm": tilt.moment_Nm, "moment_angle_rad": tilt.moment_angle_rad,
-                     "carrier_tilt_rad": list(tilt.tilt_rad)}
+            extra = {**{k: float(v) for k, v in dc.asdict(tilt.load).items()},
+                     "carrier_tilt_rad": list(tilt.tilt_rad), "carrier_shift_m": list(tilt.shift_m)}
         attrs = scenario_attrs(self.scenario, te_pp_arcsec=m.te_pp_arcsec, te_min_arcsec=m.te_min_arcsec,
                                te_max_arcsec=m.te_max_arcsec, mean_windup_arcsec=m.mean_windup_arcsec,
                                output_torque_Nm=float(r.torque_out_Nm), ratio=float(r.ratio), **extra)
@@ -278,7 +259,8 @@ class LoadedTEResult(Result):
                            label=f"disc {d + 1}, pin {pin + 1} at its largest load")[0]
             ax.plot(*faces(z, loads["line_load_N_m"][d]), "--", lw=0.9, color=line.get_color(),
                     label=f"disc {d + 1}, each slice's largest over the run")
-        moment = f", moment {sc.moment_Nm:g} N·m" if sc.moment_Nm else ", no moment"
+        load = sc.output_load
+        moment = f", moment {load.moment_Nm:g} N·m" if load is not None and load.moment_Nm else ", no moment"
         ax.set_xlabel("axial position from the discs' mid-plane (mm)")
         ax.set_ylabel("line load on the pin (N/mm)")
         ax.set_title(f"load along the pins: {sc.load_Nm:g} N·m{moment}")

@@ -19,15 +19,16 @@ from rvflex.metrics import HysteresisMetrics, hysteresis_metrics
 from rvflex.model import ReducerModel
 from rvflex.options import ModelOptions
 from rvflex.result import Result, new_axes, scenario_attrs, variable
-from rvflex.scenarios.common import check_model, check_scenario_inputs
+from rvflex.scenarios.common import OutputLoaded, check_model, check_scenario_inputs
 from rvflex.solve import TorqueStepResult, hysteresis_cycle, torque_stepping
 from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
+from rvflex.tilt import OutputLoad
 
 __all__ = ["LostMotion", "LostMotionResult", "run_lost_motion", "write_lost_motion_outputs"]
 
 
 @dataclass(frozen=True)
-class LostMotion:
+class LostMotion(OutputLoaded):
     """The catalogue torsional test (``rvflex lost-motion``): input locked, output torque
     0 → +T → −T → 0; lost motion, hysteresis loss, torsional stiffness and backlash.
 
@@ -44,6 +45,9 @@ class LostMotion:
     options : ModelOptions or str, optional
         Model fidelity per part: a :class:`~rvflex.options.ModelOptions` or a preset name
         (``"rigid"``, ``"flexible"``, ``"flexible-carrier"``).
+    output_load : rvflex.tilt.OutputLoad, optional
+        Tilting moment, axial and radial force on the output (None: none): the carrier tilts and moves on its main
+        bearing pair and the discs with it against the pins (:mod:`rvflex.tilt`).
 
     Raises
     ------
@@ -56,9 +60,11 @@ class LostMotion:
     torque_Nm: float | None = None
     steps: int = 200
     options: ModelOptions | str = ModelOptions()
+    output_load: OutputLoad | None = None
 
     def __post_init__(self) -> None:
         check_scenario_inputs(self)
+        self._check_output_load()
         if self.torque_Nm is None:
             object.__setattr__(self, "torque_Nm", self.spec.rated_torque_Nm)
         self.spec.check_torque("torque_Nm", self.torque_Nm)

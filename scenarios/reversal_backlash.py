@@ -22,9 +22,10 @@ from rvflex.geometry.formulas import ARCMIN_PER_RAD
 from rvflex.model import ReducerModel
 from rvflex.options import ModelOptions
 from rvflex.result import Result, new_axes, scenario_attrs, variable
-from rvflex.scenarios.common import check_model, check_scenario_inputs
+from rvflex.scenarios.common import OutputLoaded, check_model, check_scenario_inputs
 from rvflex.solve import QuasiStaticResult, quasi_static
 from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
+from rvflex.tilt import OutputLoad
 
 __all__ = ["BacklashMetrics", "ReversalBacklash", "ReversalBacklashResult", "run_reversal_backlash",
            "write_backlash_outputs", "DEFAULT_LOAD_FRACTION"]
@@ -33,7 +34,7 @@ DEFAULT_LOAD_FRACTION = 0.03
 
 
 @dataclass(frozen=True)
-class ReversalBacklash:
+class ReversalBacklash(OutputLoaded):
     """Reversal backlash (``rvflex backlash``): the output angle lost when the input reverses
     under a load that resists the motion.
 
@@ -52,6 +53,9 @@ class ReversalBacklash:
     options : ModelOptions or str, optional
         Model fidelity per part: a :class:`~rvflex.options.ModelOptions` or a preset name
         (``"rigid"``, ``"flexible"``, ``"flexible-carrier"``).
+    output_load : rvflex.tilt.OutputLoad, optional
+        Tilting moment, axial and radial force on the output (None: none): the carrier tilts and moves on its main
+        bearing pair and the discs with it against the pins (:mod:`rvflex.tilt`).
 
     Raises
     ------
@@ -65,9 +69,11 @@ class ReversalBacklash:
     window_out_deg: float = 3.0
     positions: int = 60
     options: ModelOptions | str = ModelOptions()
+    output_load: OutputLoad | None = None
 
     def __post_init__(self) -> None:
         check_scenario_inputs(self)
+        self._check_output_load()
         if self.load_Nm is None:
             object.__setattr__(self, "load_Nm", DEFAULT_LOAD_FRACTION * self.spec.rated_torque_Nm)
         self.spec.check_torque("load_Nm", self.load_Nm)
