@@ -403,3 +403,19 @@ def test_nothing_the_library_models_acts_at_the_crank_count_order_of_a_three_cra
     named = name_orders(spec, [3])[0]
     assert named["candidates"] == []
     assert {PART_ERRORS["crank_pattern"].description, PART_ERRORS["pillar_pattern"].description} <= set(named["lacking"])
+
+
+def test_an_order_beside_the_pin_passing_is_named_a_sideband():
+    """RV-80E (pin passing at 40 against the carrier): 82 = 2·40 + 2 and 158 = 4·40 − 2 are no part's own order
+    but the pin passing's ripple, present in every unit, modulated twice per output revolution (a ring runout the
+    two discs see, the output flange); 37 = 40 − 3 borders it by nothing that turns slowly enough (the crank
+    pattern's 2 and the output's 1 in their first two harmonics) and stays unexplained."""
+    spec = catalog.load("rv80e")
+    k82, k158, k37 = name_orders(spec, [82, 158, 37])
+    for row, harmonic, sign in ((k82, 2, "+"), (k158, 4, "−")):
+        assert row["parts"] == []
+        assert {(s["mesh_key"], s["mesh_harmonic"], s["sign"]) for s in row["sidebands"]
+                if s["key"] == "output"} == {("pin_passing", harmonic, sign)}
+        assert row["note"].startswith("no part turns at this order itself: a sideband")
+        assert f"{harmonic}× pin passing {sign} 2: output flange" in row["note"]
+    assert k37["sidebands"] == [] and k37["note"] == NO_PART_NOTE

@@ -438,24 +438,44 @@ def _effects_of(spec: ReducerSpec, key: str, m: int) -> set[str]:
             for name in err.effects if name in EFFECTS}
 
 
+# a ripple the carrier-frame pin passing makes in every unit is modulated by what turns slowly against it: a part
+# fixed in the housing (a ring runout or lobing the load zone sweeps) or turning with the output (its flange); so
+# its sidebands count, by parts turning at most this fraction of its order (slow modulations; a faster part would
+# make nearly every order a sideband of some harmonic)
+SLOW_MODULATION = Fraction(1, 8)
+
+
 def _sidebands(spec: ReducerSpec, order: Fraction, max_harmonic: int, side_harmonic: int) -> list[dict]:
     rots = rotations(spec)
-    meshes = [r for r in rots if r.key in ("tooth_mesh", "first_stage_mesh")]
+    meshes = [r for r in rots if r.key in ("tooth_mesh", "first_stage_mesh", "pin_passing")]
     out = []
     for mesh in meshes:
+        limit = mesh.order * SLOW_MODULATION if mesh.key == "pin_passing" else mesh.order
         for p in range(1, max_harmonic + 1):
             offset = order - p * mesh.order
             if offset == 0:
                 continue
             for rot in rots:
-                if rot in meshes or rot.order >= mesh.order:
+                if rot in meshes or rot.order >= limit:
                     continue
                 m = _harmonic(abs(offset), rot.order, side_harmonic)
                 if m is not None:
-                    out.append({"mesh": mesh.name, "mesh_key": mesh.key, "mesh_harmonic": p, "part": rot.name,
+                    out.append({"mesh": mesh.name, "mesh_key": mesh.key, "mesh_harmonic": p,
+                                "mesh_order": float(mesh.order), "part": rot.name,
                                 "harmonic": m, "relative_to": rot.relative_to, "key": rot.key,
                                 "sign": "+" if offset > 0 else "−"})
     return out
+
+
+def _sideband_text(sidebands: list[dict], order: Fraction) -> str:
+    """The sidebands of an order in words, grouped by mesh harmonic: "2× pin passing + 2 (output flange, …)"."""
+    groups = {}
+    for sb in sidebands:
+        mesh = sb["mesh"].split(" (")[0]
+        offset = order - sb["mesh_harmonic"] * _fraction(sb["mesh_order"])
+        groups.setdefault((sb["mesh_harmonic"], mesh, offset), []).append(sb["part"].split(" (")[0])
+    return "; ".join(f"{p}× {mesh} {'+' if off > 0 else '−'} {abs(off)}: {', '.join(dict.fromkeys(names))}"
+                     for (p, mesh, off), names in groups.items())
 
 
 def name_orders(spec: ReducerSpec, orders, candidates=None, max_harmonic: int = 8,
@@ -481,8 +501,9 @@ def name_orders(spec: ReducerSpec, orders, candidates=None, max_harmonic: int = 
     -------
     list of dict
         Per order: ``"order"`` (int), ``"parts"`` (:func:`parts_at`'s entries), ``"sidebands"`` (the order as
-        p·mesh ± m·part: ``{"mesh", "mesh_key", "mesh_harmonic", "part", "harmonic", "relative_to", "key",
-        "sign"}``),
+        p·mesh ± m·part: ``{"mesh", "mesh_key", "mesh_harmonic", "mesh_order", "part", "harmonic", "relative_to",
+        "key", "sign"}``; a mesh is the tooth mesh, the first-stage mesh or the pin passing, whose ripple every unit
+        shows, modulated by parts turning at most 1/8 as fast),
         ``"candidates"`` (effect names acting at a part there, or at both the mesh and the part of a sideband),
         ``"lacking"`` (descriptions of part errors that show there and that no registered effect models) and
         ``"note"`` (:data:`NO_PART_NOTE` when no part turns at the order; harmonics the discs' phases cancel).
@@ -511,8 +532,11 @@ def name_orders(spec: ReducerSpec, orders, candidates=None, max_harmonic: int = 
             found.update(_effects_of(spec, sb["mesh_key"], sb["mesh_harmonic"])
                          & _effects_of(spec, sb["key"], sb["harmonic"]))
         notes = []
-        if not parts:
-            notes.append(NO_PART_NOTE + (" (a sideband of a mesh)" if sidebands else ""))
+        if not parts and sidebands:
+            notes.append("no part turns at this order itself: a sideband, the ripple of a mesh modulated by parts "
+                         "turning slower (" + _sideband_text(sidebands, k) + ")")
+        elif not parts:
+            notes.append(NO_PART_NOTE)
         if cancelled:
             phases = ", ".join(f"{math.degrees(p):.0f}°" for p in spec.cycloid.disc_phase_rad)
             notes.append(f"the discs' eccentric phases ({phases}) cancel this harmonic of: " + "; ".join(cancelled))
