@@ -43,6 +43,19 @@ def test_the_contact_in_slices_gives_the_planar_unit(unit):
                                rtol=1e-7, atol=1e-6)
 
 
+def test_the_sliced_contact_on_fe_discs_gives_the_planar_unit(coarse_disc):
+    """Each slice of an FE disc's contact carries the flank's in-plane modal motion: untilted, three slices give the
+    planar FE model's TE and pin forces."""
+    spec, red = coarse_disc
+    th = np.linspace(0.0, 2 * math.pi * spec.ratio / 8, 33)
+    runs = []
+    for ns in (1, 3):
+        options = dataclasses.replace(ModelOptions.flexible_discs(), discs=red.settings, face_slices=ns)
+        runs.append(quasi_static(build_reducer(spec, options=options, reduced_disc=red), th, spec.rated_torque_Nm))
+    assert np.abs(runs[1].te_rad - runs[0].te_rad).max() * ARCSEC_PER_RAD < 1e-6
+    np.testing.assert_allclose(runs[1].pin_force_N, runs[0].pin_force_N, rtol=1e-7, atol=1e-5)
+
+
 def test_lost_motion_of_the_sliced_contact_is_the_planar_one(rv40e):
     plain = rvflex.run(rvflex.LostMotion(rv40e, steps=40)).metrics
     sliced = rvflex.run(rvflex.LostMotion(rv40e, steps=40, options=ModelOptions(face_slices=3))).metrics
