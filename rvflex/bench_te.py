@@ -2,10 +2,11 @@
 kernel's own evaluation measured in the same run.
 
 For each built-in unit and each case (rigid; rigid with seed 001's errors and their 12 µm crank-bearing
-clearances; FE discs; FE discs and carrier; FE discs, carrier and housing) one loaded TE run over one output
-revolution is timed after a warm-up (compiled kernels, FE reductions from the cache). Its wall time per step
-is divided by the unit's contact evaluation: every disc's cycloid–pin kernel, force and Jacobian, at a
-loaded state (the median of many calls). A second, profiled run of the same case splits the step into
+clearances; rigid under half its allowable tilting moment with the pin contact in :data:`~rvflex.tilt.MOMENT_SLICES`
+slices along the face width; FE discs; FE discs and carrier; FE discs, carrier and housing) one loaded TE run over
+one output revolution is timed after a warm-up (compiled kernels, FE reductions from the cache). Its wall time per
+step is divided by the unit's contact evaluation: every disc's cycloid–pin kernel (every slice of it), force and
+Jacobian, at a loaded state (the median of many calls); a sliced case's budget is thus per slice. A second, profiled run of the same case splits the step into
 contact kernels, assembly of the residual and Jacobian outside Exudyn, linear solves, Exudyn's own calls and
 the Python of the stepping; the compiled step's share (:mod:`rvflex.engine`, one numba call per step or per run
 of steps) is split by its counted evaluations and solves and their measured unit costs, the rest of it (its
@@ -25,7 +26,7 @@ import numpy as np
 
 __all__ = ["CASES", "bench_te", "clearance_errors", "contact_evaluation_us", "table_md"]
 
-CASES = ("rigid", "rigid-clearance", "flexible", "flexible-carrier", "flexible-all")
+CASES = ("rigid", "rigid-clearance", "rigid-moment", "flexible", "flexible-carrier", "flexible-all")
 UNITS = ("rv40e", "rv80e", "rv160n")
 CONTACT_CALLS = 400  # calls timed for the contact unit (median of 8 blocks)
 
@@ -53,10 +54,24 @@ def clearance_errors(spec):
 
 def _options(case: str):
     from rvflex.options import ModelOptions
+    from rvflex.tilt import MOMENT_SLICES
 
-    return {"rigid": ModelOptions.rigid, "rigid-clearance": ModelOptions.rigid, "flexible": ModelOptions.flexible_discs,
+    return {"rigid": ModelOptions.rigid, "rigid-clearance": ModelOptions.rigid,
+            "rigid-moment": lambda: ModelOptions(face_slices=MOMENT_SLICES), "flexible": ModelOptions.flexible_discs,
             "flexible-carrier": ModelOptions.flexible_discs_and_carrier,
             "flexible-all": ModelOptions.flexible_all}[case]()
+
+
+def _errors(spec, case: str):
+    """The case's errors: seed 001's for ``rigid-clearance``, the pins moved against the carrier tilted by half the
+    allowable moment for ``rigid-moment``, none otherwise."""
+    if case == "rigid-clearance":
+        return clearance_errors(spec)
+    if case == "rigid-moment":
+        from rvflex.tilt import carrier_tilt, tilted_errors
+
+        return tilted_errors(None, carrier_tilt(spec, 0.5 * spec.allowable_moment_Nm))
+    return None
 
 
 def contact_evaluation_us(model, q_abs: np.ndarray) -> float:
@@ -145,7 +160,7 @@ def bench_case(unit: str, case: str, positions: int, progress=None) -> dict:
     from rvflex.model import build_reducer
 
     spec = load_reducer(unit)
-    errors = clearance_errors(spec) if case == "rigid-clearance" else None
+    errors = _errors(spec, case)
     t = time.perf_counter()
     model = build_reducer(spec, errors, _options(case))
     build_s = time.perf_counter() - t
@@ -180,7 +195,7 @@ def bench_case(unit: str, case: str, positions: int, progress=None) -> dict:
     return row
 
 
-TARGETS = {"rigid": 8, "rigid-clearance": 12, "flexible": 40, "flexible-carrier": 80}
+TARGETS = {"rigid": 8, "rigid-clearance": 12, "rigid-moment": 8, "flexible": 40, "flexible-carrier": 80}
 
 
 def bench_te(units=UNITS, cases=CASES, positions: int = 2048, flexible_positions: int = 512, progress=None) -> dict:

@@ -17,6 +17,7 @@ from pathlib import Path
 
 import rvflex.scenarios  # noqa: F401 -- registers the scenarios sweeps run (rvflex.scenarios.sweepable)
 from rvflex import catalog
+from rvflex.bench_te import CASES as BENCH_TE_CASES
 from rvflex.choices import Executor, Fidelity, RunCostKind, TEMode, choices
 from rvflex.io import emit, write_json, write_text
 from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
@@ -518,16 +519,15 @@ def build_parser() -> argparse.ArgumentParser:
     bc.set_defaults(func=_cmd_bench_contact)
     bt = bsub.add_parser("te", help="cost of one quasi-static TE step per unit and fidelity, in contact evaluations",
                          description="Each built-in unit and case (rigid; rigid with seed 001's errors and 12 µm "
-                                     "crank-bearing clearances; FE discs; FE discs and carrier; FE discs, carrier and "
+                                     "crank-bearing clearances; rigid under half the allowable moment, the pin contact "
+                                     "in 4 slices; FE discs; FE discs and carrier; FE discs, carrier and "
                                      "housing): one loaded TE run over one output revolution, its wall time per step "
-                                     "and the same divided by one evaluation of every disc's contact kernel measured "
-                                     "in the same run, with the split of a profiled run (rvflex.bench_te).")
+                                     "and the same divided by one evaluation of every disc's contact kernel (every "
+                                     "slice) measured in the same run, with the split of a profiled run "
+                                     "(rvflex.bench_te).")
     bt.add_argument("--units", nargs="+", default=["rv40e", "rv80e", "rv160n"], metavar="NAME",
                     help="built-in reducers (default all three)")
-    bt.add_argument("--cases", nargs="+", default=["rigid", "rigid-clearance", "flexible", "flexible-carrier",
-                                                   "flexible-all"],
-                    choices=["rigid", "rigid-clearance", "flexible", "flexible-carrier", "flexible-all"],
-                    help="cases (default all)")
+    bt.add_argument("--cases", nargs="+", default=list(BENCH_TE_CASES), choices=BENCH_TE_CASES, help="cases (default all)")
     bt.add_argument("--positions", type=int, default=2048, help="positions per output revolution, rigid (default 2048)")
     bt.add_argument("--flexible-positions", type=int, default=512,
                     help="positions per output revolution with FE parts (default 512)")
