@@ -27,7 +27,7 @@ from rvflex.model import build_reducer
 from rvflex.options import ModelOptions
 from rvflex.scenarios.loaded_te import LoadedTE
 from rvflex.scenarios.lost_motion import LostMotion
-from rvflex.spec import ReducerSpec
+from rvflex.spec import ReducerSpec, SpecError
 
 __all__ = ["COARSE_CARRIER", "COARSE_DISC", "COARSE_HOUSING", "FIDELITIES", "Cell", "markdown", "options_for", "run_cell",
            "run_matrix"]
@@ -62,6 +62,11 @@ class Cell:
     te_s: float = float("nan")
     lost_motion_s: float = float("nan")
     reductions_cached: bool = True
+    moment_Nm: float = float("nan")
+    te_pp_moment_arcsec: float = float("nan")
+    windup_moment_arcsec: float = float("nan")
+    lost_motion_moment_arcmin: float = float("nan")
+    face_load_ratio: float = float("nan")
     error: str = ""
 
 
@@ -83,9 +88,15 @@ def options_for(fidelity: Fidelity, *, coarse: bool = False) -> ModelOptions:
 
 
 def run_cell(spec: ReducerSpec, fidelity: Fidelity, *, positions: int = 2048, steps: int = 200,
-             coarse: bool = False) -> Cell:
+             coarse: bool = False, moment_fraction: float = 0.0) -> Cell:
     """Build ``spec`` at ``fidelity`` and run loaded TE (rated torque, one output revolution,
     ``positions`` positions) and the lost-motion cycle (``steps`` torque steps) on it.
+
+    With ``moment_fraction`` > 0 both run again on a second model under that fraction of the spec's allowable
+    tilting moment (:mod:`rvflex.tilt`), the pin contact in :data:`~rvflex.tilt.MOMENT_SLICES` slices along the face
+    width: the TE, wind-up and lost motion under the moment and the largest line load at the discs' faces over the
+    largest mean over the face width (``face_load_ratio``); a spec without a main bearing pair or an allowable
+    moment leaves them NaN.
 
     A failure (a reduction, a step that does not converge) is recorded in ``Cell.error`` as
     :class:`rvflex.RunError` words it, so one bad cell does not stop the matrix.
@@ -111,22 +122,54 @@ def run_cell(spec: ReducerSpec, fidelity: Fidelity, *, positions: int = 2048, st
         base = dataclasses.replace(base, te_pp_arcsec=r.metrics.te_pp_arcsec, windup_arcsec=r.metrics.mean_windup_arcsec,
                                    te_s=t2 - t1)
         h = rvflex.run(lm, model=model)
-        return dataclasses.replace(base, lost_motion_arcmin=h.metrics.lost_motion_arcmin,
+        base = dataclasses.replace(base, lost_motion_arcmin=h.metrics.lost_motion_arcmin,
                                    stiffness_Nm_per_arcmin=h.metrics.torsional_stiffness_Nm_per_arcmin,
                                    lost_motion_s=time.perf_counter() - t2)
     except RunError as exc:
         return dataclasses.replace(base, error=exc.failure)
+    if moment_fraction > 0.0:
+        return _under_moment(base, spec, opts, positions, steps, moment_fraction)
+    return base
+
+
+def _under_moment(base: Cell, spec: ReducerSpec, opts: ModelOptions, positions: int, steps: int,
+                  fraction: float) -> Cell:
+    """``base`` with the loaded TE and the lost-motion cycle under ``fraction`` of the allowable moment."""
+    import rvflex
+    from rvflex.tilt import MOMENT_SLICES, OutputLoad
+
+    if spec.allowable_moment_Nm is None or spec.bearings.main_pair is None:
+        return base  # nothing to tilt it on: the columns stay empty ("—")
+    load = OutputLoad(moment_Nm=fraction * spec.allowable_moment_Nm)
+    sliced = dataclasses.replace(opts, face_slices=MOMENT_SLICES)
+    te = LoadedTE(spec, positions_per_rev=positions, options=sliced, output_load=load)
+    try:
+        model = build_reducer(spec, te.model_errors, sliced)
+        r = rvflex.run(te, model=model)
+        h = rvflex.run(LostMotion(spec, steps=steps, options=sliced, output_load=load), model=model)
+    except RunError as exc:
+        return dataclasses.replace(base, moment_Nm=load.moment_Nm, error=f"under a moment: {exc.failure}")
+    except Exception as exc:  # noqa: BLE001 -- recorded per cell, the matrix goes on
+        return dataclasses.replace(base, moment_Nm=load.moment_Nm, error=f"under a moment: {one_line(exc)}")
+    loads = r.pin_end_loads()
+    return dataclasses.replace(base, moment_Nm=load.moment_Nm, te_pp_moment_arcsec=r.metrics.te_pp_arcsec,
+                               windup_moment_arcsec=r.metrics.mean_windup_arcsec,
+                               lost_motion_moment_arcmin=h.metrics.lost_motion_arcmin,
+                               face_load_ratio=float(loads["end_line_load_N_m"].max() / loads["mid_line_load_N_m"].max()))
 
 
 def run_matrix(units=None, fidelities=FIDELITIES, *, positions: int = 2048, steps: int = 200, coarse: bool = False,
-               progress=None) -> list[Cell]:
+               progress=None, moment_fraction: float = 0.0) -> list[Cell]:
     """:func:`run_cell` for every unit (catalogue names or spec TOML paths; default every built-in
     unit) at every fidelity, in order. ``progress(cell)`` is called after each cell."""
+    if not 0.0 <= moment_fraction <= 1.0:
+        raise SpecError("moment_fraction", moment_fraction, "must lie in [0, 1] (of each unit's allowable moment)")
     cells = []
     for u in units or catalog.names():
         spec = catalog.resolve(str(u))
         for f in fidelities:
-            cells.append(run_cell(spec, f, positions=positions, steps=steps, coarse=coarse))
+            cells.append(run_cell(spec, f, positions=positions, steps=steps, coarse=coarse,
+                                  moment_fraction=moment_fraction))
             if progress is not None:
                 progress(cells[-1])
     return cells
@@ -138,21 +181,32 @@ def _f(x: float, fmt: str) -> str:
 
 def markdown(cells: list[Cell], *, command: str, positions: int, steps: int, coarse: bool) -> str:
     """The matrix as the table of docs/units.md (with the command that made it)."""
+    moment = any(c.moment_Nm == c.moment_Nm for c in cells)
+    extra_head = (" moment (N·m) | TE p-p under it (″) | wind-up under it (″) | lost motion under it (′) | "
+                  "face / mean line load |") if moment else ""
     lines = [f"| unit | ratio | cranks | fidelity | TE p-p (″) | wind-up (″) | lost motion (′) | stiffness (N·m/′) "
-             f"| build (s) | TE {positions} pos. (s) | lost motion {steps} steps (s) |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+             f"| build (s) | TE {positions} pos. (s) | lost motion {steps} steps (s) |" + extra_head,
+             "|---|---|---|---|---|---|---|---|---|---|---|" + ("---|" * 5 if moment else "")]
     for c in cells:
         build = _f(c.build_s, ".1f") + ("" if c.reductions_cached or c.fidelity == "rigid" else " (reduced)")
         row = (f"| {c.unit} | {c.ratio:g} | {c.cranks} | {c.fidelity} | {_f(c.te_pp_arcsec, '.2f')} | "
                f"{_f(c.windup_arcsec, '.1f')} | {_f(c.lost_motion_arcmin, '.3f')} | {_f(c.stiffness_Nm_per_arcmin, '.0f')} | "
                f"{build} | {_f(c.te_s, '.1f')} | {_f(c.lost_motion_s, '.1f')} |")
+        if moment:
+            row += (f" {_f(c.moment_Nm, '.0f')} | {_f(c.te_pp_moment_arcsec, '.2f')} | {_f(c.windup_moment_arcsec, '.1f')} | "
+                    f"{_f(c.lost_motion_moment_arcmin, '.3f')} | {_f(c.face_load_ratio, '.2f')} |")
         lines.append(row if not c.error else row + f" failed: {c.error}")
     fe = "the tests' coarse reductions (8 mm linear tets)" if coarse else "the presets' reductions (6 mm quadratic tets)"
     head = (f"<!-- generated by `{command}`; do not edit the table by hand -->\n\n"
             f"Loaded TE at rated torque over one output revolution ({positions} positions) and the lost-motion "
             f"cycle 0 → +T_r → −T_r → 0 ({steps} torque steps) on one model per cell, FE parts from {fe}. "
             f"Wind-up is the mean TE (negative: the output lags). \"build\" includes the FE reductions; "
-            f"\"(reduced)\" marks a cell that computed them (otherwise they came from the cache).\n\n")
+            f"\"(reduced)\" marks a cell that computed them (otherwise they came from the cache)."
+            + (" Under a moment: the same runs on a second model, the carrier tilted on its main bearing pair by that "
+               "moment and the pin contact in slices along the face width ([spatial](spatial.md)); the last column is "
+               "the largest line load at the discs' faces over the largest mean over the face width; \"—\": the spec gives no "
+               "main bearing pair." if moment else "")
+            + "\n\n")
     return head + "\n".join(lines) + "\n"
 
 
@@ -179,16 +233,19 @@ def register(sub) -> None:
     p.add_argument("--steps", type=int, default=200, help="lost-motion torque steps (default 200)")
     p.add_argument("--coarse", action="store_true",
                    help="the tests' quick FE reductions (8 mm linear tets) instead of the presets' (for CI)")
+    p.add_argument("--moment-fraction", type=float, default=0.0,
+                   help="also run each cell under this fraction of the unit's allowable tilting moment, the pin contact "
+                        "in slices along the face width (default 0: not)")
     p.add_argument("--markdown", help="write the table (with the command that made it) to this file, e.g. docs/units.md")
     p.add_argument("--json", help="write the cells as JSON to this path")
-    p.set_defaults(func=_cmd_units)
+    p.set_defaults(func=_cmd_units, flags={"moment_fraction": "--moment-fraction"})
 
 
 def _cmd_units(args) -> int:
     from rvflex.io import write_json, write_text
 
     cells = run_matrix(args.units, tuple(args.fidelity), positions=args.positions, steps=args.steps,
-                       coarse=args.coarse, progress=lambda c: print(f"{c.unit} {c.fidelity}: "
+                       coarse=args.coarse, moment_fraction=args.moment_fraction, progress=lambda c: print(f"{c.unit} {c.fidelity}: "
                                                                     f"{c.error or 'done'}", file=sys.stderr, flush=True))
     words = ["rvflex units"]
     if args.units:
@@ -196,6 +253,7 @@ def _cmd_units(args) -> int:
     if tuple(args.fidelity) != FIDELITIES:
         words.append("--fidelity " + " ".join(args.fidelity))
     words += [f"--positions {args.positions}", f"--steps {args.steps}"] + (["--coarse"] if args.coarse else [])
+    words += [f"--moment-fraction {args.moment_fraction:g}"] if args.moment_fraction else []
     if args.markdown:
         words.append(f"--markdown {args.markdown}")
     text = markdown(cells, command=" ".join(words), positions=args.positions, steps=args.steps, coarse=args.coarse)
