@@ -2,18 +2,19 @@
 
 A robot arm loads the reducer's output with a tilting moment, an axial and a radial force beside the torque
 (:class:`OutputLoad`). The output carrier runs on the main bearing pair (``spec.bearings.main_pair``,
-:mod:`rvflex.contact.angular_contact`), which takes them and lets the carrier tilt by θ = (θx, θy) and move by δ. The cranks run in the carrier's end plates and
-the discs on the cranks' eccentrics, so each disc tilts with the carrier while the pins stay in the housing: a
-point of a disc at axial position z (from the discs' mid-plane, where the pair's centre is taken to lie) moves
-by θ × z plus δ against the pins. For the planar model of the gear train that is the pin ring moved the other
-way, −(δ + θ × z), at every axial position: a ring runout −δ and a ring tilt (``ErrorSpec.pin_ring_runout_m``,
-``pin_ring_tilt_rad``) added to the unit's own errors. With the pin contact in slices along the face width
-(``ModelOptions.face_slices``) each slice sees its own shift, so the tilt loads the pins' two ends unequally.
+:mod:`rvflex.contact.angular_contact`), which takes them and lets the carrier tilt by θ = (θx, θy) and move by δ.
+The cranks run in the carrier's end plates and the discs on the cranks' eccentrics, so each disc tilts with the
+carrier while the pins stay in the housing: a point of a disc at axial position z (from the discs' mid-plane,
+where the pair's centre is taken to lie) moves by δ + θ × z against the pins. For the planar model of the gear
+train that is the pin ring moved the other way, −(δ + θ × z), at every axial position: a ring runout −δ and a ring
+tilt (``ErrorSpec.pin_ring_runout_m``, ``pin_ring_tilt_rad``) added to the unit's own errors. With the pin contact
+in slices along the face width (``ModelOptions.face_slices``) each slice sees its own shift, so the tilt loads the
+pins' two ends unequally.
 
 The coupling is one way: the pair alone sets the tilt. The gear train's own resistance to the tilt (the discs
-pressed sideways against the pins through the needle bearings) is small against the pair's tilt stiffness;
-:func:`gear_train_moment_Nm` measures the moment the pin forces carry at the solved state, so a run states
-how large the neglected share is.
+pressed sideways against the pins through the needle bearings) is small against the pair's tilt stiffness:
+:func:`gear_train_moment_Nm` measures the moment the pin forces carry at a solved state, and the convergence study
+(``python -m rvflex.scenarios.pin_slices``) states the share a tilt adds (a few per cent of the moment).
 """
 
 from __future__ import annotations
@@ -23,12 +24,11 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from rvflex.geometry.formulas import ARCMIN_PER_RAD
 from rvflex.spec_types import ErrorSpec, ReducerSpec, SpecError
 
 __all__ = ["MOMENT_SLICES", "OutputLoad", "OutputTilt", "STATIC_PRESSURE_LIMIT_PA", "carrier_tilt",
            "gear_train_moment_Nm", "tilted_errors"]
-
-ARCMIN_PER_RAD = 180.0 * 60.0 / math.pi
 
 MOMENT_SLICES = 4
 """Contact slices along the face width of a run under a moment (``rvflex te --moment``): the convergence study
