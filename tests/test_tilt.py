@@ -81,6 +81,27 @@ def tilted_runs(rv40e):
     return out
 
 
+def test_the_tilted_sliced_model_steps_as_exudyn_solves_it(rv40e, monkeypatch):
+    """The sliced contacts are ordinary contact elements of the Exudyn system: its own static solver (the model of
+    record) gives the compiled step's TE and slice forces under a moment."""
+    from rvflex import solve
+
+    errors = tilted_errors(None, carrier_tilt(rv40e, 1000.0))
+    th = np.linspace(0.0, 2 * math.pi * rv40e.ratio / 39, 9)  # one sweep of the load zone: the tilt's ripple
+    runs = {}
+    for choice in ("compiled", "exudyn"):
+        monkeypatch.setenv(solve.SOLVER_ENV, choice)
+        runs[choice] = quasi_static(build_reducer(rv40e, errors, options=ModelOptions(face_slices=3)), th,
+                                    rv40e.rated_torque_Nm)
+    assert runs["compiled"].compiled is not None and runs["exudyn"].compiled is None
+    assert np.abs(runs["compiled"].te_rad - runs["exudyn"].te_rad).max() * ARCSEC_PER_RAD < 1e-3
+    np.testing.assert_allclose(runs["compiled"].pin_slice_force_N, runs["exudyn"].pin_slice_force_N, rtol=1e-5,
+                               atol=1e-2)
+    np.testing.assert_allclose(runs["compiled"].slice_resultant_N, runs["exudyn"].slice_resultant_N, rtol=1e-5,
+                               atol=1e-2)
+    assert np.ptp(runs["exudyn"].te_rad) * ARCSEC_PER_RAD > 5.0
+
+
 def test_the_carrier_tilts_with_the_moment_on_its_pair(rv40e):
     """The pair's tilt stiffness is positive (the tilt points along the moment) and the tilt turns with the
     moment's direction; the catalogue figure it gives (rvflex moment-rigidity) is of the order of 10³ N·m/′."""
