@@ -25,6 +25,7 @@ _LAZY = {
     "build_reducer": "rvflex.model",
     "ReducerModel": "rvflex.model",
     "ModelOptions": "rvflex.options",
+    "OutputLoad": "rvflex.tilt",
     "PartSettings": "rvflex.fe.reduce",
     "Result": "rvflex.result",
     "SpecError": "rvflex.spec",
@@ -45,7 +46,7 @@ _LAZY = {
 }
 
 __all__ = ["Design", "DiagnosisSettings", "ErrorSpec", "Factor", "FlexibilityEffect", "LoadedTE", "LostMotion",
-           "ModelOptions", "PartSettings", "ReducerModel", "ReducerSpec", "Result", "ReversalBacklash", "RunError",
+           "ModelOptions", "OutputLoad", "PartSettings", "ReducerModel", "ReducerSpec", "Result", "ReversalBacklash", "RunError",
            "SpecError", "__version__", "build_reducer", "diagnose", "load_design", "load_errors", "load_reducer",
            "read_bench", "run", "selfcheck", "sweep"]
 
@@ -64,6 +65,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs; at run time the names load lazi
     from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
     from rvflex.studies import diagnose, load_design, selfcheck, sweep
     from rvflex.sweeps.designs import Design, Factor
+    from rvflex.tilt import OutputLoad
 
 
 def __getattr__(name: str):

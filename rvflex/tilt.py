@@ -82,7 +82,13 @@ class OutputLoad:
         return bool(self.moment_Nm or self.axial_force_N or self.radial_force_N)
 
     def pair_load(self):
-        """The load as the pair model takes it (:class:`rvflex.contact.angular_contact.PairLoad`)."""
+        """The load as the pair model takes it.
+
+        Returns
+        -------
+        rvflex.contact.angular_contact.PairLoad
+            Forces (F_x, F_y, F_z) in N and moment (M_x, M_y) in N·m at the pair's centre.
+        """
         from rvflex.contact.angular_contact import PairLoad
 
         m, r = self.moment_Nm, self.radial_force_N

@@ -226,3 +226,10 @@ def test_a_spec_without_the_pair_is_refused_under_a_moment(rv40e):
     with pytest.raises(SpecError, match=r"bearings\.main_pair"):
         rvflex.LoadedTE(bare, output_load=OutputLoad(moment_Nm=500.0))
     rvflex.LoadedTE(bare)  # without a moment it runs as ever
+
+
+def test_a_sweep_design_takes_the_slices_in_its_model_table():
+    assert ModelOptions.from_table({"fidelity": "rigid", "face_slices": 3}).face_slices == 3
+    with pytest.raises(SpecError, match=r"\[model\]\.face_slices = 0: must be an integer from 1 to 64"):
+        ModelOptions.from_table({"face_slices": 0}, source="design.toml")
+    assert rvflex.OutputLoad is OutputLoad  # the load is a top-level name beside the scenarios
