@@ -509,8 +509,8 @@ PENETRATED, JUMPED = 10, 11
 
 @_jit
 def _steps(theta, ratio, kin, hist_th, hist_e, nh, last_te, max_jump, max_pen, car, drive, regulariser, x_out,
-           out, forces, gaps, torques, resultants, states, x, free, cap, ref, fixed_idx, fixed_value, pc, cs, ld, ct, ff, ms,
-           max_iterations, sun, carrier, crank_axes, crank_x, crank_y, crank_th, disc_base, eccentricity, disc_phase,
+           out, forces, gaps, torques, resultants, states, x, free, cap, ref, fixed_idx, fixed_value, pc, cs, ld, ct,
+           ff, ms, max_iterations, sun, carrier, crank_axes, crank_x, crank_y, crank_th, disc_base, eccentricity, disc_phase,
            disc_x, disc_y, disc_th, modal, pin_count):
     """The recorded steps at input angles ``theta`` in one call, each as :meth:`CompiledStep.solve` and the
     caller's loop take it: the guess is the ideal kinematics plus the elastic part extrapolated from the last
@@ -518,8 +518,8 @@ def _steps(theta, ratio, kin, hist_th, hist_e, nh, last_te, max_jump, max_pen, c
     set to the step's angle, Newton, the contacts' penetration guard and the jump check against the last TE.
     A step the plain Newton cannot take is tried again from its guess, damped and then with a kept
     Jacobian. Records the output angle (``out``), and with ``states`` the pins' forces and gaps and the discs'
-    ring torques and pin-force resultants; without, the pins of a rigid disc that surely stand open are not evaluated again
-    (``skip_open`` of :func:`_assemble`). ``x_out`` holds the last converged state (absolute). Returns (steps
+    ring torques and pin-force resultants; without, the pins of a rigid disc that surely stand open are not
+    evaluated again (``skip_open`` of :func:`_assemble`). ``x_out`` holds the last converged state (absolute). Returns (steps
     done, status of the step that stopped the run or CONVERGED, evaluations, retries, the last TE, nh)."""
     n = theta.shape[0]
     ct_out, ct_pins = ct[CT_OUT], ct[CT_PINS]  # the contacts' per-pin outputs of their last evaluation, pins

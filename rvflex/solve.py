@@ -648,7 +648,8 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
                         nw.reset()  # Exudyn's solver and another chord Newton ran on the system
                 continue
             if skip_unsolved and record and done > 0 and skipped != done - 1:
-                out[done], forces[done], gaps[done], torques[done], resultants[done] = np.nan, np.nan, np.nan, np.nan, np.nan
+                for rec in (out, forces, gaps, torques, resultants):
+                    rec[done] = np.nan
                 skipped = done
                 done += 1
                 if newton is not None:
