@@ -17,7 +17,7 @@ from rvflex.parts import bearings
 from rvflex.spec import ErrorSpec, ReducerSpec
 
 __all__ = ["DiscHandles", "FEDiscPlacement", "build", "bore_positions", "contact_mode_table", "fe_disc_placements",
-           "fe_disc_spec", "slice_planes"]
+           "face_line_loads", "fe_disc_spec", "slice_line_loads", "slice_planes"]
 
 
 @dataclass(frozen=True)
@@ -119,6 +119,21 @@ def build(mbs, spec: ReducerSpec, errors: ErrorSpec, cranks, law: ContactLaw, ec
         bodies.append(int(body))
         ecc_bearings.append(tuple(pairs))
     return DiscHandles(tuple(nodes), tuple(bodies), tuple(contacts), tuple(ecc_bearings), slices=face_slices)
+
+
+def slice_line_loads(spec: ReducerSpec, slice_force_N: np.ndarray) -> np.ndarray:
+    """Line loads (N/m) of contact slices: each slice's force over its share of the disc's thickness;
+    ``slice_force_N`` has the slices on axis −2 (``QuasiStaticResult.pin_slice_force_N``: steps, discs, slices,
+    pins)."""
+    f = np.asarray(slice_force_N, float)
+    return f / (spec.cycloid.disc_thickness_m / f.shape[-2])
+
+
+def face_line_loads(line_load: np.ndarray, axis: int = -2) -> tuple[np.ndarray, np.ndarray]:
+    """The line loads at a disc's two faces (−z, +z), extrapolated linearly from the two outer slices along
+    ``axis`` (the slices' centres are a slice apart, the faces half a slice beyond); needs two slices or more."""
+    q = np.moveaxis(np.asarray(line_load, float), axis, 0)
+    return 1.5 * q[0] - 0.5 * q[1], 1.5 * q[-1] - 0.5 * q[-2]
 
 
 def slice_planes(spec: ReducerSpec, slices: int = 1) -> np.ndarray:

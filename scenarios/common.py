@@ -3,6 +3,8 @@ model passed in for reuse."""
 
 from __future__ import annotations
 
+import functools
+
 from rvflex.model import ReducerModel, build_reducer
 from rvflex.options import as_options
 from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
@@ -65,10 +67,11 @@ class OutputLoaded:
             object.__setattr__(self, "output_load", None)
         _ = self.tilt
 
-    @property
+    @functools.cached_property
     def tilt(self):
         """The carrier on its main bearing pair under ``output_load`` (:class:`rvflex.tilt.OutputTilt`); None
-        without one."""
+        without one. Solved once per scenario (the check, the model's errors, the result's attributes and the
+        command's report all read it)."""
         from rvflex.tilt import carrier_tilt
 
         return None if self.output_load is None else carrier_tilt(self.spec, self.output_load)

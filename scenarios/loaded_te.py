@@ -210,17 +210,15 @@ class LoadedTEResult(Result):
             two outer slices to the face (N/m); ``mid_line_load_N_m`` (discs,): the largest of the mean over the
             face width (N/m); ``end_ratio`` (discs,): the +z over the −z face's largest line load.
         """
-        from rvflex.parts.cycloid_disc import slice_planes
+        from rvflex.parts.cycloid_disc import face_line_loads, slice_line_loads, slice_planes
 
         f = self.raw.pin_slice_force_N
         if f is None:
             return None
-        ns = f.shape[2]
-        w = self.scenario.spec.cycloid.disc_thickness_m / ns
-        q = f / w  # N/m
-        lo, hi = 1.5 * q[:, :, 0] - 0.5 * q[:, :, 1], 1.5 * q[:, :, -1] - 0.5 * q[:, :, -2]
+        q = slice_line_loads(self.scenario.spec, f)  # N/m
+        lo, hi = face_line_loads(q)
         ends = np.stack([lo.max(axis=(0, 2)), hi.max(axis=(0, 2))], axis=1)
-        return {"axial_m": slice_planes(self.scenario.spec, ns), "line_load_N_m": q.max(axis=(0, 3)),
+        return {"axial_m": slice_planes(self.scenario.spec, f.shape[2]), "line_load_N_m": q.max(axis=(0, 3)),
                 "end_line_load_N_m": ends, "mid_line_load_N_m": q.mean(axis=2).max(axis=(0, 2)),
                 "end_ratio": ends[:, 1] / ends[:, 0]}
 
@@ -243,15 +241,17 @@ class LoadedTEResult(Result):
         if loads is None:
             raise SpecError("plot_pin_loads", self.scenario.options.face_slices,
                             "needs the contact in slices along the face width (ModelOptions(face_slices ≥ 2))")
+        from rvflex.parts.cycloid_disc import face_line_loads, slice_line_loads
+
         ax = new_axes(ax, figsize=(7, 4.2))
         sc = self.scenario
         b = sc.spec.cycloid.disc_thickness_m
-        f = self.raw.pin_slice_force_N / (b / self.raw.pin_slice_force_N.shape[2])
+        f = slice_line_loads(sc.spec, self.raw.pin_slice_force_N)
 
         def faces(z, q):
             mid = z.mean()
-            return (np.concatenate([[mid - b / 2], z, [mid + b / 2]]) * 1e3,
-                    np.concatenate([[1.5 * q[0] - 0.5 * q[1]], q, [1.5 * q[-1] - 0.5 * q[-2]]]) / 1e3)
+            lo, hi = face_line_loads(q, axis=0)
+            return (np.concatenate([[mid - b / 2], z, [mid + b / 2]]) * 1e3, np.concatenate([[lo], q, [hi]]) / 1e3)
 
         for d, z in enumerate(loads["axial_m"]):
             step, pin = np.unravel_index(np.argmax(self.raw.pin_force_N[:, d]), self.raw.pin_force_N[:, d].shape)

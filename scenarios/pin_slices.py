@@ -21,6 +21,7 @@ from rvflex import catalog
 from rvflex.geometry.formulas import ARCSEC_PER_RAD
 from rvflex.model import build_reducer
 from rvflex.options import ModelOptions
+from rvflex.parts.cycloid_disc import face_line_loads, slice_line_loads
 from rvflex.solve import quasi_static
 from rvflex.tilt import MOMENT_SLICES, carrier_tilt, gear_train_moment_Nm, tilted_errors
 
@@ -43,11 +44,11 @@ def _faces(spec, r) -> tuple[float, float, float]:
     """The largest line load at the discs' faces (extrapolated from the outer slices) and the largest mean over the
     face width, N/mm; one slice: its line load everywhere."""
     f = r.pin_slice_force_N if r.pin_slice_force_N is not None else r.pin_force_N[:, :, None, :]
-    q = f / (spec.cycloid.disc_thickness_m / f.shape[2]) / 1e3
+    q = slice_line_loads(spec, f) / 1e3
     if f.shape[2] == 1:
         m = float(q.max())
         return m, m, m
-    lo, hi = 1.5 * q[:, :, 0] - 0.5 * q[:, :, 1], 1.5 * q[:, :, -1] - 0.5 * q[:, :, -2]
+    lo, hi = face_line_loads(q)
     return float(lo.max()), float(hi.max()), float(q.mean(axis=2).max())
 
 
