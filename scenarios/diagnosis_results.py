@@ -223,7 +223,8 @@ def null_table(path: str | Path | None = None) -> str:
              (f"{src.get('controls', '?')} ensemble controls over {', '.join(src.get('reducers', []))} "
               f"({src.get('cases_per_unit', '?')} per unit, seed {src.get('seed', '?')}; "
               f"`rvflex null-distribution --cases {src.get('cases_per_unit', '?')} --seed {src.get('seed', '?')}`). "
-              "Thresholds as evidence / size (the largest the controls reach)."), "",
+              "Thresholds as evidence / size (the largest the controls reach; for a one-parameter effect whose range "
+              "spans both signs, the size on each side)."), "",
              "| effect | false alarms (tests alone) | " + " | ".join(units + ["pooled"]) + " |",
              "|---|---:|" + "---:|" * (len(units) + 1)]
 
@@ -231,8 +232,13 @@ def null_table(path: str | Path | None = None) -> str:
         if v is None:
             return "—"
         plain = e is None or e.params[0].unit == "1"  # a share or fraction: no unit to print
-        size = f"{v['magnitude_max']:.3g}" if plain else fmt_mag(e, v["magnitude_max"])
-        return f"{v['evidence_max']:.0f} / {size}"
+        def size(m):
+            return f"{m:.3g}" if plain else fmt_mag(e, m)
+
+        if "magnitude_max_positive" in v:  # kept per sign: the side above zero, then the side below
+            return (f"{v['evidence_max']:.0f} / +{size(v['magnitude_max_positive'])}, "
+                    f"−{size(v['magnitude_max_negative'])}")
+        return f"{v['evidence_max']:.0f} / {size(v['magnitude_max'])}"
 
     for name, v in sorted(doc["effects"].items(), key=lambda kv: (-kv[1]["false_alarm_rate"], kv[0])):
         e = EFFECTS.get(name)

@@ -104,11 +104,14 @@ def test_the_crank_effects_act_on_a_three_crank_unit():
     ecc, phase = EFFECTS["crank_eccentricity_error"], EFFECTS["crank_phase_error"]
     two = catalog.load("rv40e")
     assert ecc.apply_to(two, ErrorSpec(), np.array([3e-6, 1e-6]))[1].crank_eccentricity_error_m == (3e-6 + 1e-6, 3e-6 - 1e-6)
-    assert phase.apply_to(two, ErrorSpec(), np.array([5e-4, -2e-4]))[1].crank_phase_error_rad == (5e-4, -2e-4)
+    # the phases are relative to the last crank: one parameter on a two-crank unit, two on a three-crank one
+    assert phase.for_unit(two).n == 1
+    assert phase.for_unit(two).apply_to(two, ErrorSpec(), np.array([5e-4]))[1].crank_phase_error_rad == (5e-4, 0.0)
     spec = load_spec(Path(__file__).parent / "fixtures" / "drive3_user.toml")
     assert spec.cranks.count == 3
     assert ecc.apply_to(spec, ErrorSpec(), np.array([3e-6, 1e-6]))[1].crank_eccentricity_error_m == (3e-6 + 1e-6, 3e-6 - 1e-6,
                                                                                        3e-6)
+    assert phase.for_unit(spec).n == 2
     assert phase.apply_to(spec, ErrorSpec(), np.array([5e-4, -2e-4]))[1].crank_phase_error_rad == (5e-4, -2e-4, 0.0)
     plan = campaign_plan(spec, 16)[:1]  # TE at rated torque
     settings = DiagnosisSettings(max_order=15, workers=1)

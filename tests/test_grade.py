@@ -359,3 +359,51 @@ def test_the_null_thresholds_are_the_largest_the_controls_reach_and_held_out_con
     held = leave_one_out(reports)
     assert held["controls"] == 14 and held["named"] == 1 and held["names"] == {"13": "pin_ring_runout"}
     assert held["named_q95"] == 2
+
+
+def test_an_effect_with_two_physical_signs_is_held_against_the_controls_on_its_own_side():
+    """A thermal mismatch above zero (the housing grows more than the steel parts) and below it are opposite
+    deviations with their own signatures. Fourteen controls whose model form projects onto the negative side only
+    (−1 … −5 ppm/K, evidence 20 … 85) bound a negative finding at 5 ppm/K and leave a positive one of 3 ppm/K
+    beyond them; held out one at a time, only the largest control lies beyond the other thirteen, as without signs."""
+    from rvflex.diagnosis.grade import grade
+    from rvflex.diagnosis.null import NullDistribution, leave_one_out, null_from_reports, signed
+
+    key = signed("thermal_expansion")
+    assert key == "thermal_expansion.alpha_mismatch_per_K" and signed("pin_ring_runout") is None
+    reports = []
+    for k in range(14):
+        v = -(1.0 + 4.0 * k / 13) * 1e-6
+        reports.append({"effects": [{"name": "thermal_expansion", "score": 20.0 + 5 * k,
+                                     "magnitude": {"thermal_expansion": abs(v)}, "params": {key: v},
+                                     "refined": True, "grade_fails": [], "accepted": True}]})
+    figures = null_from_reports(reports)["thermal_expansion"]
+    assert figures["magnitude_max_negative"] == pytest.approx(5e-6) and figures["magnitude_max_positive"] == 0.0
+    null = NullDistribution({"thermal_expansion": figures}, unit="rv80e")
+    local = {"explained_pct": 90.0, "groups": ["mean wind-up"]}
+    above = grade(_fitted("thermal_expansion", 3e-6, score=500.0), DiagnosisSettings(), null, local)
+    assert above["grade"] == ESTABLISHED and above["magnitude_thresholds"] == {"thermal_expansion": 0.0}
+    below = grade(_fitted("thermal_expansion", -4e-6, score=500.0), DiagnosisSettings(), null, local)
+    assert below["grade"] == CONSISTENT and any("on that side of zero" in f for f in below["fails"])
+    held = leave_one_out(reports)
+    assert held["named"] == 1 and held["names"] == {"13": "thermal_expansion"}
+
+
+def test_a_control_reaches_the_upper_end_of_its_sizes_interval():
+    """A control's fitted size is an estimate: the size it reaches is the upper end of its 95 % interval (of the
+    magnitude for a polar effect, on the side of the estimate for an effect kept per sign), the estimate itself
+    where the report gives no interval; a fit without evidence reaches nothing."""
+    from rvflex.diagnosis.null import null_from_reports, reached
+
+    polar = {"name": "pin_ring_runout", "score": 80.0, "magnitude": {"pin_ring_runout": 6.8e-6},
+             "interval": {"pin_ring_runout.cos2phi_m": [3.5e-6, 6.5e-6], "pin_ring_runout.magnitude": [5.8e-6, 7.8e-6]}}
+    assert reached(polar, "pin_ring_runout") == 7.8e-6
+    key = "thermal_expansion.alpha_mismatch_per_K"
+    below = {"name": "thermal_expansion", "score": 80.0, "magnitude": {"thermal_expansion": 4e-6},
+             "params": {key: -4e-6}, "interval": {key: [-5.5e-6, -2.5e-6]}}
+    assert reached(below, "thermal_expansion") == 5.5e-6
+    assert reached({"magnitude": {"pin_ring_runout": 2e-6}}, "pin_ring_runout") == 2e-6
+    weak = dict(polar, score=5.0)
+    assert null_from_reports([{"effects": [dict(polar, accepted=False)]}, {"effects": [dict(weak, accepted=False)]}]
+                             )["pin_ring_runout"]["magnitude_max"] == 7.8e-6
+    assert null_from_reports([{"effects": [dict(weak, accepted=False)]}])["pin_ring_runout"]["magnitude_max"] == 0.0

@@ -121,6 +121,8 @@ class Effect:
     the effect at sizes no control reached, so the effect is never established while its look-alikes are
     missing from the ensemble (:func:`rvflex.diagnosis.grade.grade`); it is still ranked and reported as
     consistent.
+    ``relative_to_last_crank``: one parameter per crank but the last, relative to it (:meth:`for_unit` keeps as
+    many as the unit has cranks less one).
     ``coupled_to`` (kind ``"model"``): the name of a fidelity effect whose model changes this
     effect's signature (the contact stiffness shapes the elastic discs' pin-mesh orders): the
     effect's secant is taken on that model too, and the difference from the rigid one enters in
@@ -149,6 +151,7 @@ class Effect:
     coupled_to: str | None = None
     series: Callable | None = None  # kind "measurement": output twist (rad) of a series compliance at a torque
     same_as: tuple[str, tuple[int | None, ...]] | None = None
+    relative_to_last_crank: bool = False  # one parameter per crank but the last (:meth:`for_unit`)
 
     def __post_init__(self) -> None:
         check_choice(f"effect {self.name}: kind", self.kind, EffectKind)
@@ -208,6 +211,14 @@ class Effect:
         """Whether the model can evaluate this effect now, and why not (every registered effect can;
         kept for effects registered with a model that is not built yet)."""
         return True, ""
+
+    def for_unit(self, spec: ReducerSpec) -> Effect:
+        """This effect as the unit ``spec`` has it: an effect ``relative_to_last_crank`` keeps one parameter per
+        crank but the last (at least one, at most its own count)."""
+        if not self.relative_to_last_crank:
+            return self
+        k = min(max(spec.cranks.count - 1, 1), self.n)
+        return self if k == self.n else dc.replace(self, params=self.params[:k])
 
     def available_for(self, plan) -> tuple[bool, str]:
         """Whether the runs ``plan`` (:class:`~rvflex.diagnosis.plan.PlanRun` sequence) carry what
@@ -421,9 +432,14 @@ def _builtin() -> tuple[Effect, ...]:
                "differential part (crank 0 = common + differential, crank 1 = common − differential, a third = common)",
                (Param("common_m", "m", -10 * um, 10 * um, 3 * um), Param("differential_m", "m", -10 * um, 10 * um, 3 * um)),
                apply=_crank_modes, two_sided=True),
-        Effect("crank_phase_error", "eccentric phase error of cranks 0 and 1 (of a third crank: relative to it)",
-               tuple(Param(f"crank{k}_rad", "rad", -2e-3, 2e-3, 5e-4) for k in range(2)),
-               apply=partial(_per_crank, field="crank_phase_error_rad")),
+        # relative to the last crank: the same phase error on every crank turns the eccentrics as the input would,
+        # an output offset and no TE ripple, so a parameter for it would only drift to its bound unseen (measured,
+        # RV-80E controls: both cranks' phases fitted at their bounds). Bound ±5 mrad: the eccentric's centre moved
+        # e·φ along its path, 10 µm at the largest built-in eccentricity (2 mm), the crank eccentricity error's bound
+        Effect("crank_phase_error", "eccentric phase error of each crank but the last, relative to the last (two "
+               "cranks: crank 0 against crank 1; three: cranks 0 and 1 against crank 2)",
+               tuple(Param(f"crank{k}_rad", "rad", -5e-3, 5e-3, 5e-4) for k in range(2)),
+               apply=partial(_per_crank, field="crank_phase_error_rad"), relative_to_last_crank=True),
         # the eccentrics off the journal axis of one crank, turning with it: the cranks pull the discs apart once per
         # crank turn, TE at z_b (measured 5 µm: 13.9″ RV-40E, 6.7″ RV-160N; nothing at 2·z_b). The same runout on
         # every crank moves the discs without a fight and shows at no order (mean only), and to first order only the

@@ -26,7 +26,8 @@ from __future__ import annotations
 import numpy as np
 
 from rvflex.diagnosis.discrepancy import Discrepancy, residual
-from rvflex.diagnosis.linear import Candidate, Problem
+from rvflex.diagnosis.linear import Candidate, Problem, split_params
+from rvflex.diagnosis.null import signed
 from rvflex.diagnosis.verdict import fmt_mag, fmt_pct, is_significant, undetermined_effect, withheld_confirms
 
 __all__ = ["CONSISTENT", "ESTABLISHED", "MOST", "NOT_SIGNIFICANT", "SIGNATURE_SHARE", "consistent_sentence",
@@ -112,11 +113,14 @@ def grade(c: Candidate, settings, null, local: dict) -> dict:
     if ev_t is not None and c.score <= ev_t:
         fails.append(f"its evidence {c.score:.0f} does not exceed the {ev_t:.0f} that healthy units of other model "
                      f"forms reach for it{whose}")
-    for e, m in zip(c.effects, c.magnitude):
-        t = mag_t.get(e.name)
+    for (e, x), m in zip(split_params(c.effects, c.x), c.magnitude):
+        t = null.magnitude_threshold(e.name, float(np.sign(x[0])) if e.n == 1 else 0.0) if null is not None else None
+        if t is not None:
+            mag_t[e.name] = t
         if not e.nominal and t is not None and abs(m) <= t:
+            side = " on that side of zero" if e.n == 1 and x[0] and signed(e.name) else ""
             fails.append(f"its {e.name} of {fmt_mag(e, abs(m))} is within the {fmt_mag(e, t)} healthy units of other "
-                         f"model forms reach{whose}")
+                         f"model forms reach{side}{whose}")
     if null is not None:  # look-alike model forms the ensemble cannot draw: its thresholds do not bound them
         fails += [f"healthy units with {e.unjudged_by}, model forms the ensemble cannot draw yet, act where {e.name} "
                   "acts: the null distribution does not bound what they make of it" for e in c.attributed

@@ -9,9 +9,12 @@ controls give
 
 - ``evidence_max``, ``evidence_q95``: the largest and the 95th percentile over the controls of the best evidence
   of any candidate containing the effect (0 where it gained none);
-- ``magnitude_max``, ``magnitude_q95``: the same of the size the controls reach with evidence: the effect's fitted
-  size in that best candidate where its evidence is significant (``bic_threshold``), 0 where it is not (a fit
-  without evidence has a size set by noise, often at the bound of its range);
+- ``magnitude_max``, ``magnitude_q95``: the same of the size the controls reach with evidence: the upper end of
+  the 95 % interval of the effect's size in that best candidate (:func:`reached`) where its evidence is
+  significant (``bic_threshold``), 0 where it is not (a fit without evidence has a size set by noise, often at
+  the bound of its range);
+- ``magnitude_max_positive``, ``magnitude_max_negative``: for a one-parameter effect whose range spans both
+  signs (:func:`signed`), the largest size on each side, which a finding of that sign must exceed;
 - ``false_alarm_rate``: the share of controls in which a candidate with the effect was accepted by the
   other tests alone (before these thresholds).
 
@@ -36,7 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["NULL_PATH", "NullDistribution", "leave_one_out", "load_null", "null_from_reports"]
+__all__ = ["NULL_PATH", "NullDistribution", "leave_one_out", "load_null", "null_from_reports", "reached", "signed"]
 
 NULL_PATH = Path(__file__).with_name("null_distribution.json")
 """The null distribution shipped with the package (made by ``rvflex null-distribution``)."""
@@ -58,7 +61,7 @@ class NullDistribution:
 
     def for_spec(self, spec) -> NullDistribution:
         """The distribution of the built-in unit ``spec`` is a variant of, else of all units pooled. How a model
-        form projects onto a candidate depends on the unit's geometry (the RV-80E's healthy controls reach a 20 µm
+        form projects onto a candidate depends on the unit's geometry (the RV-80E's healthy controls reach an 8.2 µm
         pin-ring runout, the RV-40E's 0.7 µm), so a unit is judged against the ensemble of its own nominal unit:
         the built-in unit with the same pin and tooth counts and, within 1 %, the same pin-circle radius and
         eccentricity, whatever its name or its stiffnesses."""
@@ -82,10 +85,15 @@ class NullDistribution:
         v = [self.effects[n]["evidence_max"] for n in names if n in self.effects]
         return max(v) if v else None
 
-    def magnitude_threshold(self, name: str) -> float | None:
-        """The size effect ``name`` must exceed (None: not in the distribution)."""
+    def magnitude_threshold(self, name: str, sign: float = 0.0) -> float | None:
+        """The size effect ``name`` must exceed (None: not in the distribution); for an effect kept per sign
+        (:func:`signed`), the threshold of the side ``sign`` (> 0 or < 0) when one is given."""
         e = self.effects.get(name)
-        return None if e is None else e["magnitude_max"]
+        if e is None:
+            return None
+        if sign and "magnitude_max_positive" in e:
+            return e["magnitude_max_positive" if sign > 0 else "magnitude_max_negative"]
+        return e["magnitude_max"]
 
 
 def load_null(path: str | Path | None = None) -> NullDistribution | None:
@@ -97,27 +105,73 @@ def load_null(path: str | Path | None = None) -> NullDistribution | None:
     return NullDistribution(doc.get("effects", {}), doc.get("source", {}), doc.get("per_unit", {}))
 
 
+def signed(name: str) -> str | None:
+    """The parameter of effect ``name`` whose sign the null distribution keeps apart (its full name,
+    ``effect.param``), or None. A one-parameter effect whose range spans both signs describes two opposite
+    deviations (a housing that expands more than the steel parts, or less), each with its own signature: a
+    model form that projects onto one side (measured, the RV-80E's controls: every thermal fit negative, down
+    to −5 ppm/K) says nothing of how far healthy units reach on the other."""
+    from rvflex.diagnosis.effects import EFFECTS
+
+    e = EFFECTS.get(name)
+    if e is None or e.n != 1 or e.nominal or not e.params[0].low < 0.0 < e.params[0].high:
+        return None
+    return f"{name}.{e.params[0].name}"
+
+
+def _side(entry: dict, name: str) -> float:
+    """The sign of effect ``name``'s parameter in a report's effect ``entry`` (0 when not kept per sign)."""
+    key = signed(name)
+    return float(np.sign(entry.get("params", {}).get(key, 0.0))) if key else 0.0
+
+
+def reached(entry: dict, name: str) -> float:
+    """The size a control reaches for effect ``name`` in its report's effect ``entry``: the upper end of the size's
+    95 % interval (on the side of its estimate for an effect kept per sign), the estimate where no interval is
+    given. A control's fitted size is an estimate as a finding's is: taken at its point value, the thresholds
+    moved by a micrometre with every re-fit of the same controls (measured, RV-80E: the largest pin-ring runout
+    6.8 µm or 8.2 µm as the modification deviation's secants changed, a crank phase error's 7.8 µm runout
+    stand-in on one side of it or the other); its interval's upper end (7.8 µm) covers that."""
+    size = abs(float(entry["magnitude"].get(name, 0.0)))
+    iv = entry.get("interval") or {}
+    if not isinstance(iv, dict):
+        return size
+    if f"{name}.magnitude" in iv:
+        return max(size, abs(float(iv[f"{name}.magnitude"][1])))
+    own = [k for k in iv if k.startswith(f"{name}.")]
+    if len(own) != 1:
+        return size
+    lo, hi = (float(v) for v in iv[own[0]])
+    x = float(entry.get("params", {}).get(own[0], 0.0))
+    return max(size, hi if x > 0 else -lo if x < 0 else max(abs(lo), abs(hi)))
+
+
 def null_from_reports(reports: list[dict], significant: float = 10.0) -> dict:
     """Per effect: the ensemble controls' evidence and magnitude quantiles and false-alarm rate, from their
     diagnosis documents (``rvflex diagnose --json``); a size counts where the evidence reaches ``significant``
-    (the diagnosis's ``bic_threshold``)."""
+    (the diagnosis's ``bic_threshold``). An effect kept per sign (:func:`signed`) also has
+    ``magnitude_max_positive`` and ``magnitude_max_negative``, the largest size on each side."""
     names = sorted({n for d in reports for e in d["effects"] for n in e["name"].split(" + ")})
     out = {}
     for name in names:
-        ev, mag, alarms = [], [], 0
+        ev, mag, side, alarms = [], [], [], 0
         for d in reports:
             having = [e for e in d["effects"] if name in e["name"].split(" + ")]
             if not having:
                 continue
             best = max(having, key=lambda e: e["score"])
             ev.append(max(float(best["score"]), 0.0))
-            mag.append(abs(float(best["magnitude"].get(name, 0.0))) if best["score"] >= significant else 0.0)
+            mag.append(reached(best, name) if best["score"] >= significant else 0.0)
+            side.append(_side(best, name))
             alarms += any(e["accepted"] for e in having)
         if ev:
             out[name] = {"evidence_q95": float(np.quantile(ev, QUANTILE)),
                          "magnitude_q95": float(np.quantile(mag, QUANTILE)),
                          "evidence_max": float(max(ev)), "magnitude_max": float(max(mag)),
                          "false_alarm_rate": alarms / len(ev), "controls": len(ev)}
+            if signed(name):
+                out[name] |= {f"magnitude_max_{k}": float(max([m for m, sg in zip(mag, side) if sg * v > 0] or [0.0]))
+                              for k, v in (("positive", 1.0), ("negative", -1.0))}
     return out
 
 
@@ -131,9 +185,16 @@ def _named(report: dict, thresholds: dict, significant: float) -> str | None:
                 n not in thresholds for n in names):
             continue
         if e["score"] > max(thresholds[n]["evidence_max"] for n in names) and all(
-                abs(e["magnitude"].get(n, 0.0)) > thresholds[n]["magnitude_max"] for n in names):
+                abs(e["magnitude"].get(n, 0.0)) > _size_threshold(thresholds[n], _side(e, n)) for n in names):
             return e["name"]
     return None
+
+
+def _size_threshold(figures: dict, sign: float) -> float:
+    """The size threshold of an effect's null ``figures`` on the side ``sign`` (0: either side)."""
+    if sign and "magnitude_max_positive" in figures:
+        return figures["magnitude_max_positive" if sign > 0 else "magnitude_max_negative"]
+    return figures["magnitude_max"]
 
 
 def leave_one_out(reports: list[dict], significant: float = 10.0) -> dict:
@@ -145,6 +206,7 @@ def leave_one_out(reports: list[dict], significant: float = 10.0) -> dict:
         rest = null_from_reports(reports[:i] + reports[i + 1:], significant)
         name = _named(d, rest, significant)
         q95 = {k: {"evidence_max": v["evidence_q95"], "magnitude_max": v["magnitude_q95"]} for k, v in rest.items()}
+        # (the 95th percentiles are not kept per sign: both sides take the pooled one)
         out["named_q95"] += _named(d, q95, significant) is not None
         if name is not None:
             out["named"] += 1

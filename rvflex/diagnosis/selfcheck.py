@@ -159,7 +159,7 @@ def draw_truth(rng: np.random.Generator, effects: tuple[Effect, ...], n_effects:
     if first is None:
         chosen = [effects[int(i)] for i in rng.choice(len(effects), size=n_effects, replace=False)]
     else:
-        rest = [e for e in effects if e is not first]
+        rest = [e for e in effects if e.name != first.name]
         chosen = [first] + [rest[int(i)] for i in rng.choice(len(rest), size=n_effects - 1, replace=False)]
     out = []
     for rank, e in enumerate(chosen):
@@ -440,11 +440,11 @@ def _case_job(args):
     from rvflex.diagnosis.effects import EFFECTS
     from rvflex.diagnosis.replay import EvaluationFailed
 
-    effects = tuple(EFFECTS[n] for n in hideable)
+    effects = tuple(EFFECTS[n].for_unit(spec) for n in hideable)
     msgs = []
     for attempt in range(3):
         truth = (draw_truth(np.random.default_rng(case_seed + attempt), effects, n_eff,
-                            EFFECTS[first] if first else None, sizes) if n_eff else [])
+                            EFFECTS[first].for_unit(spec) if first else None, sizes) if n_eff else [])
         try:
             return generate_case(folder, truth_path, spec, truth, np.random.default_rng(case_seed), realism, gen,
                                  reducer, realistic), msgs

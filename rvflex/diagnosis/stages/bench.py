@@ -60,6 +60,7 @@ def run(request: Request) -> Bench:
     plan = plan_from_dataset(dataset, settings)
     y, lay, windows = measured_runs(dataset, plan, settings)
     cands, unavailable = available_candidates(request.effects, plan)
+    cands = tuple(e.for_unit(dataset.reducer) for e in cands)
     cal = calibration_parameters(request.nominal, dataset.reducer, plan, unavailable)
     replaced = {REPLACES[c.name] for c in cal if c.name in REPLACES}
     cands = tuple(e for e in cands if e.name not in replaced)

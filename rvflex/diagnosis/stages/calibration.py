@@ -14,8 +14,9 @@ import numpy as np
 
 from rvflex.diagnosis.calibrate import calibrated
 from rvflex.diagnosis.discrepancy import Discrepancy, evidence, feature_groups
-from rvflex.diagnosis.linear import Candidate, Sensitivities, lin_fit, make_candidate
+from rvflex.diagnosis.linear import Candidate, Sensitivities, lin_fit, make_candidate, split_params
 from rvflex.diagnosis.refine import evaluated_candidate
+from rvflex.diagnosis.sensitivity import rebase_effects
 from rvflex.diagnosis.stages.features import Features
 from rvflex.diagnosis.verdict import withheld_check
 
@@ -30,7 +31,7 @@ class Calibrated:
     nominal_model: Candidate  # the model as specified (the gap before calibration and before the anchor)
     calibration: Candidate  # the calibration's fit: its point, model run and Broyden Jacobian
     model: Candidate  # the calibrated nominal model, with its gap shrink and withheld check against nominal_model
-    sensitivities: Sensitivities  # with the fidelity effects' secants measured about the calibration
+    sensitivities: Sensitivities  # with the fidelity and candidate effects' secants measured about the calibration
     discrepancy: Discrepancy  # what the calibrated model leaves, per order band and run
     failed: dict  # candidates without sensitivities and refinements that failed: why
 
@@ -57,6 +58,8 @@ def run(feat: Features) -> Calibrated:
     failed = dict(feat.failed)
     calib, sens = calibrated(prob, feat.runner, feat.sensitivities, cal, f0, resp0, bench.layout, settings, failed,
                              n_nuis)
+    # --- the candidate effects' secants measured again about the calibration: every candidate is fitted about it
+    sens = about_calibration(feat, calib, sens)
     # (its RSS with the prior penalty, as every candidate's, which fits the same nominal parameters)
     none = evaluated_candidate(prob, cal, calib.x, calib.model_features, calib.response or resp0, calib.jacobian,
                                n_nuis, refined=calib.refined, note="calibrated nominal model")
@@ -67,6 +70,22 @@ def run(feat: Features) -> Calibrated:
     none = dc.replace(none, gap_shrink_pct=shrink_pct(none.rss, nominal_model.rss),
                       withheld=withheld_check(prob, bench.plan, none, nominal_model, f0, bench.folds))
     return Calibrated(feat, nominal_model, calib, none, sens, disc, failed)
+
+
+def about_calibration(feat: Features, calib: Candidate, sens: Sensitivities) -> Sensitivities:
+    """``sens`` with the candidate model effects' secants measured about the calibrated model point (its model
+    parameters; :func:`~rvflex.diagnosis.sensitivity.rebase_effects`), where the calibration moved it; a
+    failed run keeps the nominal secant."""
+    base = tuple((e, x) for e, x in split_params(calib.effects, calib.x) if e.kind != "fidelity" and np.any(x != 0.0))
+    if not base:
+        return sens
+    fb, _, _ = feat.runner.run([base])[0]
+    if fb is None:
+        return sens
+    settings = feat.bench.settings
+    out, _ = rebase_effects(feat.runner, sens, feat.usable, base, fb, feat.baseline_response, settings,
+                            feat.bench.layout)
+    return out
 
 
 def shrink_pct(rss: float, ref: float) -> float:

@@ -112,7 +112,8 @@ def run(calib: Calibrated) -> Candidates:
         x_c, f_b, J_b = (np.zeros(len(x_cal)), f0, J_nominal) if about_nominal else (x_cal, f_cal, J_cal)
         x_ref = np.r_[x_c, np.zeros(sum(e.n for e in effs))]
         best = None
-        for Je, lo, hi in sens.orthants(effs, corners):  # two-sided parameters: each sign with its own secant
+        about = feat.sensitivities if about_nominal else sens  # the effects' secants about the same point
+        for Je, lo, hi in about.orthants(effs, corners):  # two-sided parameters: each sign with its own secant
             J = np.column_stack([J_b, Je])
             lo_, hi_ = np.r_[lo_c, lo], np.r_[hi_c, hi]
             fit_ = lin_fit(prob, f_b, J, x_ref, lo_, hi_, prior=prior)
