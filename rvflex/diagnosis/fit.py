@@ -16,7 +16,8 @@
    with the nuisances — common TE offset, hysteresis offsets — the unknown encoder origin δ and each parameter's
    regulariser toward its nominal value) and refined with the model in the loop. The calibrated model is the
    baseline of the attribution, and the discrepancy it leaves (:mod:`rvflex.diagnosis.discrepancy`) the
-   reference of every score.
+   reference of every score. The candidate effects' secants are run again about the calibrated point
+   (:func:`~rvflex.diagnosis.sensitivity.rebase_effects`; the modification deviation's excepted).
 4. ``candidates`` (→ ``Candidates``): every candidate (each effect, and pairs) is fitted *together with* the
    nominal parameters (same regularisers), so an effect gets only what calibration cannot explain. A pair is kept
    only when its second effect has evidence ≥ ``bic_threshold`` given the better single
