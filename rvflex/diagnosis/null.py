@@ -89,11 +89,7 @@ class NullDistribution:
         """The size effect ``name`` must exceed (None: not in the distribution); for an effect kept per sign
         (:func:`signed`), the threshold of the side ``sign`` (> 0 or < 0) when one is given."""
         e = self.effects.get(name)
-        if e is None:
-            return None
-        if sign and "magnitude_max_positive" in e:
-            return e["magnitude_max_positive" if sign > 0 else "magnitude_max_negative"]
-        return e["magnitude_max"]
+        return None if e is None else _size_threshold(e, sign)
 
 
 def load_null(path: str | Path | None = None) -> NullDistribution | None:
