@@ -494,6 +494,10 @@ class ReducerSpec:
     catalogue_moment_rigidity_Nm_per_arcmin : float or None, optional
         The maker's moment rigidity, N·m/arcmin, where a source gives one (a reference, never
         an input of the model).
+    catalogue_lost_motion_arcmin : float or None, optional
+        The maker's lost-motion class, arcmin: the most lost motion a unit of this size may show
+        (None: not stated). Never an input of the model; the diagnosis takes from it the most
+        crank-bearing clearance a healthy unit can have (:func:`rvflex.diagnosis.nominal.clearance_class_top`).
     """
 
     name: str
@@ -510,12 +514,13 @@ class ReducerSpec:
     materials: Materials
     allowable_moment_Nm: float | None = None
     catalogue_moment_rigidity_Nm_per_arcmin: float | None = None
+    catalogue_lost_motion_arcmin: float | None = None
 
     def __post_init__(self) -> None:
-        for name in ("allowable_moment_Nm", "catalogue_moment_rigidity_Nm_per_arcmin"):
+        for name, unit in (("allowable_moment_Nm", "N·m"), ("catalogue_moment_rigidity_Nm_per_arcmin", "N·m/arcmin"),
+                           ("catalogue_lost_motion_arcmin", "arcmin")):
             value = getattr(self, name)
             if value is not None:
-                unit = "N·m" if name == "allowable_moment_Nm" else "N·m/arcmin"
                 _positive(name, value, unit)
         if not self.name or not self.name.replace("_", "").replace("-", "").isalnum():
             raise SpecError("name", self.name, "must be a non-empty identifier (letters, digits, - or _)")

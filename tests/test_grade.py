@@ -407,3 +407,45 @@ def test_a_control_reaches_the_upper_end_of_its_sizes_interval():
     assert null_from_reports([{"effects": [dict(polar, accepted=False)]}, {"effects": [dict(weak, accepted=False)]}]
                              )["pin_ring_runout"]["magnitude_max"] == 7.8e-6
     assert null_from_reports([{"effects": [dict(weak, accepted=False)]}])["pin_ring_runout"]["magnitude_max"] == 0.0
+
+
+def test_each_effect_of_a_pair_is_held_against_the_null_by_the_evidence_it_earns_on_its_own():
+    """A pair's evidence is mostly its first effect's. A modification deviation beyond the controls' size, beside a
+    strong input-shaft eccentricity, is established only when it adds more evidence to the eccentricity alone than
+    healthy units give the deviation; and the controls' evidence for an effect is likewise what it earns on its own
+    in their candidates."""
+    from rvflex.diagnosis.grade import grade
+    from rvflex.diagnosis.linear import Candidate
+    from rvflex.diagnosis.null import NullDistribution, null_from_reports
+
+    shaft, dev = EFFECTS["input_shaft_eccentricity"], EFFECTS["disc_modification_deviation"]
+    x = np.zeros(shaft.n + dev.n)
+    x[0], x[shaft.n] = 3.6e-4, 4.8e-6
+    size = (float(shaft.magnitude(x[:shaft.n])), float(dev.magnitude(x[shaft.n:])))
+    pair = Candidate(effects=(shaft, dev), x=x, interval=np.column_stack([0.75 * x, 1.25 * x]), magnitude=size,
+                     magnitude_interval=tuple((0.75 * m, 1.25 * m) for m in size), delta=0.0, nuisance=np.zeros(0),
+                     rss=10.0, k=len(x), bic=0.0, refined=True, at_bound=(), model_features=np.zeros(4), score=900.0,
+                     gap_shrink_pct=80.0, withheld={"improvement_pct": 80.0})
+    null = NullDistribution({shaft.name: {"evidence_max": 0.0, "magnitude_max": 0.0, "false_alarm_rate": 0.0,
+                                          "controls": 14},
+                             dev.name: {"evidence_max": 105.7, "magnitude_max": 3.4e-6, "false_alarm_rate": 0.0,
+                                        "controls": 14}}, unit="rv40e")
+    local = {"explained_pct": 90.0, "groups": ["TE order 121"]}
+    little = grade(pair, DiagnosisSettings(), null, local, {shaft.name: 860.0, dev.name: 12.0})
+    assert little["grade"] == CONSISTENT and little["own_evidence"] == {shaft.name: 888.0, dev.name: 40.0}
+    assert little["fails"] == [f"its {dev.name} earns an evidence of 40 on its own (the pair's 900 less the other "
+                               "effect's alone), not beyond the 106 that healthy units of other model forms reach "
+                               "for it (rv40e ensemble)"]
+    much = grade(pair, DiagnosisSettings(), null, local, {shaft.name: 700.0, dev.name: 12.0})
+    assert much["grade"] == ESTABLISHED and much["evidence_thresholds"] == {shaft.name: 0.0, dev.name: 105.7}
+
+    control = {"effects": [
+        {"name": f"{shaft.name} + {dev.name}", "score": 300.0, "magnitude": {shaft.name: 1e-4, dev.name: 2e-6},
+         "refined": True, "grade_fails": [], "accepted": False},
+        {"name": shaft.name, "score": 290.0, "magnitude": {shaft.name: 1e-4}, "refined": True, "grade_fails": [],
+         "accepted": False},
+        {"name": dev.name, "score": -5.0, "magnitude": {dev.name: 1e-6}, "refined": True, "grade_fails": [],
+         "accepted": False}]}
+    figures = null_from_reports([control])
+    assert figures[dev.name]["evidence_max"] == 10.0 and figures[dev.name]["magnitude_max"] == 2e-6
+    assert figures[shaft.name]["evidence_max"] == 300.0  # the deviation alone earns nothing: all of the pair's

@@ -6,9 +6,9 @@ absorbs part of the model-form gap (measured on an independent simulator's RV-80
 passed every test on all three healthy units while removing 10–29 % of the gap). A finding is *established*
 only when, besides those tests,
 
-1. it is beyond what healthy units of other model forms make of it (:mod:`rvflex.diagnosis.null`): its
-   evidence exceeds the largest the ensemble's controls reach for its effects and each effect's size exceeds the
-   largest size the controls reach; an effect the controls were not diagnosed with (absent from the distribution), or
+1. it is beyond what healthy units of other model forms make of it (:mod:`rvflex.diagnosis.null`): each of its
+   effects earns more evidence on its own (all of a single's; a pair's less that of its other effect alone) than
+   the ensemble's controls give that effect, and each effect's size exceeds the largest size the controls reach; an effect the controls were not diagnosed with (absent from the distribution), or
    one with look-alike model forms the ensemble cannot draw yet (``Effect.unjudged_by``), is never established
    while a distribution is in use;
 2. it explains most (:data:`MOST`) of what calibration left where its own signature lies: in the discrepancy
@@ -27,7 +27,7 @@ import numpy as np
 
 from rvflex.diagnosis.discrepancy import Discrepancy, residual
 from rvflex.diagnosis.linear import Candidate, Problem, split_params
-from rvflex.diagnosis.null import signed
+from rvflex.diagnosis.null import own_evidence, signed
 from rvflex.diagnosis.verdict import fmt_mag, fmt_pct, is_significant, undetermined_effect, withheld_confirms
 
 __all__ = ["CONSISTENT", "ESTABLISHED", "MOST", "NOT_SIGNIFICANT", "SIGNATURE_SHARE", "consistent_sentence",
@@ -80,7 +80,7 @@ def explained_where_it_lies(prob: Problem, c: Candidate, base_residual: np.ndarr
             "left_rms_arcsec": float(np.sqrt(left))}
 
 
-def grade(c: Candidate, settings, null, local: dict) -> dict:
+def grade(c: Candidate, settings, null, local: dict, singles: dict | None = None) -> dict:
     """The grade of candidate ``c`` (see the module docstring).
 
     Parameters
@@ -92,27 +92,43 @@ def grade(c: Candidate, settings, null, local: dict) -> dict:
         The ensemble's thresholds (None: no null distribution; rule 1 is not applied and ``note`` says so).
     local : dict
         :func:`explained_where_it_lies` of ``c``.
+    singles : dict, optional
+        Effect → evidence of the single-effect candidates of the same diagnosis: what each effect of a pair earns
+        on its own (:func:`~rvflex.diagnosis.null.own_evidence`).
 
     Returns
     -------
     dict
         ``grade`` (:data:`ESTABLISHED`, :data:`CONSISTENT` or :data:`NOT_SIGNIFICANT`), ``fails`` (one phrase per
-        test it fails), ``evidence_threshold`` (the null's, or None), ``magnitude_thresholds`` (effect → size the
-        ensemble's controls reach), ``explained_where_pct`` and ``signature_groups``.
+        test it fails), ``evidence_threshold`` (the largest of its effects' in the null, or None),
+        ``evidence_thresholds`` and ``own_evidence`` (effect → the null's evidence and what the effect earns on its
+        own here), ``magnitude_thresholds`` (effect → size the ensemble's controls reach), ``explained_where_pct``
+        and ``signature_groups``.
     """
     names = [e.name for e in c.attributed]
-    ev_t = null.evidence_threshold(names) if null is not None else None
+    ev_ts = {n: null.evidence_threshold(n) for n in names} if null is not None else {}
+    known = [t for t in ev_ts.values() if t is not None]
+    ev_t = max(known) if known else None
+    own = {n: own_evidence(c.score, names, n, singles or {}) for n in names}
     mag_t = {n: null.magnitude_threshold(n) for n in names} if null is not None else {}
     whose = f" ({null.unit} ensemble)" if null is not None and null.unit else ""
-    out = {"evidence_threshold": ev_t, "magnitude_thresholds": mag_t,
+    out = {"evidence_threshold": ev_t, "evidence_thresholds": ev_ts, "own_evidence": own, "magnitude_thresholds": mag_t,
            "null_unit": (null.unit or "all units") if null is not None else None,
            "explained_where_pct": local.get("explained_pct"), "signature_groups": local.get("groups", [])}
     if not is_significant(c, settings):
         return out | {"grade": NOT_SIGNIFICANT, "fails": [f"its evidence {c.score:.0f} is below {settings.bic_threshold:g}"]}
     fails = _failed_tests(c, settings)
-    if ev_t is not None and c.score <= ev_t:
-        fails.append(f"its evidence {c.score:.0f} does not exceed the {ev_t:.0f} that healthy units of other model "
-                     f"forms reach for it{whose}")
+    for n in names:
+        t = ev_ts.get(n)
+        if t is None or own[n] > t:
+            continue
+        if len(names) == 1:
+            fails.append(f"its evidence {c.score:.0f} does not exceed the {t:.0f} that healthy units of other model "
+                         f"forms reach for it{whose}")
+        else:
+            fails.append(f"its {n} earns an evidence of {own[n]:.0f} on its own (the pair's {c.score:.0f} less the "
+                         f"other effect's alone), not beyond the {t:.0f} that healthy units of other model forms "
+                         f"reach for it{whose}")
     for (e, x), m in zip(split_params(c.effects, c.x), c.magnitude):
         t = null.magnitude_threshold(e.name, float(np.sign(x[0])) if e.n == 1 else 0.0) if null is not None else None
         if t is not None:

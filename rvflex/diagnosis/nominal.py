@@ -31,28 +31,42 @@ from rvflex.diagnosis.effects import Effect, Param
 from rvflex.diagnosis.linear import Z95
 from rvflex.options import ModelOptions
 from rvflex.spec import ErrorSpec, ReducerSpec
-from rvflex.units import UM
+from rvflex.units import ARCMIN, UM
 
-__all__ = ["CUT_BY", "NOMINAL", "REPLACES", "SAME_QUANTITY", "describe_calibration", "max_pin_force", "nominal_parameters", "point_contact_law",
+__all__ = ["CUT_BY", "NOMINAL", "REPLACES", "SAME_QUANTITY", "clearance_class_top", "describe_calibration", "max_pin_force", "nominal_parameters", "point_contact_law",
            "power_law_equivalent", "stiffness_scale", "within_spec_rules"]
 
 COMPLIANCE_PRIOR = 0.35  # σ of the compliance change: a stiffness known to about ±30 %
 COMPLIANCE_LOW, COMPLIANCE_HIGH = -0.7, 1.5  # component scale 3.3 … 0.4 around the data anchor (diagnose.anchor): a
 # point-contact simulator's contact stiffness sat at the former ×2 bound in 3 of 3 foreign datasets
-# Nominal crank-bearing clearance: the class 0 … 10 µm (the issue's prior range; a realistic unit's needle
-# bearings reach it). The runs determine only the total clearance of the crank bearings, so within the class
-# calibration takes it: a total inside the class is the nominal parameter off, the effect eccentric_bearing_clearance
-# is what lies beyond it (reported with the total). Measured: 0 … 6 µm read a far self-check control's 6–8 µm nominal
-# clearance as an effect; 0 … 10 µm reads a hidden 10 µm clearance on a 0 µm nominal as 9.8 µm nominal (the total is
-# right; tests/test_diagnose.py).
+# Nominal crank-bearing clearance of a unit whose spec states no lost-motion class: 0 … 10 µm of total clearance.
+# The runs determine only the total clearance of the crank bearings, so within the class calibration takes it: a
+# total inside the class is the nominal parameter off, the effect eccentric_bearing_clearance is what lies beyond
+# it (reported with the total). A spec with the maker's lost-motion class bounds it tighter (clearance_class_top).
 CLEARANCE_HIGH = 10 * UM
+
+
+def clearance_class_top(spec: ReducerSpec | None) -> float:
+    """The most total radial clearance of the crank (needle) bearings a healthy unit of ``spec`` can have (m).
+
+    A radial clearance c in every eccentric bearing lets the carrier turn c/r_c either way against discs the
+    pins hold (r_c the crank circle radius): 2c/r_c of free play at the output, whatever the stiffnesses
+    (the model's backlash grows by that to within 6 % on the built-in units; tests/test_diagnose_far.py). A unit
+    that meets the maker's lost-motion class LM_max therefore has c ≤ LM_max·r_c/2, the clearance that alone
+    would spend the whole class: beyond it the clearance is an unmodelled effect, not the nominal parameter off.
+    Without a stated class (``spec.catalogue_lost_motion_arcmin`` None, or no spec): ``CLEARANCE_HIGH``."""
+    lm = None if spec is None else spec.catalogue_lost_motion_arcmin
+    if lm is None:
+        return CLEARANCE_HIGH
+    return lm * ARCMIN * spec.cranks.crank_circle_radius_m / 2.0
 
 
 MODULUS_MAX_PA = 1e12  # a spec's rule for a Young's modulus (rvflex.spec_types), which the contact stiffness scales
 
 
 CUT_BY = {"contact_stiffness": f"the spec's {MODULUS_MAX_PA / 1e9:.0f} GPa modulus rule leaves",
-          "crank_bearing_clearance": "the clearance class leaves above the spec's clearance"}
+          "crank_bearing_clearance": "the clearance class (the clearance that alone spends the maker's lost-motion "
+                                     "class) leaves above the spec's clearance"}
 """The rule that narrows a nominal parameter's stated range for a unit (:func:`within_spec_rules`,
 :func:`nominal_parameters`), in the words the verdict uses for a value at the cut bound."""
 
@@ -248,7 +262,7 @@ def nominal_parameters(names: tuple[str, ...] | None = None,
     """The nominal parameters to calibrate (all by default; ``()`` for none) for the unit ``spec``, and those
     the spec leaves nothing to calibrate (name → why).
 
-    The crank-bearing clearance's class (0 … ``CLEARANCE_HIGH``) bounds the unit's total clearance: the
+    The crank-bearing clearance's class (0 … :func:`clearance_class_top`) bounds the unit's total clearance: the
     calibration adds to the spec's nominal clearance at most what the class has left above it."""
     if names is None:
         names = tuple(NOMINAL)
@@ -259,14 +273,13 @@ def nominal_parameters(names: tuple[str, ...] | None = None,
     for n in names:
         e = NOMINAL[n]
         if n == "crank_bearing_clearance" and spec is not None:
-            stated = spec.bearings.eccentric.clearance_m
-            room = CLEARANCE_HIGH - stated
+            stated, top = spec.bearings.eccentric.clearance_m, clearance_class_top(spec)
+            room = top - stated
             if room < 0.5 * UM:
                 dropped[n] = (f"the spec's nominal crank-bearing clearance {stated / UM:.1f} µm leaves nothing of the "
-                              f"class 0 … {CLEARANCE_HIGH / UM:.0f} µm to calibrate")
+                              f"class 0 … {top / UM:.1f} µm to calibrate")
                 continue
-            if room < CLEARANCE_HIGH:
-                p = e.params[0]
-                e = dc.replace(e, params=(dc.replace(p, high=room, step=min(p.step, room)),))
+            p = e.params[0]
+            e = dc.replace(e, params=(dc.replace(p, high=room, step=min(p.step, room)),))
         out.append(e)
     return tuple(out), dropped

@@ -7,8 +7,9 @@ of such units (:class:`~rvflex.diagnosis.ensemble.EnsembleMismatch`), each diagn
 effect (:func:`rvflex.diagnosis.null_build.build_null`, the command ``rvflex null-distribution``). Per candidate effect the ensemble's
 controls give
 
-- ``evidence_max``, ``evidence_q95``: the largest and the 95th percentile over the controls of the best evidence
-  of any candidate containing the effect (0 where it gained none);
+- ``evidence_max``, ``evidence_q95``: the largest and the 95th percentile over the controls of the most evidence
+  the effect earns on its own in any candidate containing it (:func:`own_evidence`: a pair's evidence less that of
+  its other effect alone; 0 where it gained none);
 - ``magnitude_max``, ``magnitude_q95``: the same of the size the controls reach with evidence: the upper end of
   the 95 % interval of the effect's size in that best candidate (:func:`reached`) where its evidence is
   significant (``bic_threshold``), 0 where it is not (a fit without evidence has a size set by noise, often at
@@ -21,8 +22,8 @@ controls give
 The same figures are kept per unit; a diagnosis takes those of the built-in unit its spec is a variant of
 (:meth:`NullDistribution.for_spec`), the pooled ones for any other unit.
 
-A finding is established only when its evidence exceeds the largest its effects reach on the controls and each
-effect's size exceeds the largest size the controls reach for it (:func:`rvflex.diagnosis.grade.grade`): a size
+A finding is established only when each of its effects earns more evidence on its own than the controls give it,
+and its size exceeds the largest size the controls reach for it (:func:`rvflex.diagnosis.grade.grade`): a size
 healthy units reach is not a finding. The largest, not the 95th percentile: a unit has 14 controls, whose 95th
 percentile lies between their two largest values and below the true one about half the time, and a diagnosis
 tries some twenty effects, so per-effect percentiles let more than one case in twenty through (measured on the
@@ -39,7 +40,8 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["NULL_PATH", "NullDistribution", "leave_one_out", "load_null", "null_from_reports", "reached", "signed"]
+__all__ = ["NULL_PATH", "NullDistribution", "leave_one_out", "load_null", "null_from_reports", "own_evidence", "reached",
+           "report_singles", "signed"]
 
 NULL_PATH = Path(__file__).with_name("null_distribution.json")
 """The null distribution shipped with the package (made by ``rvflex null-distribution``)."""
@@ -61,8 +63,8 @@ class NullDistribution:
 
     def for_spec(self, spec) -> NullDistribution:
         """The distribution of the built-in unit ``spec`` is a variant of, else of all units pooled. How a model
-        form projects onto a candidate depends on the unit's geometry (the RV-80E's healthy controls reach a 7.8 µm
-        pin-ring runout, the RV-40E's 0.8 µm), so a unit is judged against the ensemble of its own nominal unit:
+        form projects onto a candidate depends on the unit's geometry (the RV-80E's healthy controls reach a 7.2 µm
+        pin-ring runout, the RV-40E's 1.8 µm), so a unit is judged against the ensemble of its own nominal unit:
         the built-in unit with the same pin and tooth counts and, within 1 %, the same pin-circle radius and
         eccentricity, whatever its name or its stiffnesses."""
         from rvflex import catalog
@@ -79,11 +81,11 @@ class NullDistribution:
                 return NullDistribution(effects, self.source, self.per_unit, name)
         return self
 
-    def evidence_threshold(self, names) -> float | None:
-        """The evidence a candidate with effects ``names`` must exceed (the largest of its effects'); None when
-        no effect of it is in the distribution."""
-        v = [self.effects[n]["evidence_max"] for n in names if n in self.effects]
-        return max(v) if v else None
+    def evidence_threshold(self, name: str) -> float | None:
+        """The evidence effect ``name`` must earn on its own (:func:`own_evidence`) in a finding; None when it is
+        not in the distribution."""
+        e = self.effects.get(name)
+        return None if e is None else e["evidence_max"]
 
     def magnitude_threshold(self, name: str, sign: float = 0.0) -> float | None:
         """The size effect ``name`` must exceed (None: not in the distribution); for an effect kept per sign
@@ -142,11 +144,29 @@ def reached(entry: dict, name: str) -> float:
     return max(size, hi if x > 0 else -lo if x < 0 else max(abs(lo), abs(hi)))
 
 
+def own_evidence(score: float, names: list[str], name: str, singles: dict) -> float:
+    """The evidence effect ``name`` earns in a candidate of effects ``names`` with evidence ``score``: all of it for a
+    single effect; for a pair, what it adds to the better of the other effect alone (``singles``: effect → its
+    evidence alone) and the calibrated model (evidence 0). A pair's evidence is mostly its first effect's: held
+    against the pair's, a second effect that adds little would pass on the first one's strength."""
+    if len(names) == 1:
+        return float(score)
+    others = [max(float(singles.get(n, 0.0)), 0.0) for n in names if n != name]
+    return float(score) - max(others + [0.0])
+
+
+def report_singles(report: dict) -> dict:
+    """Effect → evidence of the single-effect candidates of a diagnosis document."""
+    return {e["name"]: float(e["score"]) for e in report["effects"] if " + " not in e["name"]}
+
+
 def null_from_reports(reports: list[dict], significant: float = 10.0) -> dict:
     """Per effect: the ensemble controls' evidence and magnitude quantiles and false-alarm rate, from their
-    diagnosis documents (``rvflex diagnose --json``); a size counts where the evidence reaches ``significant``
-    (the diagnosis's ``bic_threshold``). An effect kept per sign (:func:`signed`) also has
-    ``magnitude_max_positive`` and ``magnitude_max_negative``, the largest size on each side."""
+    diagnosis documents (``rvflex diagnose --json``). A control's evidence for an effect is the most the effect
+    earns on its own in any of its candidates (:func:`own_evidence`), its size the one it reaches in that candidate
+    where that evidence reaches ``significant`` (the diagnosis's ``bic_threshold``). An effect kept per sign
+    (:func:`signed`) also has ``magnitude_max_positive`` and ``magnitude_max_negative``, the largest size on each
+    side."""
     names = sorted({n for d in reports for e in d["effects"] for n in e["name"].split(" + ")})
     out = {}
     for name in names:
@@ -155,9 +175,12 @@ def null_from_reports(reports: list[dict], significant: float = 10.0) -> dict:
             having = [e for e in d["effects"] if name in e["name"].split(" + ")]
             if not having:
                 continue
-            best = max(having, key=lambda e: e["score"])
-            ev.append(max(float(best["score"]), 0.0))
-            mag.append(reached(best, name) if best["score"] >= significant else 0.0)
+            singles = report_singles(d)
+            own = [own_evidence(e["score"], e["name"].split(" + "), name, singles) for e in having]
+            i = int(np.argmax(own))
+            best = having[i]
+            ev.append(max(own[i], 0.0))
+            mag.append(reached(best, name) if own[i] >= significant else 0.0)
             side.append(_side(best, name))
             alarms += any(e["accepted"] for e in having)
         if ev:
@@ -174,13 +197,15 @@ def null_from_reports(reports: list[dict], significant: float = 10.0) -> dict:
 def _named(report: dict, thresholds: dict, significant: float) -> str | None:
     """The candidate a diagnosis made without a null distribution (``report``, its JSON) would accept under
     ``thresholds`` (effect → {evidence_max, magnitude_max}): the first refined one by score that passed every
-    other test and lies beyond the thresholds of its effects (an effect without figures: never)."""
+    other test and lies beyond the thresholds of its effects, each by its own evidence (an effect without
+    figures: never)."""
+    singles = report_singles(report)
     for e in report["effects"]:
         names = e["name"].split(" + ")
         if not e.get("refined") or e["score"] < significant or e.get("grade_fails") or any(
                 n not in thresholds for n in names):
             continue
-        if e["score"] > max(thresholds[n]["evidence_max"] for n in names) and all(
+        if all(own_evidence(e["score"], names, n, singles) > thresholds[n]["evidence_max"] for n in names) and all(
                 abs(e["magnitude"].get(n, 0.0)) > _size_threshold(thresholds[n], _side(e, n)) for n in names):
             return e["name"]
     return None

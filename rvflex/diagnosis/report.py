@@ -336,6 +336,8 @@ def json_document(diag) -> dict:
             "explained_where_pct": c.grade.get("explained_where_pct"),
             "signature_groups": list(c.grade.get("signature_groups", [])),
             "null_evidence_threshold": c.grade.get("evidence_threshold"),
+            "null_evidence_thresholds": c.grade.get("evidence_thresholds") or {},
+            "own_evidence": c.grade.get("own_evidence") or {},
             "null_magnitude_thresholds": c.grade.get("magnitude_thresholds") or {},
             "null_unit": c.grade.get("null_unit"),
         })

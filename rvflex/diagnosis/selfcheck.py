@@ -48,7 +48,7 @@ from rvflex.choices import Mismatch, check_choice
 from rvflex.diagnosis.bench import BenchDataset, BenchRun, read_bench, write_bench
 from rvflex.diagnosis.effects import Effect, available_effects
 from rvflex.diagnosis.ensemble import EnsembleMismatch, RealisticMismatch
-from rvflex.diagnosis.nominal import CLEARANCE_HIGH, SAME_QUANTITY
+from rvflex.diagnosis.nominal import SAME_QUANTITY, clearance_class_top
 from rvflex.diagnosis.plan import PlanRun
 from rvflex.diagnosis.replay import evaluate
 from rvflex.diagnosis.settings import DiagnosisSettings
@@ -265,10 +265,11 @@ def _periodic(grid: np.ndarray, p: np.ndarray) -> np.ndarray:
 def beyond_the_class(truth: list, spec: ReducerSpec, nominal_clearance_m: float) -> list:
     """The drawn truth with a hidden effect on a nominal parameter's own quantity (``SAME_QUANTITY``: the
     crank-bearing clearance) moved beyond that parameter's class: its drawn size becomes the excess over the
-    class top (``CLEARANCE_HIGH`` of total clearance, less the spec's stated and the case's nominal clearance).
+    class top (:func:`~rvflex.diagnosis.nominal.clearance_class_top` of total clearance, less the spec's stated
+    and the case's nominal clearance).
     Inside the class the runs see only the total, which the diagnosis reports as the nominal clearance
     (measured: 9.61 µm calibrated for 9.63 µm hidden): such a case cannot be told from a control."""
-    room = max(CLEARANCE_HIGH - spec.bearings.eccentric.clearance_m - nominal_clearance_m, 0.0)
+    room = max(clearance_class_top(spec) - spec.bearings.eccentric.clearance_m - nominal_clearance_m, 0.0)
     return [(e, np.minimum(x + room, e.upper)) if e.name in SAME_QUANTITY else (e, x) for e, x in truth]
 
 
@@ -299,6 +300,10 @@ def generate_case(folder: str | Path, truth_path: str | Path, spec: ReducerSpec,
             resp = evaluate(spec, ErrorSpec(), plan, gs, tuple(truth), law=gen.law(spec))
         else:
             drawn = realistic.draw(rng)
+            # a healthy unit's clearance lies in its class: the drawn range is scaled into what the class leaves
+            room = max(clearance_class_top(spec) - spec.bearings.eccentric.clearance_m, 0.0)
+            if not getattr(realistic, "fixed", ()) and getattr(realistic, "clearance_max_m", 0.0) > room:
+                drawn["clearance_m"] *= room / realistic.clearance_max_m
             truth = beyond_the_class(truth, spec, drawn["clearance_m"])
             spec_g, errors_g, law_g = realistic.model(spec, drawn)
             resp = evaluate(spec_g, errors_g, plan, gs, tuple(truth) + tuple(realistic.model_form(drawn)), law=law_g,

@@ -11,7 +11,7 @@ from scipy.optimize import lsq_linear
 from rvflex.diagnosis.effects import Effect
 from rvflex.diagnosis.features import shift_measured
 from rvflex.diagnosis.linear import Candidate, Problem, bounds, lin_fit, prior_of
-from rvflex.diagnosis.nominal import NOMINAL
+from rvflex.diagnosis.nominal import NOMINAL, SAME_QUANTITY
 from rvflex.diagnosis.plan import part_label
 
 __all__ = ["SIGNATURE_TIE", "TIE_RSS_RATIO", "acceptable", "equivalent", "fmt_mag", "fmt_pct", "is_significant",
@@ -153,8 +153,12 @@ def verdict(cands, chosen, none, has_folds, settings, unavailable, failed, tied=
         s = (f"{c.name} explains the gap: {mag}; the weighted gap shrinks by {c.gap_shrink_pct:.0f} %, "
              f"{100 - c.gap_shrink_pct:.0f} % of it stays unexplained by any candidate; the withheld runs' "
              f"prediction improves by {c.withheld['improvement_pct']:.0f} %.")
-        if c.at_bound:
-            s += f" The fit hits a parameter bound ({', '.join(c.at_bound)}): the magnitude is a limit, not an estimate."
+        s += beyond_the_class_sentence(c)
+        # a nominal parameter at its class top is where an effect on the same quantity begins, not a limit
+        shared = {SAME_QUANTITY[e.name] for e in c.effects if e.name in SAME_QUANTITY}
+        bound = [b for b in c.at_bound if b.split(".")[0] not in shared]
+        if bound:
+            s += f" The fit hits a parameter bound ({', '.join(bound)}): the magnitude is a limit, not an estimate."
         if tie:
             s += (f" Tied with {', '.join(o.name for o in tie[:3])}: their model signatures reproduce this one "
                   "(or fit as well), so these runs cannot separate them.")
@@ -281,6 +285,24 @@ def acceptable(c: Candidate, settings) -> bool:
     return (is_significant(c, settings) and not undetermined_effect(c) and withheld_confirms(c.withheld, settings)
             and ("against_single" not in c.withheld
                  or withheld_confirms(c.withheld["against_single"], settings, replicated=True)))
+
+
+def beyond_the_class_sentence(c: Candidate) -> str:
+    """For an effect of ``c`` on the same quantity as a nominal parameter (:data:`SAME_QUANTITY`: the
+    eccentric-bearing clearance beyond the crank-bearing clearance's class): the total the runs determine, and
+    the class it lies beyond ("" when ``c`` has none; the split between the two is not determined)."""
+    names = [e.name for e in c.effects]
+    out = ""
+    for e in c.attributed:
+        partner = SAME_QUANTITY.get(e.name)
+        if partner in names:
+            p = c.effects[names.index(partner)]
+            total = c.magnitude_of(e.name) + c.magnitude_of(partner)
+            out += (f" The runs determine only the total: {fmt_mag(e, total)} in all ({e.name} "
+                    f"{fmt_mag(e, c.magnitude_of(e.name))} with the calibrated {partner} "
+                    f"{fmt_mag(p, c.magnitude_of(partner))}), against a class of at most {fmt_mag(p, p.params[0].high)} "
+                    "above the spec's.")
+    return out
 
 
 def undetermined_effect(c: Candidate) -> str:

@@ -95,7 +95,9 @@ def run(cands: Candidates) -> Evidence:
     # signature lies; the others that pass are consistent but not established
     null = _null_of(settings, feat.runner.spec)
     r_cal = residual(prob, none)  # what calibration left, once for every candidate
-    out = [dc.replace(c, grade=grade(c, settings, null, explained_where_it_lies(prob, c, r_cal, disc))) for c in out]
+    singles = {c.attributed[0].name: c.score for c in out if len(c.attributed) == 1}
+    out = [dc.replace(c, grade=grade(c, settings, null, explained_where_it_lies(prob, c, r_cal, disc), singles))
+           for c in out]
     return Evidence(cands, tuple(out), failed)
 
 
