@@ -8,9 +8,10 @@ only when, besides those tests,
 
 1. it is beyond what healthy units of other model forms make of it (:mod:`rvflex.diagnosis.null`): each of its
    effects earns more evidence on its own (all of a single's; a pair's less that of its other effect alone) than
-   the ensemble's controls give that effect, and each effect's size exceeds the largest size the controls reach; an effect the controls were not diagnosed with (absent from the distribution), or
-   one with look-alike model forms the ensemble cannot draw yet (``Effect.unjudged_by``), is never established
-   while a distribution is in use;
+   the ensemble's controls give that effect, and each effect's size exceeds the largest size the controls reach;
+   an effect the controls were not diagnosed with (absent from the distribution), or one with look-alike model
+   forms the ensemble cannot draw yet (``Effect.unjudged_by``), is never established while a distribution is in
+   use;
 2. it explains most (:data:`MOST`) of what calibration left where its own signature lies: in the discrepancy
    groups (:mod:`rvflex.diagnosis.discrepancy`) that hold :data:`SIGNATURE_SHARE` of its signature, the
    calibrated residual falls by at least half. An effect that is the cause leaves model-form residue only;

@@ -63,7 +63,7 @@ class NullDistribution:
 
     def for_spec(self, spec) -> NullDistribution:
         """The distribution of the built-in unit ``spec`` is a variant of, else of all units pooled. How a model
-        form projects onto a candidate depends on the unit's geometry (the RV-80E's healthy controls reach a 7.2 µm
+        form projects onto a candidate depends on the unit's geometry (the RV-80E's healthy controls reach a 9.4 µm
         pin-ring runout, the RV-40E's 1.8 µm), so a unit is judged against the ensemble of its own nominal unit:
         the built-in unit with the same pin and tooth counts and, within 1 %, the same pin-circle radius and
         eccentricity, whatever its name or its stiffnesses."""
