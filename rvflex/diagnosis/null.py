@@ -169,13 +169,13 @@ def null_from_reports(reports: list[dict], significant: float = 10.0) -> dict:
     side."""
     names = sorted({n for d in reports for e in d["effects"] for n in e["name"].split(" + ")})
     out = {}
+    singles_of = [report_singles(d) for d in reports]  # once per report, not once per effect name
     for name in names:
         ev, mag, side, alarms = [], [], [], 0
-        for d in reports:
+        for d, singles in zip(reports, singles_of):
             having = [e for e in d["effects"] if name in e["name"].split(" + ")]
             if not having:
                 continue
-            singles = report_singles(d)
             own = [own_evidence(e["score"], e["name"].split(" + "), name, singles) for e in having]
             i = int(np.argmax(own))
             best = having[i]
