@@ -206,8 +206,9 @@ def null_table(path: str | Path | None = None) -> str:
     """The Markdown table of the null distribution (``rvflex null-distribution``; default: the package's): per
     candidate effect, the share of the ensemble's controls in which the tests alone accepted it (its false-alarm
     rate before the null's thresholds), and per unit the thresholds a diagnosis of that unit uses (the largest
-    evidence and size its healthy controls reach), the pooled ones for any other unit; below it, how many controls
-    held out one at a time the thresholds of the others hold (with the largest and with 95th percentiles)."""
+    relative evidence and determined size its healthy controls reach), the pooled ones for any other unit; below
+    it, how many controls held out one at a time the thresholds of the others hold, and a second table: each
+    unit's thresholds from the first and the second half of its controls."""
     from rvflex.diagnosis.effects import EFFECTS
     from rvflex.diagnosis.null import NULL_PATH
     from rvflex.diagnosis.verdict import fmt_mag
@@ -223,8 +224,8 @@ def null_table(path: str | Path | None = None) -> str:
              (f"{src.get('controls', '?')} ensemble controls over {', '.join(src.get('reducers', []))} "
               f"({src.get('cases_per_unit', '?')} per unit, seed {src.get('seed', '?')}; "
               f"`rvflex null-distribution --cases {src.get('cases_per_unit', '?')} --seed {src.get('seed', '?')}`). "
-              "Thresholds as evidence / size (the largest the controls reach; for a one-parameter effect whose range "
-              "spans both signs, the size on each side)."), "",
+              "Thresholds as relative evidence / size (the largest the controls reach; for a one-parameter effect "
+              "whose range spans both signs, the size on each side)."), "",
              "| effect | false alarms (tests alone) | " + " | ".join(units + ["pooled"]) + " |",
              "|---|---:|" + "---:|" * (len(units) + 1)]
 
@@ -236,9 +237,9 @@ def null_table(path: str | Path | None = None) -> str:
             return f"{m:.3g}" if plain else fmt_mag(e, m)
 
         if "magnitude_max_positive" in v:  # kept per sign: the side above zero, then the side below
-            return (f"{v['evidence_max']:.0f} / +{size(v['magnitude_max_positive'])}, "
+            return (f"{v['relative_max']:.2f} / +{size(v['magnitude_max_positive'])}, "
                     f"−{size(v['magnitude_max_negative'])}")
-        return f"{v['evidence_max']:.0f} / {size(v['magnitude_max'])}"
+        return f"{v['relative_max']:.2f} / {size(v['magnitude_max'])}"
 
     for name, v in sorted(doc["effects"].items(), key=lambda kv: (-kv[1]["false_alarm_rate"], kv[0])):
         e = EFFECTS.get(name)
@@ -250,11 +251,21 @@ def null_table(path: str | Path | None = None) -> str:
     if held:
         n = sum(h["controls"] for h in held.values())
         named = sum(h["named"] for h in held.values())
-        named_q95 = sum(h["named_q95"] for h in held.values())
         which = "; ".join(f"{u}: {', '.join(h['names'].values())}" for u, h in held.items() if h["names"])
         lines += ["", f"Held out one at a time, each control judged by the thresholds of its unit's other controls: "
-                      f"{named} of {n} name an effect ({which or 'none'}); with the others' 95th percentiles as "
-                      f"thresholds, {named_q95} of {n}."]
+                      f"{named} of {n} name an effect ({which or 'none'})."]
+    halves = doc.get("halves")
+    if halves:
+        lines += ["", "Each unit's thresholds from the first and from the second half of its controls (relative "
+                      "evidence, size; the plain evidence, which is not a threshold, for comparison):", "",
+                  "| unit | effect | relative evidence | size | evidence |", "|---|---|---:|---:|---:|"]
+        for u, per in halves.items():
+            for name, v in per.items():
+                e = EFFECTS.get(name)
+                plain = e is None or e.params[0].unit == "1"
+                sz = [f"{m:.3g}" if plain else fmt_mag(e, m) for m in v["magnitude"]]
+                lines.append(f"| {u} | {name} | {v['relative'][0]:.2f} · {v['relative'][1]:.2f} | {sz[0]} · {sz[1]} | "
+                             f"{v['evidence'][0]:.0f} · {v['evidence'][1]:.0f} |")
     return "\n".join(lines) + "\n"
 
 

@@ -53,8 +53,10 @@ def test_a_finding_below_the_null_is_consistent_and_never_written_as_explaining_
     assert json_document(found)["grade"] == ESTABLISHED
 
     strict = tmp_path / "null.json"
+    rel = found.chosen.grade["relative_evidence"]["thermal_expansion"]
+    assert rel == pytest.approx(found.chosen.score / found.chosen.grade["leftover"]) and rel > 0
     strict.write_text(json.dumps({"effects": {"thermal_expansion": {
-        "evidence_max": 10 * found.chosen.score, "magnitude_max": 0.0, "false_alarm_rate": 0.0, "controls": 40}}}))
+        "relative_max": 10 * rel, "magnitude_max": 0.0, "false_alarm_rate": 0.0, "controls": 40}}}))
     held = diagnose(ds, settings=dataclasses.replace(CI, null_distribution=str(strict)), effects=effects,
                     cache_dir=cache)
     assert held.chosen is None, held.verdict
@@ -66,7 +68,7 @@ def test_a_finding_below_the_null_is_consistent_and_never_written_as_explaining_
     doc = json_document(held)
     assert doc["grade"] == CONSISTENT
     row = next(e for e in doc["effects"] if e["name"] == "thermal_expansion")
-    assert row["grade"] == CONSISTENT and row["null_evidence_threshold"] == pytest.approx(10 * found.chosen.score)
+    assert row["grade"] == CONSISTENT and row["null_relative_thresholds"]["thermal_expansion"] == pytest.approx(10 * rel)
     # the report of each: its four plots (drawn side by side in two workers) and the Markdown, which says
     # "explains the gap" only of the established finding
     for diag, says in ((found, True), (held, False)):
@@ -297,7 +299,7 @@ def test_an_effect_the_null_distribution_has_not_seen_is_never_established():
 
     settings = DiagnosisSettings()
     local = {"explained_pct": 90.0, "groups": ["TE order 40"]}
-    null = NullDistribution({"pin_ring_runout": {"evidence_max": 50.0, "magnitude_max": 1e-6,
+    null = NullDistribution({"pin_ring_runout": {"relative_max": 5.0, "magnitude_max": 1e-6,
                                                  "false_alarm_rate": 0.0, "controls": 14}}, unit="rv160n")
     seen = grade(_fitted("pin_ring_runout", 5e-6), settings, null, local)
     assert seen["grade"] == ESTABLISHED and seen["fails"] == []
@@ -321,7 +323,7 @@ def test_an_effect_whose_look_alike_model_forms_the_ensemble_cannot_draw_is_neve
 
     settings = DiagnosisSettings()
     local = {"explained_pct": 90.0, "groups": ["TE order 40"]}
-    null = NullDistribution({"crank_runout": {"evidence_max": 50.0, "magnitude_max": 1e-7, "false_alarm_rate": 0.0,
+    null = NullDistribution({"crank_runout": {"relative_max": 5.0, "magnitude_max": 1e-7, "false_alarm_rate": 0.0,
                                               "controls": 14}}, unit="rv80e")
     g = grade(_fitted("crank_runout", 5e-6), settings, null, local)
     assert g["grade"] == CONSISTENT
@@ -331,34 +333,80 @@ def test_an_effect_whose_look_alike_model_forms_the_ensemble_cannot_draw_is_neve
     assert grade(_fitted("crank_runout", 5e-6), settings, None, local)["grade"] == ESTABLISHED
 
 
-def _control(name: str, score: float, size: float, fails=()) -> dict:
+def _control(name: str, score: float, size: float, fails=(), leftover: float = 100.0, interval=None) -> dict:
     """A control's diagnosis document, as ``rvflex diagnose --json`` writes the fields the null reads."""
-    return {"effects": [{"name": name, "score": score, "magnitude": {name: size}, "refined": True,
-                         "grade_fails": list(fails), "accepted": not fails}]}
+    e = {"name": name, "score": score, "magnitude": {name: size}, "refined": True, "grade_fails": list(fails),
+         "accepted": not fails, "leftover": leftover}
+    return {"effects": [e | ({"interval": {f"{name}.magnitude": list(interval)}} if interval else {})]}
 
 
 def test_the_null_thresholds_are_the_largest_the_controls_reach_and_held_out_controls_are_counted():
-    """Fourteen controls of one unit, a pin-ring runout fitted in each: twelve at 1 … 2.8 µm with evidence 20 … 42,
-    one at 5 µm (evidence 80) and one at 6 µm (evidence 90). The thresholds are the largest the controls reach (a
-    finding at 5.5 µm, between the 95th percentile and the largest, is not established); held out one at a time,
-    only the 6 µm control lies beyond the other thirteen, and with their 95th percentiles the 5 µm one does too."""
+    """Fourteen controls of one unit, a pin-ring runout fitted in each: twelve at 1 … 2.8 µm with evidence 20 … 42
+    against a leftover of 100, one at 5 µm (evidence 80) and one at 6 µm (evidence 90). The thresholds are the
+    largest relative evidence (0.9) and size (6 µm) the controls reach: a finding at 5.5 µm is not established, one
+    at 7 µm whose evidence is more than 0.9 times what it leaves is, one at 7 µm that leaves more is not. Held out
+    one at a time, only the 6 µm control lies beyond the other thirteen."""
     from rvflex.diagnosis.grade import grade
     from rvflex.diagnosis.null import NullDistribution, leave_one_out, null_from_reports
 
     reports = [_control("pin_ring_runout", 20.0 + 2 * k, (1.0 + k / 6) * 1e-6) for k in range(12)]
     reports += [_control("pin_ring_runout", 80.0, 5e-6), _control("pin_ring_runout", 90.0, 6e-6)]
     figures = null_from_reports(reports)["pin_ring_runout"]
-    assert figures["evidence_max"] == 90.0 and figures["magnitude_max"] == 6e-6
-    assert figures["magnitude_q95"] < 5.5e-6 < figures["magnitude_max"]
+    assert figures["relative_max"] == 0.9 and figures["magnitude_max"] == 6e-6 and figures["evidence_max"] == 90.0
     null = NullDistribution({"pin_ring_runout": figures}, unit="rv40e")
-    local = {"explained_pct": 90.0, "groups": ["TE order 78"]}
+    local = {"explained_pct": 90.0, "groups": ["TE order 78"], "leftover": 100.0}
     between = grade(_fitted("pin_ring_runout", 5.5e-6), DiagnosisSettings(), null, local)
     assert between["grade"] == CONSISTENT and between["magnitude_thresholds"] == {"pin_ring_runout": 6e-6}
     beyond = grade(_fitted("pin_ring_runout", 7e-6), DiagnosisSettings(), null, local)
-    assert beyond["grade"] == ESTABLISHED and beyond["evidence_threshold"] == 90.0
+    assert beyond["grade"] == ESTABLISHED and beyond["relative_thresholds"] == {"pin_ring_runout": 0.9}
+    assert beyond["relative_evidence"] == {"pin_ring_runout": 5.0}
+    leaves = grade(_fitted("pin_ring_runout", 7e-6), DiagnosisSettings(), null, local | {"leftover": 1000.0})
+    assert leaves["grade"] == CONSISTENT and leaves["fails"] == [
+        "its evidence 500 is 0.50 times the 1000 the candidate leaves unexplained, not beyond the 0.90 that healthy "
+        "units of other model forms reach for it (rv40e ensemble)"]
     held = leave_one_out(reports)
     assert held["controls"] == 14 and held["named"] == 1 and held["names"] == {"13": "pin_ring_runout"}
-    assert held["named_q95"] == 2
+
+
+def test_relative_evidence_does_not_change_when_the_gap_is_scaled_or_the_campaign_repeated():
+    """The same model-form gap twice as large (four times the residual energy) or a campaign of twice the runs
+    (twice the features) multiplies what a stand-in removes and what it leaves alike: the controls' relative
+    thresholds stay, where their plain evidence would be four and two times larger."""
+    from rvflex.diagnosis.null import null_from_reports
+
+    base = [_control("thermal_expansion", 20.0 + 5 * k, 2e-6, leftover=200.0) for k in range(10)]
+    for factor in (4.0, 2.0):
+        scaled = [_control("thermal_expansion", (20.0 + 5 * k) * factor, 2e-6, leftover=200.0 * factor)
+                  for k in range(10)]
+        a, b = null_from_reports(base)["thermal_expansion"], null_from_reports(scaled)["thermal_expansion"]
+        assert b["relative_max"] == pytest.approx(a["relative_max"]) and b["evidence_max"] == pytest.approx(
+            factor * a["evidence_max"])
+
+
+def test_a_control_fit_the_runs_cannot_determine_reaches_no_size():
+    """A control's size counts only where its fit would be a finding apart from the null: significant, its 95 %
+    interval clear of zero and no parameter at its bound. An undetermined runout (interval 0 … 22.6 µm, as one
+    RV-80E control's) sets no size threshold; it still counts for the relative evidence."""
+    from rvflex.diagnosis.null import determined, null_from_reports
+
+    loose = _control("pin_ring_runout", 16.0, 8e-6, interval=(0.0, 22.6e-6))
+    firm = _control("pin_ring_runout", 60.0, 5e-6, interval=(4e-6, 6e-6))
+    bound = _control("pin_ring_runout", 70.0, 9e-6, interval=(7e-6, 11e-6))
+    bound["effects"][0]["at_bound"] = ["pin_ring_runout.cos2phi_m"]
+    assert not determined(loose["effects"][0], "pin_ring_runout") and determined(firm["effects"][0], "pin_ring_runout")
+    assert not determined(bound["effects"][0], "pin_ring_runout")
+    figures = null_from_reports([loose, firm, bound])["pin_ring_runout"]
+    assert figures["magnitude_max"] == 6e-6 and figures["relative_max"] == 0.7
+
+
+def test_a_control_report_without_leftover_is_refused():
+    """A null distribution is not built from reports of an older rvflex (no ``leftover``): one message says so."""
+    from rvflex.diagnosis.null import null_from_reports
+
+    old = _control("pin_ring_runout", 60.0, 5e-6)
+    del old["effects"][0]["leftover"]
+    with pytest.raises(ValueError, match="has no 'leftover'.*rebuild the null distribution"):
+        null_from_reports([old])
 
 
 def test_an_effect_with_two_physical_signs_is_held_against_the_controls_on_its_own_side():
@@ -376,7 +424,7 @@ def test_an_effect_with_two_physical_signs_is_held_against_the_controls_on_its_o
         v = -(1.0 + 4.0 * k / 13) * 1e-6
         reports.append({"effects": [{"name": "thermal_expansion", "score": 20.0 + 5 * k,
                                      "magnitude": {"thermal_expansion": abs(v)}, "params": {key: v},
-                                     "refined": True, "grade_fails": [], "accepted": True}]})
+                                     "refined": True, "grade_fails": [], "accepted": True, "leftover": 100.0}]})
     figures = null_from_reports(reports)["thermal_expansion"]
     assert figures["magnitude_max_negative"] == pytest.approx(5e-6) and figures["magnitude_max_positive"] == 0.0
     null = NullDistribution({"thermal_expansion": figures}, unit="rv80e")
@@ -395,7 +443,7 @@ def test_a_control_reaches_the_upper_end_of_its_sizes_interval():
     where the report gives no interval; a fit without evidence reaches nothing."""
     from rvflex.diagnosis.null import null_from_reports, reached
 
-    polar = {"name": "pin_ring_runout", "score": 80.0, "magnitude": {"pin_ring_runout": 6.8e-6},
+    polar = {"name": "pin_ring_runout", "score": 80.0, "magnitude": {"pin_ring_runout": 6.8e-6}, "leftover": 100.0,
              "interval": {"pin_ring_runout.cos2phi_m": [3.5e-6, 6.5e-6], "pin_ring_runout.magnitude": [5.8e-6, 7.8e-6]}}
     assert reached(polar, "pin_ring_runout") == 7.8e-6
     key = "thermal_expansion.alpha_mismatch_per_K"
@@ -426,26 +474,27 @@ def test_each_effect_of_a_pair_is_held_against_the_null_by_the_evidence_it_earns
                      magnitude_interval=tuple((0.75 * m, 1.25 * m) for m in size), delta=0.0, nuisance=np.zeros(0),
                      rss=10.0, k=len(x), bic=0.0, refined=True, at_bound=(), model_features=np.zeros(4), score=900.0,
                      gap_shrink_pct=80.0, withheld={"improvement_pct": 80.0})
-    null = NullDistribution({shaft.name: {"evidence_max": 0.0, "magnitude_max": 0.0, "false_alarm_rate": 0.0,
+    null = NullDistribution({shaft.name: {"relative_max": 0.0, "magnitude_max": 0.0, "false_alarm_rate": 0.0,
                                           "controls": 14},
-                             dev.name: {"evidence_max": 105.7, "magnitude_max": 3.4e-6, "false_alarm_rate": 0.0,
+                             dev.name: {"relative_max": 1.06, "magnitude_max": 3.4e-6, "false_alarm_rate": 0.0,
                                         "controls": 14}}, unit="rv40e")
-    local = {"explained_pct": 90.0, "groups": ["TE order 121"]}
+    local = {"explained_pct": 90.0, "groups": ["TE order 121"], "leftover": 100.0}
     little = grade(pair, DiagnosisSettings(), null, local, {shaft.name: 860.0, dev.name: 12.0})
     assert little["grade"] == CONSISTENT and little["own_evidence"] == {shaft.name: 888.0, dev.name: 40.0}
     assert little["fails"] == [f"its {dev.name} earns an evidence of 40 on its own (the pair's 900 less the other "
-                               "effect's alone), not beyond the 106 that healthy units of other model forms reach "
-                               "for it (rv40e ensemble)"]
+                               "effect's alone), 0.40 times the 100 the candidate leaves unexplained, not beyond the "
+                               "1.06 that healthy units of other model forms reach for it (rv40e ensemble)"]
     much = grade(pair, DiagnosisSettings(), null, local, {shaft.name: 700.0, dev.name: 12.0})
-    assert much["grade"] == ESTABLISHED and much["evidence_thresholds"] == {shaft.name: 0.0, dev.name: 105.7}
+    assert much["grade"] == ESTABLISHED and much["relative_thresholds"] == {shaft.name: 0.0, dev.name: 1.06}
 
     control = {"effects": [
         {"name": f"{shaft.name} + {dev.name}", "score": 300.0, "magnitude": {shaft.name: 1e-4, dev.name: 2e-6},
-         "refined": True, "grade_fails": [], "accepted": False},
+         "refined": True, "grade_fails": [], "accepted": False, "leftover": 50.0},
         {"name": shaft.name, "score": 290.0, "magnitude": {shaft.name: 1e-4}, "refined": True, "grade_fails": [],
-         "accepted": False},
+         "accepted": False, "leftover": 60.0},
         {"name": dev.name, "score": -5.0, "magnitude": {dev.name: 1e-6}, "refined": True, "grade_fails": [],
-         "accepted": False}]}
+         "accepted": False, "leftover": 350.0}]}
     figures = null_from_reports([control])
     assert figures[dev.name]["evidence_max"] == 10.0 and figures[dev.name]["magnitude_max"] == 2e-6
+    assert figures[dev.name]["relative_max"] == 0.2  # 10 on its own over the pair's leftover of 50
     assert figures[shaft.name]["evidence_max"] == 300.0  # the deviation alone earns nothing: all of the pair's

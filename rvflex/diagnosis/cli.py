@@ -48,7 +48,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     n = sub.add_parser("null-distribution",
                        help="diagnose healthy units of other model forms (the ensemble) and write the null distribution "
                             "a finding must exceed to be established")
-    n.add_argument("--cases", type=int, default=14, help="ensemble controls per unit (default 14)")
+    n.add_argument("--cases", type=int, default=28, help="ensemble controls per unit (default 28)")
     n.add_argument("--reducers", default="rv40e,rv80e,rv160n",
                    help="comma-separated built-in units (default rv40e,rv80e,rv160n)")
     n.add_argument("--seed", type=int, default=1, help="random seed of the first unit (the next units: seed + 1, …)")
@@ -147,9 +147,9 @@ def _cmd_null(args: argparse.Namespace) -> int:
     out = Path(args.out)
     doc = build_null(out, reducers, args.cases, args.seed, json_path=args.json, cache_dir=out / "cache",
                      log=lambda s: print(s, file=sys.stderr, flush=True))
-    rows = {k: {"evidence_max": round(v["evidence_max"], 1), "false_alarm_rate": round(v["false_alarm_rate"], 3)}
+    rows = {k: {"relative_max": round(v["relative_max"], 3), "false_alarm_rate": round(v["false_alarm_rate"], 3)}
             for k, v in doc["effects"].items()}
-    held = {u: {k: h[k] for k in ("controls", "named", "named_q95")} for u, h in doc["leave_one_out"].items()}
+    held = {u: {k: h[k] for k in ("controls", "named")} for u, h in doc["leave_one_out"].items()}
     print(json.dumps({"controls": doc["source"]["controls"], "wall_s": doc["wall_s"], "effects": rows,
                       "leave_one_out": held}, indent=2))
     if args.json:

@@ -7,8 +7,9 @@ passed every test on all three healthy units while removing 10–29 % of the gap
 only when, besides those tests,
 
 1. it is beyond what healthy units of other model forms make of it (:mod:`rvflex.diagnosis.null`): each of its
-   effects earns more evidence on its own (all of a single's; a pair's less that of its other effect alone) than
-   the ensemble's controls give that effect, and each effect's size exceeds the largest size the controls reach;
+   effects earns a larger relative evidence (the evidence it earns on its own, all of a single's and a pair's less
+   that of its other effect alone, over what the candidate leaves unexplained) than the ensemble's controls give
+   that effect, and each effect's size exceeds the largest determined size the controls reach;
    an effect the controls were not diagnosed with (absent from the distribution), or one with look-alike model
    forms the ensemble cannot draw yet (``Effect.unjudged_by``), is never established while a distribution is in
    use;
@@ -28,7 +29,7 @@ import numpy as np
 
 from rvflex.diagnosis.discrepancy import Discrepancy, residual
 from rvflex.diagnosis.linear import Candidate, Problem, split_params
-from rvflex.diagnosis.null import own_evidence, signed
+from rvflex.diagnosis.null import own_evidence, relative_evidence, signed
 from rvflex.diagnosis.verdict import fmt_mag, fmt_pct, is_significant, undetermined_effect, withheld_confirms
 
 __all__ = ["CONSISTENT", "ESTABLISHED", "MOST", "NOT_SIGNIFICANT", "SIGNATURE_SHARE", "consistent_sentence",
@@ -60,23 +61,26 @@ def explained_where_it_lies(prob: Problem, c: Candidate, base_residual: np.ndarr
     Returns
     -------
     dict
-        ``groups``: labels of the discrepancy groups holding :data:`SIGNATURE_SHARE` of the weighted signature
-        energy (largest first); ``explained_pct``: the fall of the weighted residual sum of squares over those
-        groups (%); ``left_rms_arcsec``: the residual's rms there after the candidate (arcsec). Empty when the
+        ``leftover``: what the candidate leaves unexplained, its weighted residual energy in units of the
+        discrepancy the calibrated model leaves (the units its evidence is counted in); ``groups``: labels of the
+        discrepancy groups holding :data:`SIGNATURE_SHARE` of the weighted signature energy (largest first);
+        ``explained_pct``: the fall of the weighted residual sum of squares over those groups (%);
+        ``left_rms_arcsec``: the residual's rms there after the candidate (arcsec). Only ``leftover`` when the
         candidate has no signature.
     """
     groups = disc.groups
+    rb, rc = base_residual, residual(prob, c)
+    leftover = float(rc @ rc) / disc.pooled
     s = own_change(c) * prob.w
     e = np.array([g.energy(s) for g in groups])
     if not e.sum() > 0:
-        return {}
+        return {"leftover": leftover}
     order = np.argsort(-e)
     cum = np.cumsum(e[order]) / e.sum()
     where = [groups[i] for i in order[:int(np.searchsorted(cum, SIGNATURE_SHARE)) + 1]]
-    rb, rc = base_residual, residual(prob, c)
     before, after = sum(g.energy(rb) for g in where), sum(g.energy(rc) for g in where)
     left = sum(g.energy(rc / prob.w) for g in where) / sum(g.size for g in where)
-    return {"groups": [g.label for g in where],
+    return {"leftover": leftover, "groups": [g.label for g in where],
             "explained_pct": 100.0 * (before - after) / before if before > 0 else 0.0,
             "left_rms_arcsec": float(np.sqrt(left))}
 
@@ -101,35 +105,33 @@ def grade(c: Candidate, settings, null, local: dict, singles: dict | None = None
     -------
     dict
         ``grade`` (:data:`ESTABLISHED`, :data:`CONSISTENT` or :data:`NOT_SIGNIFICANT`), ``fails`` (one phrase per
-        test it fails), ``evidence_threshold`` (the largest of its effects' in the null, or None),
-        ``evidence_thresholds`` and ``own_evidence`` (effect → the null's evidence and what the effect earns on its
-        own here), ``magnitude_thresholds`` (effect → size the ensemble's controls reach), ``explained_where_pct``
-        and ``signature_groups``.
+        test it fails), ``own_evidence`` and ``relative_evidence`` (effect → the evidence it earns on its own here,
+        and that over ``leftover``, what the candidate leaves unexplained), ``relative_thresholds`` (effect → the
+        relative evidence the ensemble's controls reach, None where the null has none), ``magnitude_thresholds``
+        (effect → size they reach), ``explained_where_pct`` and ``signature_groups``.
     """
     names = [e.name for e in c.attributed]
-    ev_ts = {n: null.evidence_threshold(n) for n in names} if null is not None else {}
-    known = [t for t in ev_ts.values() if t is not None]
-    ev_t = max(known) if known else None
     own = {n: own_evidence(c.score, names, n, singles or {}) for n in names}
+    leftover = float(local.get("leftover", c.rss))
+    rel = {n: relative_evidence(own[n], leftover) for n in names}
+    rel_ts = {n: null.relative_threshold(n) for n in names} if null is not None else {}
     mag_t = {n: null.magnitude_threshold(n) for n in names} if null is not None else {}
     whose = f" ({null.unit} ensemble)" if null is not None and null.unit else ""
-    out = {"evidence_threshold": ev_t, "evidence_thresholds": ev_ts, "own_evidence": own, "magnitude_thresholds": mag_t,
-           "null_unit": (null.unit or "all units") if null is not None else None,
+    out = {"own_evidence": own, "leftover": leftover, "relative_evidence": rel, "relative_thresholds": rel_ts,
+           "magnitude_thresholds": mag_t, "null_unit": (null.unit or "all units") if null is not None else None,
            "explained_where_pct": local.get("explained_pct"), "signature_groups": local.get("groups", [])}
     if not is_significant(c, settings):
         return out | {"grade": NOT_SIGNIFICANT, "fails": [f"its evidence {c.score:.0f} is below {settings.bic_threshold:g}"]}
     fails = _failed_tests(c, settings)
     for n in names:
-        t = ev_ts.get(n)
-        if t is None or own[n] > t:
+        t = rel_ts.get(n)
+        if t is None or rel[n] > t:
             continue
-        if len(names) == 1:
-            fails.append(f"its evidence {c.score:.0f} does not exceed the {t:.0f} that healthy units of other model "
-                         f"forms reach for it{whose}")
-        else:
-            fails.append(f"its {n} earns an evidence of {own[n]:.0f} on its own (the pair's {c.score:.0f} less the "
-                         f"other effect's alone), not beyond the {t:.0f} that healthy units of other model forms "
-                         f"reach for it{whose}")
+        earns = (f"its evidence {c.score:.0f} is" if len(names) == 1 else
+                 f"its {n} earns an evidence of {own[n]:.0f} on its own (the pair's {c.score:.0f} less the other "
+                 "effect's alone),")
+        fails.append(f"{earns} {rel[n]:.2f} times the {leftover:.0f} the candidate leaves unexplained, not beyond the "
+                     f"{t:.2f} that healthy units of other model forms reach for it{whose}")
     for (e, x), m in zip(split_params(c.effects, c.x), c.magnitude):
         t = null.magnitude_threshold(e.name, float(np.sign(x[0])) if e.n == 1 else 0.0) if null is not None else None
         if t is not None:
@@ -144,7 +146,7 @@ def grade(c: Candidate, settings, null, local: dict, singles: dict | None = None
                   if e.unjudged_by]
     if null is not None:  # no controls were diagnosed with it: nothing says how far healthy units take it
         fails += [f"healthy units of other model forms have not been diagnosed with {e.name}{whose} (rebuild the null "
-                  f"distribution: rvflex null-distribution)" for e in c.attributed if null.magnitude_threshold(e.name) is None]
+                  f"distribution: rvflex null-distribution)" for e in c.attributed if null.relative_threshold(e.name) is None]
     pct = local.get("explained_pct")
     if pct is None or pct < 100 * MOST:
         where = ", ".join(local.get("groups", [])[:3]) or "its signature's features"

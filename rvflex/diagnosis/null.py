@@ -4,32 +4,38 @@ Every candidate effect can absorb some model-form gap: on a healthy unit of anot
 and a size although nothing is wrong with the unit. How much is not a property of the benches at hand but
 of the candidate against the range of model forms units come in, so the acceptance is set from an ensemble
 of such units (:class:`~rvflex.diagnosis.ensemble.EnsembleMismatch`), each diagnosed as a bench with no
-effect (:func:`rvflex.diagnosis.null_build.build_null`, the command ``rvflex null-distribution``). Per candidate effect the ensemble's
-controls give
+effect (:func:`rvflex.diagnosis.null_build.build_null`, the command ``rvflex null-distribution``). Per candidate
+effect, over the controls, each taken at its candidate in which the effect earns the most evidence on its own
+(:func:`own_evidence`: all of a single's; a pair's less that of its other effect alone):
 
-- ``evidence_max``, ``evidence_q95``: the largest and the 95th percentile over the controls of the most evidence
-  the effect earns on its own in any candidate containing it (:func:`own_evidence`: a pair's evidence less that of
-  its other effect alone; 0 where it gained none);
-- ``magnitude_max``, ``magnitude_q95``: the same of the size the controls reach with evidence: the upper end of
-  the 95 % interval of the effect's size in that best candidate (:func:`reached`) where its evidence is
-  significant (``bic_threshold``), 0 where it is not (a fit without evidence has a size set by noise, often at
-  the bound of its range);
-- ``magnitude_max_positive``, ``magnitude_max_negative``: for a one-parameter effect whose range spans both
-  signs (:func:`signed`), the largest size on each side, which a finding of that sign must exceed;
-- ``false_alarm_rate``: the share of controls in which a candidate with the effect was accepted by the
-  other tests alone (before these thresholds).
+- ``relative_max``: the largest *relative evidence*, that evidence over what the candidate leaves unexplained
+  (``leftover``: its weighted residual energy in units of the discrepancy the calibrated model leaves), 0 where
+  the evidence is not significant (``bic_threshold``);
+- ``magnitude_max``: the largest size the controls reach with a determined fit (:func:`reached`: the upper end of
+  the size's 95 % interval, where the evidence is significant, the interval excludes zero and no parameter sits
+  at its bound; 0 elsewhere); for a one-parameter effect whose range spans both signs (:func:`signed`),
+  ``magnitude_max_positive`` and ``magnitude_max_negative``, the largest on each side, which a finding of that
+  sign must exceed;
+- ``evidence_max``: the largest own evidence (reported, not a threshold);
+- ``false_alarm_rate``: the share of controls in which a candidate with the effect was accepted by the other
+  tests alone (before these thresholds).
 
 The same figures are kept per unit; a diagnosis takes those of the built-in unit its spec is a variant of
 (:meth:`NullDistribution.for_spec`), the pooled ones for any other unit.
 
-A finding is established only when each of its effects earns more evidence on its own than the controls give it,
-and its size exceeds the largest size the controls reach for it (:func:`rvflex.diagnosis.grade.grade`): a size
-healthy units reach is not a finding. The largest, not the 95th percentile: a unit has 14 controls, whose 95th
-percentile lies between their two largest values and below the true one about half the time, and a diagnosis
-tries some twenty effects, so per-effect percentiles let more than one case in twenty through (measured on the
-ensemble self-checks at 06f66ff: 2 false names in 20 cases for seeds 1 and 3 with the percentiles, 1 with the
-largest). :func:`leave_one_out` measures what the thresholds hold on controls they were not made from. The
-distribution ships with the package (:data:`NULL_PATH`) and names the commit-independent settings it was made with.
+A finding is established only when each of its effects earns a larger relative evidence than the controls give
+it and its size exceeds the largest determined size they reach (:func:`rvflex.diagnosis.grade.grade`). *Why
+relative*: the evidence a stand-in earns is the model-form residual it absorbs, so it grows with the square of
+the gap's amplitude and with the number of features (with the discrepancy at its floor, as on most benches,
+evidence is weighted residual energy). Held against a control's evidence, a finding is judged by how far the
+unit's model form and campaign are from the controls', and the largest of a unit's controls is set by its most
+extreme model form (measured, RV-80E: 74 over its first 14 controls, 307 over the next 14, where one calibration
+reached its bound); the ratio to what the candidate leaves does not change when the gap is scaled or the
+campaign repeated (0.32 and 0.57 over the same halves). *Why determined sizes*: a fit the runs cannot determine
+is no finding and its interval's upper end is set by the noise (measured: one RV-80E control with evidence 16
+and an undetermined runout reached 22.6 µm, every determined one at most 9.4 µm). :func:`leave_one_out`
+measures what the thresholds hold on controls they were not made from. The distribution ships with the package
+(:data:`NULL_PATH`) and names the commit-independent settings it was made with.
 """
 
 from __future__ import annotations
@@ -40,19 +46,17 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["NULL_PATH", "NullDistribution", "leave_one_out", "load_null", "null_from_reports", "own_evidence", "reached",
-           "report_singles", "signed"]
+__all__ = ["NULL_PATH", "NullDistribution", "determined", "halves", "leave_one_out", "load_null", "null_from_reports",
+           "own_evidence", "reached", "relative_evidence", "report_singles", "signed"]
 
 NULL_PATH = Path(__file__).with_name("null_distribution.json")
 """The null distribution shipped with the package (made by ``rvflex null-distribution``)."""
 
-QUANTILE = 0.95
-
 
 @dataclass(frozen=True)
 class NullDistribution:
-    """Per candidate effect: ``evidence_q95``, ``magnitude_q95`` (the effect's magnitude unit: m, rad,
-    1/K, …), ``false_alarm_rate`` and ``controls`` (how many controls it was taken over); ``source``: how
+    """Per candidate effect: ``relative_max``, ``magnitude_max`` (the effect's magnitude unit: m, rad, 1/K, …),
+    ``evidence_max``, ``false_alarm_rate`` and ``controls`` (how many controls it was taken over); ``source``: how
     it was made (units, cases, seeds); ``per_unit``: the same per built-in unit, ``unit`` the one
     :meth:`for_spec` chose (None: all units pooled)."""
 
@@ -81,11 +85,11 @@ class NullDistribution:
                 return NullDistribution(effects, self.source, self.per_unit, name)
         return self
 
-    def evidence_threshold(self, name: str) -> float | None:
-        """The evidence effect ``name`` must earn on its own (:func:`own_evidence`) in a finding; None when it is
-        not in the distribution."""
+    def relative_threshold(self, name: str) -> float | None:
+        """The relative evidence (:func:`relative_evidence`) effect ``name`` must exceed in a finding; None when
+        the distribution holds no such figure for it (not diagnosed with it, or made by an older rvflex)."""
         e = self.effects.get(name)
-        return None if e is None else e["evidence_max"]
+        return None if e is None or "relative_max" not in e else e["relative_max"]
 
     def magnitude_threshold(self, name: str, sign: float = 0.0) -> float | None:
         """The size effect ``name`` must exceed (None: not in the distribution); for an effect kept per sign
@@ -160,34 +164,55 @@ def report_singles(report: dict) -> dict:
     return {e["name"]: float(e["score"]) for e in report["effects"] if " + " not in e["name"]}
 
 
+def determined(entry: dict, name: str) -> bool:
+    """Whether effect ``name``'s size in a report's effect ``entry`` is determined: the 95 % interval of its
+    magnitude excludes zero and no parameter of it sits at its range's bound (the acceptance's rule,
+    :func:`~rvflex.diagnosis.verdict.undetermined_effect`). An entry without intervals counts as determined."""
+    if any(b.split(".")[0] == name for b in entry.get("at_bound", ())):
+        return False
+    iv = (entry.get("interval") or {}).get(f"{name}.magnitude")
+    return iv is None or float(iv[0]) > 0.0
+
+
+def relative_evidence(own: float, leftover: float) -> float:
+    """The relative evidence of an effect that earns ``own`` evidence in a candidate leaving ``leftover`` (its
+    weighted residual energy in units of the discrepancy the calibrated model leaves): with the discrepancy at its
+    floor, what the effect removes over what the candidate leaves, which neither the model-form gap's amplitude
+    nor the number of runs changes."""
+    return float(own) / max(float(leftover), 1.0)
+
+
 def null_from_reports(reports: list[dict], significant: float = 10.0) -> dict:
-    """Per effect: the ensemble controls' evidence and magnitude quantiles and false-alarm rate, from their
-    diagnosis documents (``rvflex diagnose --json``). A control's evidence for an effect is the most the effect
-    earns on its own in any of its candidates (:func:`own_evidence`), its size the one it reaches in that candidate
-    where that evidence reaches ``significant`` (the diagnosis's ``bic_threshold``). An effect kept per sign
-    (:func:`signed`) also has ``magnitude_max_positive`` and ``magnitude_max_negative``, the largest size on each
-    side."""
+    """Per effect: the ensemble controls' thresholds (see the module docstring) and false-alarm rate, from their
+    diagnosis documents (``rvflex diagnose --json``). Each control is taken at its candidate in which the effect
+    earns the most evidence on its own (:func:`own_evidence`); where that evidence reaches ``significant`` (the
+    diagnosis's ``bic_threshold``) it gives its relative evidence (:func:`relative_evidence`, the entry's
+    ``leftover``) and, where the fit is also :func:`determined`, its size (:func:`reached`); 0 otherwise. An effect
+    kept per sign (:func:`signed`) also has ``magnitude_max_positive`` and ``magnitude_max_negative``, the largest
+    size on each side."""
     names = sorted({n for d in reports for e in d["effects"] for n in e["name"].split(" + ")})
     out = {}
     singles_of = [report_singles(d) for d in reports]  # once per report, not once per effect name
     for name in names:
-        ev, mag, side, alarms = [], [], [], 0
+        ev, rel, mag, side, alarms = [], [], [], [], 0
         for d, singles in zip(reports, singles_of):
             having = [e for e in d["effects"] if name in e["name"].split(" + ")]
             if not having:
                 continue
             own = [own_evidence(e["score"], e["name"].split(" + "), name, singles) for e in having]
             i = int(np.argmax(own))
-            best = having[i]
+            best, strong = having[i], own[i] >= significant
+            if strong and "leftover" not in best:
+                raise ValueError(f"a control's candidate {best['name']!r} has no 'leftover': its report was made by an "
+                                 "older rvflex (rebuild the null distribution: rvflex null-distribution)")
             ev.append(max(own[i], 0.0))
-            mag.append(reached(best, name) if own[i] >= significant else 0.0)
+            rel.append(relative_evidence(own[i], best["leftover"]) if strong else 0.0)
+            mag.append(reached(best, name) if strong and determined(best, name) else 0.0)
             side.append(_side(best, name))
             alarms += any(e["accepted"] for e in having)
         if ev:
-            out[name] = {"evidence_q95": float(np.quantile(ev, QUANTILE)),
-                         "magnitude_q95": float(np.quantile(mag, QUANTILE)),
-                         "evidence_max": float(max(ev)), "magnitude_max": float(max(mag)),
-                         "false_alarm_rate": alarms / len(ev), "controls": len(ev)}
+            out[name] = {"relative_max": float(max(rel)), "magnitude_max": float(max(mag)),
+                         "evidence_max": float(max(ev)), "false_alarm_rate": alarms / len(ev), "controls": len(ev)}
             if signed(name):
                 out[name] |= {f"magnitude_max_{k}": float(max([m for m, sg in zip(mag, side) if sg * v > 0] or [0.0]))
                               for k, v in (("positive", 1.0), ("negative", -1.0))}
@@ -196,8 +221,8 @@ def null_from_reports(reports: list[dict], significant: float = 10.0) -> dict:
 
 def _named(report: dict, thresholds: dict, significant: float) -> str | None:
     """The candidate a diagnosis made without a null distribution (``report``, its JSON) would accept under
-    ``thresholds`` (effect → {evidence_max, magnitude_max}): the first refined one by score that passed every
-    other test and lies beyond the thresholds of its effects, each by its own evidence (an effect without
+    ``thresholds`` (effect → :func:`null_from_reports` figures): the first refined one by score that passed every
+    other test and lies beyond the thresholds of its effects, each by its own relative evidence (an effect without
     figures: never)."""
     singles = report_singles(report)
     for e in report["effects"]:
@@ -205,7 +230,8 @@ def _named(report: dict, thresholds: dict, significant: float) -> str | None:
         if not e.get("refined") or e["score"] < significant or e.get("grade_fails") or any(
                 n not in thresholds for n in names):
             continue
-        if all(own_evidence(e["score"], names, n, singles) > thresholds[n]["evidence_max"] for n in names) and all(
+        rel = [relative_evidence(own_evidence(e["score"], names, n, singles), e["leftover"]) for n in names]
+        if all(r > thresholds[n]["relative_max"] for r, n in zip(rel, names)) and all(
                 abs(e["magnitude"].get(n, 0.0)) > _size_threshold(thresholds[n], _side(e, n)) for n in names):
             return e["name"]
     return None
@@ -220,16 +246,29 @@ def _size_threshold(figures: dict, sign: float) -> float:
 
 def leave_one_out(reports: list[dict], significant: float = 10.0) -> dict:
     """How many of a unit's controls (``reports``, diagnosed without a null distribution) would name an effect
-    under the thresholds of the other controls alone: ``named`` (their count), ``controls``, ``names`` (control
-    index → the name), and ``named_q95``, the same with the others' 95th percentiles as thresholds."""
-    out = {"controls": len(reports), "named": 0, "named_q95": 0, "names": {}}
+    under the thresholds of the other controls alone: ``named`` (their count), ``controls`` and ``names`` (control
+    index → the name)."""
+    out = {"controls": len(reports), "named": 0, "names": {}}
     for i, d in enumerate(reports):
-        rest = null_from_reports(reports[:i] + reports[i + 1:], significant)
-        name = _named(d, rest, significant)
-        q95 = {k: {"evidence_max": v["evidence_q95"], "magnitude_max": v["magnitude_q95"]} for k, v in rest.items()}
-        # (the 95th percentiles are not kept per sign: both sides take the pooled one)
-        out["named_q95"] += _named(d, q95, significant) is not None
+        name = _named(d, null_from_reports(reports[:i] + reports[i + 1:], significant), significant)
         if name is not None:
             out["named"] += 1
             out["names"][str(i)] = name
+    return out
+
+
+def halves(reports: list[dict], significant: float = 10.0) -> dict:
+    """The thresholds of the first and of the second half of a unit's controls, side by side: per effect with
+    evidence in either, ``relative``, ``magnitude`` and, for comparison, ``evidence`` (each a pair, first half
+    first). How far they differ says how far the figures of all the controls can be trusted."""
+    k = len(reports) // 2
+    a, b = null_from_reports(reports[:k], significant), null_from_reports(reports[k:], significant)
+    out = {}
+    for n in sorted(set(a) | set(b)):
+        fa, fb = a.get(n, {}), b.get(n, {})
+        if max(fa.get("evidence_max", 0.0), fb.get("evidence_max", 0.0)) < significant:
+            continue
+        out[n] = {key: [float(fa.get(f, 0.0)), float(fb.get(f, 0.0))]
+                  for key, f in (("relative", "relative_max"), ("magnitude", "magnitude_max"),
+                                 ("evidence", "evidence_max"))}
     return out

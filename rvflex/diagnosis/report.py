@@ -335,9 +335,10 @@ def json_document(diag) -> dict:
             "grade": c.grade.get("grade"), "grade_fails": list(c.grade.get("fails", [])),
             "explained_where_pct": c.grade.get("explained_where_pct"),
             "signature_groups": list(c.grade.get("signature_groups", [])),
-            "null_evidence_threshold": c.grade.get("evidence_threshold"),
-            "null_evidence_thresholds": c.grade.get("evidence_thresholds") or {},
             "own_evidence": c.grade.get("own_evidence") or {},
+            "leftover": c.grade.get("leftover"),
+            "relative_evidence": c.grade.get("relative_evidence") or {},
+            "null_relative_thresholds": c.grade.get("relative_thresholds") or {},
             "null_magnitude_thresholds": c.grade.get("magnitude_thresholds") or {},
             "null_unit": c.grade.get("null_unit"),
         })
