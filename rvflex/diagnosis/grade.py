@@ -96,7 +96,7 @@ def grade(c: Candidate, settings, null, local: dict, singles: dict | None = None
     null : NullDistribution or None
         The ensemble's thresholds (None: no null distribution; rule 1 is not applied and ``note`` says so).
     local : dict
-        :func:`explained_where_it_lies` of ``c``.
+        :func:`explained_where_it_lies` of ``c`` (without ``leftover``, the candidate's ``rss`` stands for it).
     singles : dict, optional
         Effect → evidence of the single-effect candidates of the same diagnosis: what each effect of a pair earns
         on its own (:func:`~rvflex.diagnosis.null.own_evidence`).
