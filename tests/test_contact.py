@@ -82,7 +82,8 @@ def test_load_sharing_matches_the_analytic_law(rv40e, torque):
                     damping_Ns_m=300.0, body_radius_m=0.066),
     ContactLaw.strip(1e10),  # its forces are small: the damper's omitted q̇-term (below) would dominate
     ContactLaw.linear(2e8, damping_Ns_m=300.0, friction_coefficient=0.08, friction_velocity_m_s=1e-3),
-], ids=["linear", "hertz", "line", "strip", "friction"])
+    ContactLaw.hertz(2e8, 0.95, damping_Ns_m=300.0, seat_compliance_m_N=2e-9),
+], ids=["linear", "hertz", "line", "strip", "friction", "softening_seat"])
 def test_jacobians_match_finite_differences(rv40e, law):
     """K = −∂Q/∂q and D = −∂Q/∂q̇ against central differences at a loaded state (disc
     turned 3″ into the pins, moving). Position steps 1e-9 m / 1e-9 rad: the laws are
@@ -119,7 +120,7 @@ def test_jacobians_match_finite_differences(rv40e, law):
         assert not d.any() and scale_d < 1e-9 * scale_k  # no velocity dependence at all
     else:
         assert np.max(np.abs(d - fd_d)) <= 1e-5 * scale_d
-    if law.friction_coefficient == 0.0 and law.kind in ("linear", "power"):
+    if law.friction_coefficient == 0.0 and law.kind in ("linear", "power"):  # a seat keeps the potential
         assert np.max(np.abs(k - k.T)) <= 1e-9 * scale_k
 
 
@@ -143,6 +144,71 @@ def test_line_law_inverts_the_seed002_deflection(rv40e):
         hk = 1e-3
         assert dfk == pytest.approx((_normal_law(delta, kap + hk, 0.003, law)[0]
                                      - _normal_law(delta, kap - hk, 0.003, law)[0]) / (2 * hk), rel=1e-5)
+
+
+@pytest.mark.parametrize("exponent", [0.9, 1.0, 1.5])
+def test_a_seat_compliance_in_series_shares_the_approach_with_the_contact(exponent):
+    """With a seat compliance s in series, a penetration x is the contact's approach x_c plus the seat's s·F, and
+    F = k·x_c^e: checked against the closed form F = x/(1/k + s) of the linear law and, for a softening (0.9),
+    linear and Hertz (1.5) power law, against x = (F/k)^(1/e) + s·F at approaches from 0.01 to 20 µm; the
+    stiffness matches central differences and never exceeds 1/s (a softening law alone is infinitely stiff at zero
+    approach)."""
+    from rvflex.contact._cycloid_kernel import _normal_law
+
+    s = 2e-9  # m/N: a seat as compliant as a 5e8 N/m pin contact
+    k = {0.9: 2e7, 1.0: 5e8, 1.5: 5e9}[exponent] * (1e-6 ** (1.0 - exponent))  # ~500 N at 1 µm of contact approach
+    law = ContactLaw.hertz(k, exponent, seat_compliance_m_N=s).vector()
+    for x in (1e-8, 1e-7, 1e-6, 5e-6, 2e-5):
+        force, stiff, dfk = _normal_law(x, 50.0, 0.003, law)
+        assert force > 0 and dfk == 0.0
+        assert (force / k) ** (1.0 / exponent) + s * force == pytest.approx(x, rel=1e-12, abs=1e-20)
+        if exponent == 1.0:
+            assert force == pytest.approx(x / (1.0 / k + s), rel=1e-12)
+        h = 1e-3 * x
+        fd = (_normal_law(x + h, 50.0, 0.003, law)[0] - _normal_law(x - h, 50.0, 0.003, law)[0]) / (2 * h)
+        assert stiff == pytest.approx(fd, rel=1e-5) and stiff < 1.0 / s
+    alone = ContactLaw.hertz(k, exponent).vector() if exponent >= 1.0 else None
+    if alone is not None:  # the seat only softens: at every approach the force is below the contact's alone
+        assert _normal_law(1e-6, 50.0, 0.003, law)[0] < _normal_law(1e-6, 50.0, 0.003, alone)[0]
+
+
+def test_a_seat_compliance_softens_the_line_law_by_its_own_approach(rv40e):
+    """Seed 002's line contact with a seat in series: the force at approach δ(F) + s·F is F, and its δ- and
+    κ-derivatives match central differences; a law cut into slices keeps the whole contact's law, each slice's
+    seat carrying its share of the load."""
+    m = rv40e.materials
+    s = 1e-9
+    law = ContactLaw.line(0.010, m.gears_cranks_discs, m.pins, body_radius_m=math.inf, seat_compliance_m_N=s)
+    v = law.vector()
+    from rvflex.contact._cycloid_kernel import _normal_law
+
+    kap = 1 / 0.020
+    for f in (10.0, 1000.0, 8000.0):
+        delta = F.hertz_line_deflection(f, 0.010, 0.020, 0.003, m.gears_cranks_discs.youngs_modulus_Pa,
+                                        m.gears_cranks_discs.poisson_ratio, m.pins.youngs_modulus_Pa,
+                                        m.pins.poisson_ratio)
+        force, stiff, dfk = _normal_law(delta + s * f, kap, 0.003, v)
+        assert force == pytest.approx(f, rel=1e-9)
+        x, h, hk = delta + s * f, 1e-12, 1e-3
+        assert stiff == pytest.approx((_normal_law(x + h, kap, 0.003, v)[0] - _normal_law(x - h, kap, 0.003, v)[0])
+                                      / (2 * h), rel=1e-5)
+        assert dfk == pytest.approx((_normal_law(x, kap + hk, 0.003, v)[0] - _normal_law(x, kap - hk, 0.003, v)[0])
+                                    / (2 * hk), rel=1e-5)
+        slices = law.sliced(4).vector()
+        assert 4 * _normal_law(x, kap, 0.003, slices)[0] == pytest.approx(f, rel=1e-9)
+
+
+def test_a_softening_contact_law_needs_a_seat_and_a_seat_compliance_must_be_a_compliance():
+    """A power law below exponent 1 alone is refused (its stiffness is infinite at zero approach), with a seat in
+    series it is accepted from 0.9; a negative or infinite seat compliance is one message naming it."""
+    with pytest.raises(ValueError, match=r"exponent = 0\.95: must lie in \[1, 3\] \(from 0\.9 with a seat"):
+        ContactLaw.hertz(2e8, 0.95)
+    assert ContactLaw.hertz(2e8, 0.9, seat_compliance_m_N=1e-9).exponent == 0.9
+    with pytest.raises(ValueError, match=r"exponent = 0\.85: must lie in \[0\.9, 3\]"):
+        ContactLaw.hertz(2e8, 0.85, seat_compliance_m_N=1e-9)
+    for bad in (-1e-9, math.inf, math.nan):
+        with pytest.raises(ValueError, match="seat_compliance_m_N = .*must be a finite compliance ≥ 0"):
+            ContactLaw.linear(2e8, seat_compliance_m_N=bad)
 
 
 def test_line_law_is_smooth_through_the_flank_inflection(rv40e):

@@ -301,3 +301,26 @@ def test_a_rigid_run_that_exudyns_solver_must_bisect_goes_on_by_the_chord_newton
     chord = quasi_static(build_reducer(rv40e, errors), theta, 103.0, chord_newton=True).te_rad
     assert np.ptp(chord) * ARCSEC_PER_RAD > 0.05
     assert np.abs(auto - chord).max() * ARCSEC_PER_RAD < 1e-4
+
+
+def test_a_seat_compliance_in_series_is_the_series_stiffness_on_the_whole_reducer(rv40e):
+    """A linear pin contact k with a seat compliance s in series is, on the rigid RV-40E at rated torque, the same
+    reducer as a linear contact of 1/(1/k + s): wind-up and TE agree to the solver's tolerance (1e-4″); against k
+    alone the seat adds wind-up. The seat enters every pin contact, not a lumped output compliance."""
+    import dataclasses
+
+    from rvflex.contact.cycloid_pin import ContactLaw
+    from rvflex.options import ModelOptions
+
+    spec, k, s = perfect_spec(rv40e), 5e8, 1e-9
+
+    def run(law):
+        opts = dataclasses.replace(ModelOptions.rigid(), contact_law=law)
+        return run_loaded_te(LoadedTE(spec, ErrorSpec(), 412.0, revolutions=0.05, positions_per_rev=320,
+                                      options=opts))
+
+    seat, series, alone = (run(law) for law in (ContactLaw.linear(k, seat_compliance_m_N=s),
+                                                ContactLaw.linear(1.0 / (1.0 / k + s)), ContactLaw.linear(k)))
+    assert seat[1].mean_windup_arcsec == pytest.approx(series[1].mean_windup_arcsec, abs=1e-4)
+    assert np.max(np.abs(seat[0].te_rad - series[0].te_rad)) * ARCSEC_PER_RAD < 1e-4
+    assert seat[1].mean_windup_arcsec < alone[1].mean_windup_arcsec < 0  # more lag with the seat

@@ -51,8 +51,11 @@ from rvflex.geometry._kernels import closest_point, profile_point
 LAW_LINEAR, LAW_POWER, LAW_LINE, LAW_STRIP = 0, 1, 2, 3
 STRIP_FACTOR = 4.0 * math.sqrt(2.0) / 3.0
 # law parameter vector
-L_KIND, L_K, L_EXP, L_C, L_MU, L_VREG, L_WIDTH, L_COMPL1, L_COMPL2, L_INV_RB = range(10)
-N_LAW = 10
+L_KIND, L_K, L_EXP, L_C, L_MU, L_VREG, L_WIDTH, L_COMPL1, L_COMPL2, L_INV_RB, L_SEAT = range(11)
+N_LAW = 11
+SEAT_TOL_M = 1e-18  # m: the split of the approach solved to rounding (~1e-22 m at µm approaches), so the
+# force and its derivatives agree with central differences as the laws without a seat do
+SEAT_MAXIT = 60
 CURVATURE_STEP_T = 1e-6  # profile-parameter step of the central difference dκ/dt (error ~1e-12 relative)
 # per-pin and per-point output columns
 O_GAP, O_FORCE, O_PX, O_PY, O_T, O_FT = range(6)
@@ -119,7 +122,40 @@ def _line_force(delta, kap, r_pin, law):
 @_jit
 def _normal_law(x, kap, r_pin, law):
     """Elastic normal force f(x) ≥ 0 (N), f'(x) (N/m) and ∂f/∂κ (N·m) for penetration x (m)
-    at flank curvature κ (1/m)."""
+    at flank curvature κ (1/m).
+
+    With a seat compliance s = ``law[L_SEAT]`` (m/N) in series, the penetration is shared: the contact
+    takes x_c and the pin's seat s·f(x_c), x_c + s·f(x_c) = x, solved by Newton kept inside [0, x] (the
+    left side grows with x_c at slope ≥ 1); then f' = f'_c/(1 + s·f'_c) ≤ 1/s and likewise ∂f/∂κ.
+    """
+    if x <= 0.0:
+        return 0.0, 0.0, 0.0
+    s = law[L_SEAT]
+    if s <= 0.0:
+        return _contact_law(x, kap, r_pin, law)
+    lo, hi = 0.0, x
+    xc = x - s * _contact_law(x, kap, r_pin, law)[0]
+    if not 0.0 < xc < x:
+        xc = 0.5 * x
+    for _ in range(SEAT_MAXIT):
+        f, df, dfk = _contact_law(xc, kap, r_pin, law)
+        g = xc + s * f - x
+        if g > 0.0:
+            hi = xc
+        else:
+            lo = xc
+        if abs(g) <= SEAT_TOL_M:
+            break
+        nxt = xc - g / (1.0 + s * df)
+        xc = nxt if lo < nxt < hi else 0.5 * (lo + hi)
+    f, df, dfk = _contact_law(xc, kap, r_pin, law)
+    den = 1.0 + s * df
+    return f, df / den, dfk / den
+
+
+@_jit
+def _contact_law(x, kap, r_pin, law):
+    """The contact's own force, f'(x) and ∂f/∂κ at its approach x (m), without a seat compliance."""
     if x <= 0.0:
         return 0.0, 0.0, 0.0
     kind = law[L_KIND]

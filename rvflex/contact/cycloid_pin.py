@@ -82,6 +82,11 @@ class ContactLaw:
         Contact width b (the disc thickness) for "line" (m).
     disc_compliance_1_Pa, pin_compliance_1_Pa : float
         (1 − ν²)/E of disc and pin for "line" (1/Pa).
+    seat_compliance_m_N : float
+        s, a compliance of each pin's seat in series with the contact (m/N; 0: none): the penetration x
+        splits into the contact's approach x_c and the seat's s·F, F = f(x_c), so the force-approach law
+        softens with load and its stiffness never exceeds 1/s. With it a power law may soften
+        (exponent from 0.9): the seat bounds the stiffness a sub-linear law has at zero approach.
     body_radius_m : float
         For "line": bound on the flank radius in seed 002's ln(4ρ/c) term (m). The term is the
         approach of a cylinder of radius ρ measured to its centre; where the flank is nearly
@@ -101,13 +106,20 @@ class ContactLaw:
     disc_compliance_1_Pa: float = 0.0
     pin_compliance_1_Pa: float = 0.0
     body_radius_m: float = math.inf
+    seat_compliance_m_N: float = 0.0
 
     def __post_init__(self) -> None:
         check_choice("contact law kind", self.kind, ContactLawKind)
         if self.kind != "line" and not self.stiffness > 0:
             raise ValueError(f"contact law stiffness = {self.stiffness!r}: must be positive")
-        if self.kind == "power" and not 1.0 <= self.exponent <= 3.0:
-            raise ValueError(f"contact law exponent = {self.exponent!r}: must lie in [1, 3]")
+        if not (math.isfinite(self.seat_compliance_m_N) and self.seat_compliance_m_N >= 0.0):
+            raise ValueError(f"contact law seat_compliance_m_N = {self.seat_compliance_m_N!r}: must be a finite "
+                             "compliance ≥ 0 (m/N)")
+        low = 0.9 if self.seat_compliance_m_N > 0.0 else 1.0
+        if self.kind == "power" and not low <= self.exponent <= 3.0:
+            raise ValueError(f"contact law exponent = {self.exponent!r}: must lie in [{low:g}, 3]"
+                             + ("" if low == 0.9 else " (from 0.9 with a seat compliance in series, which bounds "
+                                "the stiffness a softening law has at zero approach)"))
         if self.kind == "line" and not (self.width_m > 0 and self.disc_compliance_1_Pa > 0
                                         and self.pin_compliance_1_Pa > 0):
             raise ValueError("line contact law: width_m and both compliances must be positive")
@@ -157,9 +169,12 @@ class ContactLaw:
             raise ValueError(f"slices = {slices!r}: must be an integer ≥ 1")
         if slices == 1:
             return self
+        seat = self.seat_compliance_m_N * slices  # each slice's share of the seat carries its share of the load
         if self.kind == "line":
-            return dataclasses.replace(self, width_m=self.width_m / slices, damping_Ns_m=self.damping_Ns_m / slices)
-        return dataclasses.replace(self, stiffness=self.stiffness / slices, damping_Ns_m=self.damping_Ns_m / slices)
+            return dataclasses.replace(self, width_m=self.width_m / slices, damping_Ns_m=self.damping_Ns_m / slices,
+                                       seat_compliance_m_N=seat)
+        return dataclasses.replace(self, stiffness=self.stiffness / slices, damping_Ns_m=self.damping_Ns_m / slices,
+                                   seat_compliance_m_N=seat)
 
     def vector(self) -> np.ndarray:
         """Parameter vector of the kernel."""
@@ -169,6 +184,7 @@ class ContactLaw:
         v[K.L_MU], v[K.L_VREG] = self.friction_coefficient, self.friction_velocity_m_s
         v[K.L_WIDTH], v[K.L_COMPL1], v[K.L_COMPL2] = self.width_m, self.disc_compliance_1_Pa, self.pin_compliance_1_Pa
         v[K.L_INV_RB] = 1.0 / self.body_radius_m
+        v[K.L_SEAT] = self.seat_compliance_m_N
         return v
 
 

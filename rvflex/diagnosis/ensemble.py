@@ -19,9 +19,11 @@ hidden effect, from the nominal spec of a built-in unit:
 - a housing-to-steel thermal mismatch within ±1 ppm/K;
 - rigid or FE-reduced flexible discs.
 
-Not drawn, because the model has no such form yet: a softening contact law (exponent below 1), a series
-compliance at each pin seat, power-law needle bearings, anisotropic crank supports, crank seats that move in
-the carrier and a flexible carrier (its reduction per case would dominate the run's cost). The two foreign
+Not drawn yet: a compliance at each pin seat in series with the contact and, with it, a softening contact law
+(exponent 0.9 … 1; the contact law has both, :attr:`~rvflex.contact.cycloid_pin.ContactLaw.seat_compliance_m_N`,
+but the null distribution has not been rebuilt with them); and, because the model has no such form yet,
+power-law needle bearings, anisotropic crank supports, crank seats that move in the carrier and a flexible
+carrier (its reduction per case would dominate the run's cost). The two foreign
 benches' simulators differ from the rvflex model in those ways too; the ensemble is not either of them.
 """
 
