@@ -137,6 +137,7 @@ def _normal_law(x, kap, r_pin, law):
     xc = x - s * _contact_law(x, kap, r_pin, law)[0]
     if not 0.0 < xc < x:
         xc = 0.5 * x
+    converged = False
     for _ in range(SEAT_MAXIT):
         f, df, dfk = _contact_law(xc, kap, r_pin, law)
         g = xc + s * f - x
@@ -145,10 +146,12 @@ def _normal_law(x, kap, r_pin, law):
         else:
             lo = xc
         if abs(g) <= SEAT_TOL_M:
+            converged = True
             break
         nxt = xc - g / (1.0 + s * df)
         xc = nxt if lo < nxt < hi else 0.5 * (lo + hi)
-    f, df, dfk = _contact_law(xc, kap, r_pin, law)
+    if not converged:  # the last step moved x_c past the values evaluated at it
+        f, df, dfk = _contact_law(xc, kap, r_pin, law)
     den = 1.0 + s * df
     return f, df / den, dfk / den
 
