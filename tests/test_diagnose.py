@@ -504,6 +504,48 @@ def test_a_pair_restated_in_the_rankings_name_order_is_the_same_fit():
     assert _ordered(o, {frozenset((a.name, b.name)): [a.name, b.name]}) is o  # already in order
 
 
+def test_a_single_is_started_again_from_the_value_its_refined_pair_found():
+    """``stages.candidates.from_pairs``: an effect of a refined pair whose value there lies outside the 95 % interval
+    of its own best fit gets a start at the pair's values (the pair's nominal parameters and that effect's, the pair's
+    Jacobian columns for them), linearised about the calibration so the refinement's first run is at the start; an
+    effect the pair leaves within its own interval gets none."""
+    from rvflex.diagnosis.linear import Problem, bounds, lin_fit, make_candidate, nuisance_columns
+    from rvflex.diagnosis.nominal import NOMINAL
+    from rvflex.diagnosis.stages.candidates import from_pairs
+
+    cal, a, b = NOMINAL["contact_stiffness"], EFFECTS["thermal_expansion"], EFFECTS["pin_ring_runout"]
+    plan = (PlanRun("te", "te", load_Nm=412.0, temperature_C=40.0),)
+    lay = feature_layout(plan, 63)
+    rng = np.random.default_rng(3)
+    J = rng.normal(size=(lay.n, 4)) * np.r_[1.0, 1e5, 1e6, 1e6]  # columns: contact stiffness, thermal, runout cos/sin
+    y = J @ np.array([0.1, 5e-6, 2e-6, -1e-6]) + rng.normal(0.0, 0.05, lay.n)
+    prob = Problem.build(y, lay, np.full(lay.n, 20.0), nuisance_columns(lay))
+    n_nuis = prob.nuis.shape[1]
+
+    def fit(effects, cols):
+        lo, hi = bounds(effects)
+        x, nu, d, rss, A = lin_fit(prob, np.zeros(lay.n), J[:, cols], np.zeros(len(cols)), lo, hi)
+        return make_candidate(effects, x, nu, d, rss, A, lay.n, n_nuis, J[:, cols] @ x, refined=True,
+                              jacobian=J[:, cols])
+
+    pair = fit((cal, a, b), [0, 1, 2, 3])
+    np.testing.assert_allclose(pair.x[1], 5e-6, rtol=0.05)
+    stuck = dataclasses.replace(fit((cal, a), [0, 1]), x=np.array([0.1, 5e-7]), magnitude=(0.1, 5e-7),
+                                magnitude_interval=((0.0, 0.2), (3e-7, 8e-7)))  # a single left in a dead zone
+    near = fit((cal, b), [0, 2, 3])
+    near = dataclasses.replace(near, magnitude_interval=(near.magnitude_interval[0], (0.0, 1e-3)))
+    x_cal, f_cal = np.array([0.05]), rng.normal(size=lay.n)
+    starts = from_pairs([pair], {a.name: stuck, b.name: near}, x_cal, f_cal, prob, n_nuis)
+    assert [s.name for s in starts] == [a.name]  # the runout lies within its single's interval: no start
+    s = starts[0]
+    assert [e.name for e in s.effects] == [cal.name, a.name] and not s.refined
+    np.testing.assert_array_equal(s.x, pair.x[[0, 1]])
+    np.testing.assert_array_equal(s.jacobian, pair.jacobian[:, [0, 1]])
+    np.testing.assert_array_equal(s.base_x, [0.05, 0.0])
+    np.testing.assert_array_equal(s.base_features, f_cal)
+    assert not from_pairs([stuck, near], {a.name: stuck, b.name: near}, x_cal, f_cal, prob, n_nuis)  # singles: none
+
+
 def test_a_pair_needs_its_second_effect_to_remove_a_quarter_of_the_rest():
     """With the single-variance evidence ("bic", the former rule kept to compare), the rule that admits an
     effect against "no effect" applied to the second effect of a pair: ≥ 25 % of the weighted gap the better
