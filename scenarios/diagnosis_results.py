@@ -225,7 +225,9 @@ def null_table(path: str | Path | None = None) -> str:
               f"({src.get('cases_per_unit', '?')} per unit, seed {src.get('seed', '?')}; "
               f"`rvflex null-distribution --cases {src.get('cases_per_unit', '?')} --seed {src.get('seed', '?')}`). "
               "Thresholds as relative evidence / size (the largest the controls reach; for a one-parameter effect "
-              "whose range spans both signs, the size on each side)."), "",
+              "whose range spans both signs, the size on each side, + above zero, − below; for the modification "
+              "deviation, + with its moved and equidistant parts of opposite signs, the clearance side, − of one "
+              "sign, the shape side)."), "",
              "| effect | false alarms (tests alone) | " + " | ".join(units + ["pooled"]) + " |",
              "|---|---:|" + "---:|" * (len(units) + 1)]
 
@@ -236,7 +238,7 @@ def null_table(path: str | Path | None = None) -> str:
         def size(m):
             return f"{m:.3g}" if plain else fmt_mag(e, m)
 
-        if "magnitude_max_positive" in v:  # kept per sign: the side above zero, then the side below
+        if "magnitude_max_positive" in v:  # kept per side (rvflex.diagnosis.null.side): + side, then − side
             return (f"{v['relative_max']:.2f} / +{size(v['magnitude_max_positive'])}, "
                     f"−{size(v['magnitude_max_negative'])}")
         return f"{v['relative_max']:.2f} / {size(v['magnitude_max'])}"

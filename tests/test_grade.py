@@ -417,8 +417,8 @@ def test_an_effect_with_two_physical_signs_is_held_against_the_controls_on_its_o
     from rvflex.diagnosis.grade import grade
     from rvflex.diagnosis.null import NullDistribution, leave_one_out, null_from_reports, signed
 
-    key = signed("thermal_expansion")
-    assert key == "thermal_expansion.alpha_mismatch_per_K" and signed("pin_ring_runout") is None
+    key = "thermal_expansion.alpha_mismatch_per_K"
+    assert signed("thermal_expansion") and not signed("pin_ring_runout")
     reports = []
     for k in range(14):
         v = -(1.0 + 4.0 * k / 13) * 1e-6
@@ -435,6 +435,42 @@ def test_an_effect_with_two_physical_signs_is_held_against_the_controls_on_its_o
     assert below["grade"] == CONSISTENT and any("on that side of zero" in f for f in below["fails"])
     held = leave_one_out(reports)
     assert held["named"] == 1 and held["names"] == {"13": "thermal_expansion"}
+
+
+def test_a_modification_deviation_is_held_against_the_controls_on_its_shape_or_clearance_side():
+    """The moved and equidistant modification deviations of one sign nearly cancel (the profile's working clearance
+    is their difference): along that diagonal they change the profile's shape, across it its clearance. Ten controls
+    whose model form projects onto the shape side (both deviations of one sign, 1 … 6 µm, evidence 20 … 65) bound a
+    5 µm shape-side finding and leave a 5 µm clearance-side one (moved −3 µm, equidistant +4 µm: a 4 µm pin
+    undersize and a 3 µm smaller moved modification) beyond them, with the words of the side."""
+    from rvflex.diagnosis.grade import grade
+    from rvflex.diagnosis.null import NullDistribution, null_from_reports, side, signed
+
+    name = "disc_modification_deviation"
+    assert signed(name)
+    assert side(name, [-3e-6, 4e-6]) == 1.0 and side(name, [3e-6, 4e-6]) == -1.0 and side(name, [0.0, 4e-6]) == 0.0
+    reports = []
+    for k in range(10):
+        v = (1.0 + 5.0 * k / 9) * 1e-6
+        sg = 1.0 if k % 2 else -1.0  # opening and closing along the shape diagonal alike
+        reports.append({"effects": [{"name": name, "score": 20.0 + 5 * k, "magnitude": {name: v},
+                                     "params": {f"{name}.moved_m": sg * 0.8 * v, f"{name}.equidistant_m": sg * 0.6 * v},
+                                     "refined": True, "grade_fails": [], "accepted": True, "leftover": 100.0}]})
+    figures = null_from_reports(reports)[name]
+    assert figures["magnitude_max_negative"] == pytest.approx(6e-6) and figures["magnitude_max_positive"] == 0.0
+    null = NullDistribution({name: figures}, unit="rv40e")
+    local = {"explained_pct": 90.0, "groups": ["TE pin-mesh orders"]}
+
+    def fitted(moved, equidistant):
+        c = _fitted(name, 5e-6)
+        x = np.array([moved, equidistant])
+        return dataclasses.replace(c, x=x, interval=np.column_stack([x - 1e-6, x + 1e-6]))
+
+    across = grade(fitted(-3e-6, 4e-6), DiagnosisSettings(), null, local)
+    assert across["grade"] == ESTABLISHED and across["magnitude_thresholds"] == {name: 0.0}
+    along = grade(fitted(3e-6, 4e-6), DiagnosisSettings(), null, local)
+    assert along["grade"] == CONSISTENT
+    assert any("within the 6.00 µm" in f and "(the shape side)" in f for f in along["fails"])
 
 
 def test_a_control_reaches_the_upper_end_of_its_sizes_interval():

@@ -29,7 +29,7 @@ import numpy as np
 
 from rvflex.diagnosis.discrepancy import Discrepancy, residual
 from rvflex.diagnosis.linear import Candidate, Problem, split_params
-from rvflex.diagnosis.null import own_evidence, relative_evidence, signed
+from rvflex.diagnosis.null import own_evidence, relative_evidence, side, side_text
 from rvflex.diagnosis.verdict import fmt_mag, fmt_pct, is_significant, undetermined_effect, withheld_confirms
 
 __all__ = ["CONSISTENT", "ESTABLISHED", "MOST", "NOT_SIGNIFICANT", "SIGNATURE_SHARE", "consistent_sentence",
@@ -133,13 +133,14 @@ def grade(c: Candidate, settings, null, local: dict, singles: dict | None = None
         fails.append(f"{earns} {rel[n]:.2f} times the {leftover:.0f} the candidate leaves unexplained, not beyond the "
                      f"{t:.2f} that healthy units of other model forms reach for it{whose}")
     for (e, x), m in zip(split_params(c.effects, c.x), c.magnitude):
-        t = null.magnitude_threshold(e.name, float(np.sign(x[0])) if e.n == 1 else 0.0) if null is not None else None
+        sg = side(e.name, x)
+        t = null.magnitude_threshold(e.name, sg) if null is not None else None
         if t is not None:
             mag_t[e.name] = t
         if not e.nominal and t is not None and abs(m) <= t:
-            side = " on that side of zero" if e.n == 1 and x[0] and signed(e.name) else ""
+            where = side_text(e.name, sg)
             fails.append(f"its {e.name} of {fmt_mag(e, abs(m))} is within the {fmt_mag(e, t)} healthy units of other "
-                         f"model forms reach{side}{whose}")
+                         f"model forms reach{where}{whose}")
     if null is not None:  # look-alike model forms the ensemble cannot draw: its thresholds do not bound them
         fails += [f"healthy units with {e.unjudged_by}, model forms the ensemble cannot draw yet, act where {e.name} "
                   "acts: the null distribution does not bound what they make of it" for e in c.attributed

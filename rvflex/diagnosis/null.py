@@ -13,9 +13,10 @@ effect, over the controls, each taken at its candidate in which the effect earns
   the evidence is not significant (``bic_threshold``);
 - ``magnitude_max``: the largest size the controls reach with a determined fit (:func:`reached`: the upper end of
   the size's 95 % interval, where the evidence is significant, the interval excludes zero and no parameter sits
-  at its bound; 0 elsewhere); for a one-parameter effect whose range spans both signs (:func:`signed`),
-  ``magnitude_max_positive`` and ``magnitude_max_negative``, the largest on each side, which a finding of that
-  sign must exceed;
+  at its bound; 0 elsewhere); for an effect kept per side (:func:`signed`: a one-parameter effect whose range
+  spans both signs, or a two-parameter one whose parameters of one sign nearly cancel), ``magnitude_max_positive``
+  and ``magnitude_max_negative``, the largest on each side (:func:`side`), which a finding on that side must
+  exceed;
 - ``evidence_max``: the largest own evidence (reported, not a threshold);
 - ``false_alarm_rate``: the share of controls in which a candidate with the effect was accepted by the other
   tests alone (before these thresholds).
@@ -48,7 +49,7 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["NULL_PATH", "NullDistribution", "determined", "halves", "leave_one_out", "load_null", "null_from_reports",
-           "own_evidence", "reached", "relative_evidence", "report_singles", "signed"]
+           "own_evidence", "reached", "relative_evidence", "report_singles", "side", "side_text", "signed"]
 
 NULL_PATH = Path(__file__).with_name("null_distribution.json")
 """The null distribution shipped with the package (made by ``rvflex null-distribution``)."""
@@ -93,8 +94,8 @@ class NullDistribution:
         return None if e is None or "relative_max" not in e else e["relative_max"]
 
     def magnitude_threshold(self, name: str, sign: float = 0.0) -> float | None:
-        """The size effect ``name`` must exceed (None: not in the distribution); for an effect kept per sign
-        (:func:`signed`), the threshold of the side ``sign`` (> 0 or < 0) when one is given."""
+        """The size effect ``name`` must exceed (None: not in the distribution); for an effect kept per side
+        (:func:`signed`), the threshold of the side ``sign`` (> 0 or < 0, :func:`side`) when one is given."""
         e = self.effects.get(name)
         return None if e is None else _size_threshold(e, sign)
 
@@ -108,29 +109,63 @@ def load_null(path: str | Path | None = None) -> NullDistribution | None:
     return NullDistribution(doc.get("effects", {}), doc.get("source", {}), doc.get("per_unit", {}))
 
 
-def signed(name: str) -> str | None:
-    """The parameter of effect ``name`` whose sign the null distribution keeps apart (its full name,
-    ``effect.param``), or None. A one-parameter effect whose range spans both signs describes two opposite
-    deviations (a housing that expands more than the steel parts, or less), each with its own signature: a
-    model form that projects onto one side (measured, the RV-80E's controls: every thermal fit negative, down
-    to −5 ppm/K) says nothing of how far healthy units reach on the other."""
+def signed(name: str) -> bool:
+    """Whether the null distribution keeps effect ``name``'s sizes per side (:func:`side`).
+
+    A one-parameter effect whose range spans both signs describes two opposite deviations (a housing that expands
+    more than the steel parts, or less), each with its own signature: a model form that projects onto one side
+    (measured, the RV-80E's controls: every thermal fit negative, down to −5 ppm/K) says nothing of how far healthy
+    units reach on the other. A two-parameter effect whose parameters of one sign nearly cancel
+    (``Effect.corners``: the moved and equidistant modification deviations, whose difference is the profile's
+    working clearance) describes a shape change along that diagonal and a clearance change across it: the
+    controls' stand-ins lie along it (measured, the 84 controls' 29 determined fits: 21 along it, up to 13.1 µm,
+    4 across it, up to 2.2 µm, 4 on the dividing line, up to 5.7 µm), which says little of how far they reach in
+    clearance."""
     from rvflex.diagnosis.effects import EFFECTS
 
     e = EFFECTS.get(name)
-    if e is None or e.n != 1 or e.nominal or not e.params[0].low < 0.0 < e.params[0].high:
-        return None
-    return f"{name}.{e.params[0].name}"
+    if e is None or e.nominal:
+        return False
+    return e.corners or (e.n == 1 and e.params[0].low < 0.0 < e.params[0].high)
+
+
+def side(name: str, x) -> float:
+    """The side of effect ``name`` at parameters ``x`` (its own, in its order) the null distribution keeps its
+    size on: for a one-parameter effect the sign of ``x``; for a corners effect +1 across its cancelling diagonal
+    (parameters of opposite signs: the clearance side) and −1 along it (of one sign: the shape side); 0 at the
+    dividing line (a control there counts on both sides, a finding there is held against the larger) and for an
+    effect not kept per side."""
+    if not signed(name):
+        return 0.0
+    x = np.asarray(x, float)
+    return float(np.sign(x[0])) if x.size == 1 else float(-np.sign(x[0] * x[1]))
+
+
+def side_text(name: str, sign: float) -> str:
+    """The words a size threshold of effect ``name`` on side ``sign`` is given ("" when not kept per side)."""
+    if not sign or not signed(name):
+        return ""
+    from rvflex.diagnosis.effects import EFFECTS
+
+    if EFFECTS[name].n == 1:
+        return " on that side of zero"
+    return (" with its parameters of opposite signs (the clearance side)" if sign > 0 else
+            " with its parameters of one sign (the shape side)")
 
 
 def _side(entry: dict, name: str) -> float:
-    """The sign of effect ``name``'s parameter in a report's effect ``entry`` (0 when not kept per sign)."""
-    key = signed(name)
-    return float(np.sign(entry.get("params", {}).get(key, 0.0))) if key else 0.0
+    """The side (:func:`side`) of effect ``name`` in a report's effect ``entry`` (0 when not kept per side)."""
+    if not signed(name):
+        return 0.0
+    from rvflex.diagnosis.effects import EFFECTS
+
+    params = entry.get("params", {})
+    return side(name, [params.get(f"{name}.{p.name}", 0.0) for p in EFFECTS[name].params])
 
 
 def reached(entry: dict, name: str) -> float:
     """The size a control reaches for effect ``name`` in its report's effect ``entry``: the upper end of the size's
-    95 % interval (on the side of its estimate for an effect kept per sign), the estimate where no interval is
+    95 % interval (on the side of its estimate for a one-parameter effect kept per side), the estimate where no interval is
     given. A control's fitted size is an estimate as a finding's is: taken at its point value, the thresholds
     moved by a micrometre with every re-fit of the same controls (measured, RV-80E: the largest pin-ring runout
     6.8 µm or 8.2 µm as the modification deviation's secants changed, a crank phase error's 7.8 µm runout
@@ -189,13 +224,13 @@ def null_from_reports(reports: list[dict], significant: float = 10.0) -> dict:
     earns the most evidence on its own (:func:`own_evidence`); where that evidence reaches ``significant`` (the
     diagnosis's ``bic_threshold``) it gives its relative evidence (:func:`relative_evidence`, the entry's
     ``leftover``) and, where the fit is also :func:`determined`, its size (:func:`reached`); 0 otherwise. An effect
-    kept per sign (:func:`signed`) also has ``magnitude_max_positive`` and ``magnitude_max_negative``, the largest
-    size on each side."""
+    kept per side (:func:`signed`) also has ``magnitude_max_positive`` and ``magnitude_max_negative``, the largest
+    size on each side (:func:`side`)."""
     names = sorted({n for d in reports for e in d["effects"] for n in e["name"].split(" + ")})
     out = {}
     singles_of = [report_singles(d) for d in reports]  # once per report, not once per effect name
     for name in names:
-        ev, rel, mag, side, alarms = [], [], [], [], 0
+        ev, rel, mag, sides, alarms = [], [], [], [], 0
         for d, singles in zip(reports, singles_of):
             having = [e for e in d["effects"] if name in e["name"].split(" + ")]
             if not having:
@@ -209,13 +244,13 @@ def null_from_reports(reports: list[dict], significant: float = 10.0) -> dict:
             ev.append(max(own[i], 0.0))
             rel.append(relative_evidence(own[i], best["leftover"]) if strong else 0.0)
             mag.append(reached(best, name) if strong and determined(best, name) else 0.0)
-            side.append(_side(best, name))
+            sides.append(_side(best, name))
             alarms += any(e["accepted"] for e in having)
         if ev:
             out[name] = {"relative_max": float(max(rel)), "magnitude_max": float(max(mag)),
                          "evidence_max": float(max(ev)), "false_alarm_rate": alarms / len(ev), "controls": len(ev)}
-            if signed(name):
-                out[name] |= {f"magnitude_max_{k}": float(max([m for m, sg in zip(mag, side) if sg * v > 0] or [0.0]))
+            if signed(name):  # a control on the dividing line (side 0: a parameter held at zero) counts on both
+                out[name] |= {f"magnitude_max_{k}": float(max([m for m, sg in zip(mag, sides) if sg * v >= 0] or [0.0]))
                               for k, v in (("positive", 1.0), ("negative", -1.0))}
     return out
 
