@@ -534,3 +534,37 @@ def test_each_effect_of_a_pair_is_held_against_the_null_by_the_evidence_it_earns
     assert figures[dev.name]["evidence_max"] == 10.0 and figures[dev.name]["magnitude_max"] == 2e-6
     assert figures[dev.name]["relative_max"] == 0.2  # 10 on its own over the pair's leftover of 50
     assert figures[shaft.name]["evidence_max"] == 300.0  # the deviation alone earns nothing: all of the pair's
+
+
+def test_the_ensemble_draws_seat_compliances_softening_laws_and_flexible_carriers():
+    """Over 200 draws: about half the units have a pin seat compliance in series (0 … 1 times the line contact's
+    secant compliance at the most loaded pin), a power law below exponent 1 only with a seat, an FE carrier only
+    with FE discs. A drawn softening unit's law carries the seat at the drawn scale, and the rigid RV-40E runs its
+    rated-torque TE with it, lagging more than with half the seat."""
+    from rvflex.diagnosis.ensemble import secant_compliance
+    from rvflex.options import ModelOptions
+    from rvflex.scenarios.loaded_te import LoadedTE, perfect_spec, run_loaded_te
+    from rvflex.spec import ErrorSpec
+
+    ens, rng = EnsembleMismatch(), np.random.default_rng(7)
+    draws = [ens.draw(rng) for _ in range(200)]
+    seated = [d for d in draws if d["seat_share"] > 0]
+    assert 70 <= len(seated) <= 130 and all(d["seat_share"] <= 1.0 for d in seated)
+    soft = [d for d in draws if d["contact_exponent"] is not None and d["contact_exponent"] < 1.0]
+    assert soft and all(d["seat_share"] > 0 for d in soft)
+    assert all(d["flexible_discs"] for d in draws if d["flexible_carrier"]) and any(d["flexible_carrier"] for d in draws)
+    assert ens.options_for(next(d for d in draws if d["flexible_carrier"])) == ModelOptions.flexible_discs_and_carrier()
+
+    spec = catalog.load("rv40e")
+    d = soft[0]
+    _, _, law = ens.model(spec, d)
+    assert law.exponent == d["contact_exponent"] < 1.0
+    assert law.seat_compliance_m_N == pytest.approx(d["seat_share"] * secant_compliance(spec) / d["contact_scale"])
+
+    def windup(law):
+        opts = dataclasses.replace(ModelOptions.rigid(), contact_law=law)
+        return run_loaded_te(LoadedTE(perfect_spec(spec), ErrorSpec(), 412.0, revolutions=0.02, positions_per_rev=320,
+                                      options=opts))[1].mean_windup_arcsec
+
+    half = dataclasses.replace(law, seat_compliance_m_N=0.5 * law.seat_compliance_m_N)
+    assert windup(law) < windup(half) < 0

@@ -7,8 +7,10 @@ stage, carrier and thermal behaviour are of other forms, and a diagnosis that na
 unit is worse than one that names none. :class:`EnsembleMismatch` draws one such unit per case, without any
 hidden effect, from the nominal spec of a built-in unit:
 
-- contact law: the spec's line contact, or a power law F = k·x^e with e in [1, 1.5] matched to it over the
-  pin forces of the tests, each scaled by the contact stiffness drawn;
+- contact law: the spec's line contact, or a power law F = k·x^e with e in [0.9, 1.5] matched to it over the
+  pin forces of the tests, each scaled by the contact stiffness drawn; half the units with a compliance at each
+  pin seat in series (0 … 1 times the line contact's own secant compliance at the most loaded pin's force at
+  rated torque), and only they with a softening law (e below 1: the seat bounds its stiffness at zero approach);
 - needle (eccentric) bearings: stiffness drawn, radial clearance 0 … 4 µm;
 - crank-support and main bearings, first-stage mesh: stiffness drawn; the mesh with or without its backlash
   and its stiffness ripple;
@@ -17,13 +19,11 @@ hidden effect, from the nominal spec of a built-in unit:
 - a torsional compliance in series with the output flange: linear, stiffening with load, or both (up to
   :data:`SERIES_LINEAR_MAX_RAD` and :data:`SERIES_STIFFENING_MAX_RAD` of twist at rated torque);
 - a housing-to-steel thermal mismatch within ±1 ppm/K;
-- rigid or FE-reduced flexible discs.
+- rigid or FE-reduced flexible discs, and with FE discs, half the time an FE-reduced carrier too (the nominal
+  reduction: like the discs' modulus, the carrier's is not scaled, so every case shares one reduction).
 
-Not drawn yet: a compliance at each pin seat in series with the contact and, with it, a softening contact law
-(exponent 0.9 … 1; the contact law has both, :attr:`~rvflex.contact.cycloid_pin.ContactLaw.seat_compliance_m_N`,
-but the null distribution has not been rebuilt with them); and, because the model has no such form yet,
-power-law needle bearings, anisotropic crank supports, crank seats that move in the carrier and a flexible
-carrier (its reduction per case would dominate the run's cost). The two foreign
+Not drawn, because the model has no such form yet: power-law needle bearings, anisotropic crank supports and
+crank seats that move in the carrier. The two foreign
 benches' simulators differ from the rvflex model in those ways too; the ensemble is not either of them.
 """
 
@@ -40,7 +40,7 @@ from rvflex.spec import ErrorSpec, ReducerSpec
 from rvflex.units import ARCSEC
 
 __all__ = ["CLEARANCE_MAX_M", "EnsembleMismatch", "RealisticMismatch", "SERIES_LINEAR_MAX_RAD", "SERIES_STIFFENING_MAX_RAD",
-           "THERMAL_MISMATCH_MAX_PER_K"]
+           "THERMAL_MISMATCH_MAX_PER_K", "secant_compliance"]
 
 CLEARANCE_MAX_M = 4e-6  # a healthy unit's needle-bearing radial clearance: 0 … 4 µm
 SERIES_LINEAR_MAX_RAD = 25 * ARCSEC  # a carrier flange or coupling: up to 25″ of linear twist at rated torque
@@ -115,9 +115,12 @@ class EnsembleMismatch:
 
     stiffness_spread: float = 0.4  # each component's stiffness ×(1 ± spread) around the overall scale
     global_range: tuple[float, float] = (0.5, 2.0)
-    exponent_range: tuple[float, float] = (1.0, 1.5)
+    exponent_range: tuple[float, float] = (0.9, 1.5)  # below 1 only with a seat compliance (redrawn in 1 … 1.5)
     line_share: float = 1.0 / 3.0  # share of units with the spec's own (line) contact law
+    seat_share: float = 0.5  # share of units with a compliance at each pin seat in series with the contact
+    seat_range: tuple[float, float] = (0.0, 1.0)  # the seat's compliance over the line contact's secant compliance
     flexible_share: float = 0.5  # share of units with FE-reduced discs
+    carrier_share: float = 0.5  # share of those with an FE-reduced carrier too
     samples_per_rev: int = 1024
     name: str = "ensemble"
 
@@ -129,17 +132,21 @@ class EnsembleMismatch:
         a, b = 1.0 - self.stiffness_spread, 1.0 + self.stiffness_spread
         law_line = bool(rng.uniform() < self.line_share)
         series = int(rng.integers(3))  # 0 linear, 1 stiffening, 2 both
+        seat = float(rng.uniform(*self.seat_range)) if rng.uniform() < self.seat_share else 0.0
+        e_lo = self.exponent_range[0] if seat > 0.0 else max(self.exponent_range[0], 1.0)
+        flexible = bool(rng.uniform() < self.flexible_share)
         return {"global_scale": g, "contact_scale": g * float(rng.uniform(a, b)),
                 "needle_bearing_scale": g * float(rng.uniform(a, b)), "mesh_scale": g * float(rng.uniform(a, b)),
                 "support_scale": g * float(rng.uniform(a, b)),
                 "contact_law": "line" if law_line else "power",
-                "contact_exponent": None if law_line else float(rng.uniform(*self.exponent_range)),
+                "contact_exponent": None if law_line else float(rng.uniform(e_lo, self.exponent_range[1])),
+                "seat_share": seat,
                 "clearance_m": float(rng.uniform(0.0, CLEARANCE_MAX_M)),
                 "mesh_backlash": bool(rng.uniform() < 0.5), "mesh_ripple": bool(rng.uniform() < 0.5),
                 "series_linear_rad": float(rng.uniform(0, SERIES_LINEAR_MAX_RAD)) if series != 1 else 0.0,
                 "series_stiffening_rad": float(rng.uniform(0, SERIES_STIFFENING_MAX_RAD)) if series != 0 else 0.0,
                 "thermal_per_K": float(rng.uniform(-THERMAL_MISMATCH_MAX_PER_K, THERMAL_MISMATCH_MAX_PER_K)),
-                "flexible_discs": bool(rng.uniform() < self.flexible_share)}
+                "flexible_discs": flexible, "flexible_carrier": flexible and bool(rng.uniform() < self.carrier_share)}
 
     def model(self, spec: ReducerSpec, drawn: dict):
         """(spec, errors, law) of the generator for the drawn model form."""
@@ -159,17 +166,22 @@ class EnsembleMismatch:
         spec_g = dc.replace(spec, bearings=b, input_stage=st)
         n = spec.cranks.count * spec.cycloid.disc_count
         errors = ErrorSpec(eccentric_bearing_clearance_m=(drawn["clearance_m"],) * n)
+        # a pin seat: a share of the line contact's secant compliance at its most loaded pin, at the drawn scale
+        seat = drawn.get("seat_share", 0.0) * secant_compliance(spec) / drawn["contact_scale"]
         if drawn["contact_law"] == "line":
             law = default_contact_law(spec)
             law = dc.replace(law, disc_compliance_1_Pa=law.disc_compliance_1_Pa / drawn["contact_scale"],
-                             pin_compliance_1_Pa=law.pin_compliance_1_Pa / drawn["contact_scale"])
+                             pin_compliance_1_Pa=law.pin_compliance_1_Pa / drawn["contact_scale"], seat_compliance_m_N=seat)
         else:
             e = drawn["contact_exponent"]
-            law = ContactLaw.hertz(power_law_equivalent(spec, e) * drawn["contact_scale"], e, damping_Ns_m=500.0)
+            law = ContactLaw.hertz(power_law_equivalent(spec, e) * drawn["contact_scale"], e, damping_Ns_m=500.0,
+                                   seat_compliance_m_N=seat)
         return spec_g, errors, law
 
     def options_for(self, drawn: dict) -> ModelOptions:
         """The generator model's fidelity for the drawn case."""
+        if drawn.get("flexible_carrier"):
+            return ModelOptions.flexible_discs_and_carrier()
         return ModelOptions.flexible_discs() if drawn["flexible_discs"] else ModelOptions.rigid()
 
     def model_form(self, drawn: dict) -> tuple:
@@ -180,3 +192,15 @@ class EnsembleMismatch:
         return ((EFFECTS["output_series_compliance"],
                  np.array([drawn["series_linear_rad"], drawn["series_stiffening_rad"]])),
                 (EFFECTS["thermal_expansion"], np.array([drawn["thermal_per_K"]])))
+
+
+def secant_compliance(spec: ReducerSpec) -> float:
+    """The secant compliance δ/F (m/N) of ``spec``'s line contact (seed 002) at the most loaded pin's force at rated
+    torque, at the loaded-flank radius the power-law equivalence uses: the scale of a pin seat's compliance."""
+    from rvflex.diagnosis.nominal import POWER_LAW_FLANK_RADIUS_M, max_pin_force
+    from rvflex.geometry.formulas import hertz_line_deflection
+
+    m, f = spec.materials, max_pin_force(spec, spec.rated_torque_Nm)
+    return hertz_line_deflection(f, spec.cycloid.disc_thickness_m, POWER_LAW_FLANK_RADIUS_M, spec.cycloid.pin_radius_m,
+                                 m.gears_cranks_discs.youngs_modulus_Pa, m.gears_cranks_discs.poisson_ratio,
+                                 m.pins.youngs_modulus_Pa, m.pins.poisson_ratio) / f
