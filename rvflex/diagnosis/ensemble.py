@@ -121,6 +121,7 @@ class EnsembleMismatch:
     seat_range: tuple[float, float] = (0.0, 1.0)  # the seat's compliance over the line contact's secant compliance
     flexible_share: float = 0.5  # share of units with FE-reduced discs
     carrier_share: float = 0.5  # share of those with an FE-reduced carrier too
+    clearance_max_m: float = CLEARANCE_MAX_M  # needle-bearing clearance drawn in [0, this], scaled into the class
     samples_per_rev: int = 1024
     name: str = "ensemble"
 
@@ -141,7 +142,7 @@ class EnsembleMismatch:
                 "contact_law": "line" if law_line else "power",
                 "contact_exponent": None if law_line else float(rng.uniform(e_lo, self.exponent_range[1])),
                 "seat_share": seat,
-                "clearance_m": float(rng.uniform(0.0, CLEARANCE_MAX_M)),
+                "clearance_m": float(rng.uniform(0.0, self.clearance_max_m)),
                 "mesh_backlash": bool(rng.uniform() < 0.5), "mesh_ripple": bool(rng.uniform() < 0.5),
                 "series_linear_rad": float(rng.uniform(0, SERIES_LINEAR_MAX_RAD)) if series != 1 else 0.0,
                 "series_stiffening_rad": float(rng.uniform(0, SERIES_STIFFENING_MAX_RAD)) if series != 0 else 0.0,
