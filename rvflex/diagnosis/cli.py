@@ -48,7 +48,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     n = sub.add_parser("null-distribution",
                        help="diagnose healthy units of other model forms (the ensemble) and write the null distribution "
                             "a finding must exceed to be established")
-    n.add_argument("--cases", type=int, default=28, help="ensemble controls per unit (default 28)")
+    n.add_argument("--cases", type=int, default=56, help="ensemble controls per unit (default 56)")
     n.add_argument("--reducers", default="rv40e,rv80e,rv160n",
                    help="comma-separated built-in units (default rv40e,rv80e,rv160n)")
     n.add_argument("--seed", type=int, default=1, help="random seed of the first unit (the next units: seed + 1, …)")

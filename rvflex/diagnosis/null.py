@@ -29,13 +29,11 @@ it and its size exceeds the largest determined size they reach (:func:`rvflex.di
 relative*: the evidence a stand-in earns is the model-form residual it absorbs, so it grows with the square of
 the gap's amplitude and with the number of features (with the discrepancy at its floor, as on most benches,
 evidence is weighted residual energy). Held against a control's evidence, a finding is judged by how far the
-unit's model form and campaign are from the controls', and the largest of a unit's controls is set by its most
-extreme model form (measured, RV-80E: 74 over its first 14 controls, 307 over the next 14, where one calibration
-reached its bound); the ratio to what the candidate leaves does not change when the gap is scaled or the
-campaign repeated (over the same halves it moves only from 0.32 to 0.57, as the model forms' shapes differ).
+unit's model form and campaign are from the controls'; the ratio to what the candidate leaves does not change
+when the gap is scaled or the campaign repeated (it still differs between model forms, as their shapes differ:
+over the two halves of the RV-80E's controls a runout reaches 1.47 and 1.07).
 *Why determined sizes*: a fit the runs cannot determine is no finding and its interval's upper end is set by the
-noise (measured: one RV-80E control with evidence 16 and an undetermined runout reached 22.6 µm; no determined
-one passed 9.4 µm). :func:`leave_one_out` measures what the thresholds hold on controls they were not made from.
+noise (measured: the RV-80E controls' undetermined runouts reach 23 µm with evidence 12 to 15). :func:`leave_one_out` measures what the thresholds hold on controls they were not made from.
 The distribution ships with the package (:data:`NULL_PATH`) and names the commit-independent settings it was
 made with.
 """
@@ -69,8 +67,8 @@ class NullDistribution:
 
     def for_spec(self, spec) -> NullDistribution:
         """The distribution of the built-in unit ``spec`` is a variant of, else of all units pooled. How a model
-        form projects onto a candidate depends on the unit's geometry (the RV-80E's healthy controls reach a 9.4 µm
-        pin-ring runout, the RV-40E's 1.8 µm), so a unit is judged against the ensemble of its own nominal unit:
+        form projects onto a candidate depends on the unit's geometry (the RV-80E's healthy controls reach a 21.3 µm
+        pin-ring runout, the RV-40E's 1.5 µm), so a unit is judged against the ensemble of its own nominal unit:
         the built-in unit with the same pin and tooth counts and, within 1 %, the same pin-circle radius and
         eccentricity, whatever its name or its stiffnesses."""
         from rvflex import catalog
@@ -118,8 +116,8 @@ def signed(name: str) -> bool:
     units reach on the other. A two-parameter effect whose parameters of one sign nearly cancel
     (``Effect.corners``: the moved and equidistant modification deviations, whose difference is the profile's
     working clearance) describes a shape change along that diagonal and a clearance change across it: the
-    controls' stand-ins lie along it (measured, the 84 controls' 29 determined fits: 21 along it, up to 13.1 µm,
-    4 across it, up to 2.2 µm, 4 on the dividing line, up to 5.7 µm), which says little of how far they reach in
+    controls' stand-ins lie along it (measured, the 168 controls' 64 determined fits: 49 along it, up to 15.7 µm,
+    10 across it, up to 4.0 µm, 5 on the dividing line, up to 6.2 µm), which says little of how far they reach in
     clearance."""
     from rvflex.diagnosis.effects import EFFECTS
 

@@ -11,7 +11,7 @@ from rvflex.diagnosis.null import halves, leave_one_out, null_from_reports
 __all__ = ["build_null"]
 
 
-def build_null(out_dir: str | Path, reducers=("rv40e", "rv80e", "rv160n"), cases: int = 28, seed: int = 1,
+def build_null(out_dir: str | Path, reducers=("rv40e", "rv80e", "rv160n"), cases: int = 56, seed: int = 1,
                json_path: str | Path | None = None, cache_dir: str | Path | None = None, log=print) -> dict:
     """Diagnose ``cases`` ensemble controls of each unit in ``reducers`` (self-checks with ``--mismatch
     ensemble`` and every case a control) and write their null distribution to ``json_path`` (default: none
