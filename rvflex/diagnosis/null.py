@@ -33,7 +33,8 @@ unit's model form and campaign are from the controls'; the ratio to what the can
 when the gap is scaled or the campaign repeated (it still differs between model forms, as their shapes differ:
 over the two halves of the RV-80E's controls a runout reaches 1.47 and 1.07).
 *Why determined sizes*: a fit the runs cannot determine is no finding and its interval's upper end is set by the
-noise (measured: the RV-80E controls' undetermined runouts reach 23 µm with evidence 12 to 15). :func:`leave_one_out` measures what the thresholds hold on controls they were not made from.
+noise (measured: the RV-80E controls' undetermined runouts reach 23 µm with evidence 12 to 15).
+:func:`leave_one_out` measures what the thresholds hold on controls they were not made from.
 The distribution ships with the package (:data:`NULL_PATH`) and names the commit-independent settings it was
 made with.
 """
@@ -112,8 +113,8 @@ def signed(name: str) -> bool:
 
     A one-parameter effect whose range spans both signs describes two opposite deviations (a housing that expands
     more than the steel parts, or less), each with its own signature: a model form that projects onto one side
-    (measured, the RV-80E's controls: every thermal fit negative, down to −5 ppm/K) says nothing of how far healthy
-    units reach on the other. A two-parameter effect whose parameters of one sign nearly cancel
+    (measured, the RV-80E's controls: 34 of their 35 determined thermal fits negative, down to −5 ppm/K) says
+    little of how far healthy units reach on the other. A two-parameter effect whose parameters of one sign nearly cancel
     (``Effect.corners``: the moved and equidistant modification deviations, whose difference is the profile's
     working clearance) describes a shape change along that diagonal and a clearance change across it: the
     controls' stand-ins lie along it (measured, the 168 controls' 64 determined fits: 49 along it, up to 15.7 µm,
