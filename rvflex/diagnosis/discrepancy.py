@@ -106,8 +106,7 @@ def feature_groups(lay: Layout, plan, pin_count: int) -> tuple[DiscrepancyGroup,
 def residual(prob: Problem, c: Candidate) -> np.ndarray:
     """Weighted residual (measured − model, in units of the floors) of candidate ``c`` at its fitted
     origin and offsets."""
-    cols = prob.nuis[:, np.abs(prob.nuis).sum(0) > 0]
-    model = c.model_features + (cols @ c.nuisance if len(c.nuisance) else 0.0)
+    model = c.model_features + (prob.active_nuis @ c.nuisance if len(c.nuisance) else 0.0)
     return (shift_measured(prob.y, prob.lay, c.delta)[:, 0] - model) * prob.w
 
 

@@ -133,6 +133,16 @@ class Problem:
     shifted_w_sq: np.ndarray | None = None
     memo: dict = field(default_factory=dict)  # δ of the offsets-only search by linearisation point
 
+    @property
+    def active_nuis(self) -> np.ndarray:
+        """The nuisance columns in use (those not all zero: the offsets of the runs the layout has)."""
+        return self.nuis[:, np.abs(self.nuis).sum(0) > 0]
+
+    def weighted_design(self, J: np.ndarray) -> np.ndarray:
+        """The weighted design matrix of a fit with parameter columns ``J``: those and :attr:`active_nuis`, each
+        feature's row times its weight (what a candidate's intervals are computed from)."""
+        return np.column_stack([J, self.active_nuis]) * self.w[:, None]
+
     @classmethod
     def build(cls, y, lay, w, nuis) -> Problem:
         has_te = bool(lay.te_runs)

@@ -101,10 +101,8 @@ def evaluated_candidate(prob: Problem, effects: tuple, x: np.ndarray, f: np.ndar
     """The candidate of ``effects`` at ``x`` whose model run gave features ``f`` and ``response``, linearised by
     the Jacobian ``J`` about it: its RSS is the model run's (offsets and origin fitted) plus the prior penalty."""
     nu, d, rss = _model_fit(prob, f, effects, x)
-    cols = prob.nuis[:, np.abs(prob.nuis).sum(0) > 0]
-    A = np.column_stack([J * prob.w[:, None], cols * prob.w[:, None]])
-    return make_candidate(effects, x, nu, d, rss, A, prob.lay.n, n_nuis, f, refined=refined, response=response,
-                          note=note, jacobian=J)
+    return make_candidate(effects, x, nu, d, rss, prob.weighted_design(J), prob.lay.n, n_nuis, f, refined=refined,
+                          response=response, note=note, jacobian=J)
 
 
 def refine(cands: list[Candidate], prob: Problem, runner, sens: Sensitivities | list[Sensitivities], f0: np.ndarray,

@@ -249,11 +249,9 @@ def from_pairs(refined: list, best_single: dict, x_cal: np.ndarray, f_cal: np.nd
             keep = np.r_[np.arange(ncal), np.arange(start[k], start[k + 1])]
             effects, J = cal + (e,), c.jacobian[:, keep]
             x_ref = np.r_[x_cal, np.zeros(e.n)]
-            cols = prob.nuis[:, np.abs(prob.nuis).sum(0) > 0]
-            A = np.column_stack([J * prob.w[:, None], cols * prob.w[:, None]])
-            out.append(make_candidate(effects, c.x[keep], c.nuisance, c.delta, c.rss, A, prob.lay.n, n_nuis,
-                                      c.model_features, refined=False, note="started from its pair", jacobian=J,
-                                      base=(x_ref, f_cal)))
+            out.append(make_candidate(effects, c.x[keep], c.nuisance, c.delta, c.rss, prob.weighted_design(J),
+                                      prob.lay.n, n_nuis, c.model_features, refined=False,
+                                      note="started from its pair", jacobian=J, base=(x_ref, f_cal)))
     return out
 
 
