@@ -568,3 +568,28 @@ def test_the_ensemble_draws_seat_compliances_softening_laws_and_flexible_carrier
 
     half = dataclasses.replace(law, seat_compliance_m_N=0.5 * law.seat_compliance_m_N)
     assert windup(law) < windup(half) < 0
+
+
+def test_a_linearised_control_fit_that_sets_a_threshold_is_asked_to_be_refined():
+    """A finding is accepted only refined, so a control's linearised fit counts only once refined too. Five
+    refined controls (runout up to 5 µm, evidence up to 60) and two linearised ones: one beyond them in size and
+    relative evidence (12 µm, evidence 150), asked for; one below them (3 µm, evidence 30), not. A thermal mismatch,
+    kept per side: a linearised fit on the positive side, where no refined one lies, is asked for; once tried it is
+    not asked for again (its refinement failed and it stays as it is)."""
+    from rvflex.diagnosis.null import unrefined_setters
+
+    reports = [_control("pin_ring_runout", 20.0 + 10 * k, (1.0 + k) * 1e-6) for k in range(5)]
+    far, near = _control("pin_ring_runout", 150.0, 12e-6), _control("pin_ring_runout", 30.0, 3e-6)
+    far["effects"][0]["refined"] = near["effects"][0]["refined"] = False
+    reports += [far, near]
+    assert unrefined_setters(reports) == {5: {"pin_ring_runout"}}
+    key = "thermal_expansion.alpha_mismatch_per_K"
+
+    def thermal(v, refined):
+        return {"effects": [{"name": "thermal_expansion", "score": 40.0, "magnitude": {"thermal_expansion": abs(v)},
+                             "params": {key: v}, "refined": refined, "grade_fails": [], "accepted": False,
+                             "leftover": 100.0}]}
+
+    th = [thermal(-3e-6, True), thermal(-2e-6, False), thermal(5e-6, False)]
+    assert unrefined_setters(th) == {2: {"thermal_expansion"}}
+    assert unrefined_setters(th, tried={(2, "thermal_expansion")}) == {}

@@ -48,7 +48,8 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["NULL_PATH", "NullDistribution", "determined", "halves", "leave_one_out", "load_null", "null_from_reports",
-           "own_evidence", "reached", "relative_evidence", "report_singles", "side", "side_text", "signed"]
+           "own_evidence", "reached", "relative_evidence", "report_singles", "side", "side_text", "signed",
+           "unrefined_setters"]
 
 NULL_PATH = Path(__file__).with_name("null_distribution.json")
 """The null distribution shipped with the package (made by ``rvflex null-distribution``)."""
@@ -225,12 +226,31 @@ def null_from_reports(reports: list[dict], significant: float = 10.0) -> dict:
     ``leftover``) and, where the fit is also :func:`determined`, its size (:func:`reached`); 0 otherwise. An effect
     kept per side (:func:`signed`) also has ``magnitude_max_positive`` and ``magnitude_max_negative``, the largest
     size on each side (:func:`side`)."""
-    names = sorted({n for d in reports for e in d["effects"] for n in e["name"].split(" + ")})
     out = {}
+    for name, rows in _rows(reports, significant).items():
+        if rows:
+            rel, mag = [r["relative"] for r in rows], [r["size"] for r in rows]
+            out[name] = {"relative_max": float(max(rel)), "magnitude_max": float(max(mag)),
+                         "evidence_max": float(max(r["evidence"] for r in rows)),
+                         "false_alarm_rate": sum(r["alarm"] for r in rows) / len(rows), "controls": len(rows)}
+            if signed(name):  # a control on the dividing line (side 0: a parameter held at zero) counts on both
+                out[name] |= {f"magnitude_max_{k}": float(max([r["size"] for r in rows if r["side"] * v >= 0] or [0.0]))
+                              for k, v in (("positive", 1.0), ("negative", -1.0))}
+    return out
+
+
+def _rows(reports: list[dict], significant: float) -> dict:
+    """Per effect, a row per control that has a candidate with it: the control's index (``control``), the
+    candidate in which the effect earns the most evidence on its own (``candidate``, its name; ``refined``),
+    that evidence (``evidence``, ≥ 0), its relative evidence and size as :func:`null_from_reports` counts them
+    (``relative``, ``size``: 0 where not counted), its ``side`` and whether any candidate with it was accepted
+    (``alarm``)."""
+    names = sorted({n for d in reports for e in d["effects"] for n in e["name"].split(" + ")})
     singles_of = [report_singles(d) for d in reports]  # once per report, not once per effect name
+    out = {}
     for name in names:
-        ev, rel, mag, sides, alarms = [], [], [], [], 0
-        for d, singles in zip(reports, singles_of):
+        rows = out[name] = []
+        for k, (d, singles) in enumerate(zip(reports, singles_of)):
             having = [e for e in d["effects"] if name in e["name"].split(" + ")]
             if not having:
                 continue
@@ -240,17 +260,37 @@ def null_from_reports(reports: list[dict], significant: float = 10.0) -> dict:
             if strong and "leftover" not in best:
                 raise ValueError(f"a control's candidate {best['name']!r} has no 'leftover': its report was made by an "
                                  "older rvflex (rebuild the null distribution: rvflex null-distribution)")
-            ev.append(max(own[i], 0.0))
-            rel.append(relative_evidence(own[i], best["leftover"]) if strong else 0.0)
-            mag.append(reached(best, name) if strong and determined(best, name) else 0.0)
-            sides.append(_side(best, name))
-            alarms += any(e["accepted"] for e in having)
-        if ev:
-            out[name] = {"relative_max": float(max(rel)), "magnitude_max": float(max(mag)),
-                         "evidence_max": float(max(ev)), "false_alarm_rate": alarms / len(ev), "controls": len(ev)}
-            if signed(name):  # a control on the dividing line (side 0: a parameter held at zero) counts on both
-                out[name] |= {f"magnitude_max_{k}": float(max([m for m, sg in zip(mag, sides) if sg * v >= 0] or [0.0]))
-                              for k, v in (("positive", 1.0), ("negative", -1.0))}
+            rows.append({"control": k, "candidate": best["name"], "refined": bool(best.get("refined")),
+                         "evidence": max(own[i], 0.0),
+                         "relative": relative_evidence(own[i], best["leftover"]) if strong else 0.0,
+                         "size": reached(best, name) if strong and determined(best, name) else 0.0,
+                         "side": _side(best, name), "alarm": any(e["accepted"] for e in having)})
+    return out
+
+
+def unrefined_setters(reports: list[dict], significant: float = 10.0, tried: set | None = None) -> dict:
+    """The linearised control fits that set a threshold of :func:`null_from_reports`: per effect and figure (its
+    relative evidence; its size, on each side for an effect kept per side), every control whose figure lies above
+    the largest one a refined fit gives (and above 0), as control index → the names of its candidates to refine;
+    pairs (control, name) in ``tried`` are left out (a refinement that failed stays linearised).
+
+    A finding is accepted only refined, with the model in the loop; a linearised fit far from the calibration can
+    promise what the model does not give (measured, RV-80E controls: a linearised pin-ring runout paired with a
+    series compliance set the runout's thresholds at 21.3 µm and relative evidence 1.47, a linearised thermal
+    mismatch the positive side's at 8.4 ppm/K with evidence 17). So a control's fit that sets a threshold is
+    refined too (``DiagnosisSettings.also_refine``) before it counts, and the figures compare like with like."""
+    tried = tried or set()
+    out: dict = {}
+    for name, rows in _rows(reports, significant).items():
+        figures = [("relative", 0.0), ("size", 0.0)]
+        if signed(name):
+            figures += [("size", 1.0), ("size", -1.0)]
+        for key, sign in figures:
+            mine = [r for r in rows if r[key] > 0.0 and (not sign or r["side"] * sign >= 0)]
+            top = max([r[key] for r in mine if r["refined"]] or [0.0])
+            for r in mine:
+                if not r["refined"] and r[key] > top and (r["control"], r["candidate"]) not in tried:
+                    out.setdefault(r["control"], set()).add(r["candidate"])
     return out
 
 

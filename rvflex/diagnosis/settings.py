@@ -37,6 +37,10 @@ class DiagnosisSettings:
         Process-pool size for the sensitivity and refinement runs (1: serial).
     refine_top : int
         Candidates refined with model-in-the-loop (Broyden) iterations.
+    also_refine : tuple of str
+        Candidates refined with the model in the loop whatever their rank, by name (a pair as
+        ``"a + b"``; a name no candidate has is ignored). The null distribution's build sets it so that a
+        control's fit that sets a threshold is measured as a finding is (:func:`rvflex.diagnosis.null.unrefined_setters`).
     refine_iterations : int
         Most model evaluations per refined candidate; after the second, a candidate stops once
         an evaluation lowers its residual by less than ``refine_min_gain`` (or its step converges).
@@ -103,6 +107,7 @@ class DiagnosisSettings:
     hysteresis_steps: int = 40
     workers: int = 2
     refine_top: int = 3
+    also_refine: tuple[str, ...] = ()
     refine_iterations: int = 5
     refine_min_gain: float = 0.02
     pair_top: int | None = None

@@ -2,8 +2,9 @@
 nominal parameters (same regularisers, linearised about the calibrated model), so an effect gets only what
 calibration cannot explain. A pair is kept only when its second effect has evidence ≥ ``bic_threshold`` given the
 better single. The best ``refine_top`` candidates by their score (from the linearised fits) and the best single by
-the linearised BIC are refined with the model in the loop (:mod:`rvflex.diagnosis.refine`), measured again about
-themselves where their errors move every contact alike, and restated as the effect they are the same model as."""
+the linearised BIC (and any named in ``also_refine``) are refined with the model in the loop
+(:mod:`rvflex.diagnosis.refine`), measured again about themselves where their errors move every contact alike, and
+restated as the effect they are the same model as."""
 
 from __future__ import annotations
 
@@ -198,6 +199,7 @@ def run(calib: Calibrated) -> Candidates:
     to_refine = by_score[: settings.refine_top]
     if singles and singles[0] not in to_refine:
         to_refine.append(singles[0])
+    to_refine += [c for c in ranked if c.name in settings.also_refine and c not in to_refine]
     failed = dict(calib.failed)
     refined = att.refined(to_refine, failed)
     so_far = {}
