@@ -118,11 +118,12 @@ def run(ev: Evidence) -> Verdict:
 
 def _healthy_rival(final: list[Candidate], chosen: Candidate, settings: DiagnosisSettings, sens, f0, w):
     """The best-fitting candidate of ``final`` that fits better than ``chosen``, passes every acceptance test, is
-    reached by healthy units of other model forms (``grade["healthy_reach"]``) and is tied with ``chosen``
+    reached by healthy units of other model forms in each of its effects (``grade["healthy_reach"]``: as a whole
+    it may be the model form; a pair with an effect beyond them claims that effect) and is tied with ``chosen``
     (:func:`~rvflex.diagnosis.verdict.equivalent`: a candidate that holds ``chosen``'s effects, or is held by them,
     is no rival); None when there is none."""
-    rivals = [c for c in final if c.score > chosen.score and c.refined and c.grade.get("healthy_reach")
-              and acceptable(c, settings)]
+    rivals = [c for c in final if c.score > chosen.score and c.refined and acceptable(c, settings)
+              and set(c.grade.get("healthy_reach") or ()) >= {e.name for e in c.attributed}]
     tied = equivalent(rivals, chosen, sens, f0, w) if rivals else []
     return max(tied, key=lambda c: c.score) if tied else None
 
