@@ -16,7 +16,10 @@ only when, besides those tests,
 2. it explains most (:data:`MOST`) of what calibration left where its own signature lies: in the discrepancy
    groups (:mod:`rvflex.diagnosis.discrepancy`) that hold :data:`SIGNATURE_SHARE` of its signature, the
    calibrated residual falls by at least half. An effect that is the cause leaves model-form residue only;
-   one that stands in for a model-form gap takes a part of it and leaves the rest.
+   one that stands in for a model-form gap takes a part of it and leaves the rest;
+3. the runs can tell it from every candidate that fits better, passes the tests and lies, in each of its effects,
+   within what healthy units reach (``healthy_reach``; applied by the verdict stage,
+   :mod:`rvflex.diagnosis.stages.verdict`): tied with one, the gap is as well a model-form gap.
 
 Otherwise it is *consistent but not established*, said with the test it fails and what would settle it, and
 the verdict is the unexplained gap (its size and where it lies). Only an established finding is accepted and

@@ -31,7 +31,7 @@ the gap's amplitude and with the number of features (with the discrepancy at its
 evidence is weighted residual energy). Held against a control's evidence, a finding is judged by how far the
 unit's model form and campaign are from the controls'; the ratio to what the candidate leaves does not change
 when the gap is scaled or the campaign repeated (it still differs between model forms, as their shapes differ:
-over the two halves of the RV-80E's controls a runout reaches 1.47 and 1.07).
+over the two halves of the RV-80E's controls a runout reaches 0.57 and 1.07).
 *Why determined sizes*: a fit the runs cannot determine is no finding and its interval's upper end is set by the
 noise (measured: the RV-80E controls' undetermined runouts reach 23 µm with evidence 12 to 15).
 :func:`leave_one_out` measures what the thresholds hold on controls they were not made from.
@@ -69,8 +69,8 @@ class NullDistribution:
 
     def for_spec(self, spec) -> NullDistribution:
         """The distribution of the built-in unit ``spec`` is a variant of, else of all units pooled. How a model
-        form projects onto a candidate depends on the unit's geometry (the RV-80E's healthy controls reach a 21.3 µm
-        pin-ring runout, the RV-40E's 1.5 µm), so a unit is judged against the ensemble of its own nominal unit:
+        form projects onto a candidate depends on the unit's geometry (the RV-80E's healthy controls reach a 17.8 µm
+        pin-ring runout, the RV-40E's 1.6 µm), so a unit is judged against the ensemble of its own nominal unit:
         the built-in unit with the same pin and tooth counts and, within 1 %, the same pin-circle radius and
         eccentricity, whatever its name or its stiffnesses."""
         from rvflex import catalog
@@ -275,9 +275,8 @@ def unrefined_setters(reports: list[dict], significant: float = 10.0, tried: set
     pairs (control, name) in ``tried`` are left out (a refinement that failed stays linearised).
 
     A finding is accepted only refined, with the model in the loop; a linearised fit far from the calibration can
-    promise what the model does not give (measured, RV-80E controls: a linearised pin-ring runout paired with a
-    series compliance set the runout's thresholds at 21.3 µm and relative evidence 1.47, a linearised thermal
-    mismatch the positive side's at 8.4 ppm/K with evidence 17). So a control's fit that sets a threshold is
+    promise what the model does not give (measured, one RV-80E control: a pin-ring runout paired with a series
+    compliance reaches 21.3 µm and a relative evidence of 1.47 linearised, 14.8 µm and 0.57 refined). So a control's fit that sets a threshold is
     refined too (``DiagnosisSettings.also_refine``) before it counts, and the figures compare like with like."""
     tried = tried or set()
     out: dict = {}
