@@ -18,7 +18,7 @@ from pathlib import Path
 import rvflex.scenarios  # noqa: F401 -- registers the scenarios sweeps run (rvflex.scenarios.sweepable)
 from rvflex import catalog
 from rvflex.bench_te import CASES as BENCH_TE_CASES
-from rvflex.choices import Executor, Fidelity, RunCostKind, TEMode, choices
+from rvflex.choices import Executor, PlanarFidelity, RunCostKind, TEMode, choices
 from rvflex.io import emit, write_json, write_text
 from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
 from rvflex.tilt import MOMENT_SLICES
@@ -380,7 +380,7 @@ def _model_arguments(p: argparse.ArgumentParser) -> None:
     from rvflex.options import CARRIER_FE, DISC_FE
 
     p.add_argument("--reducer", required=True, help=f"built-in reducer ({', '.join(catalog.names())}) or a spec TOML path")
-    p.add_argument("--fidelity", default="rigid", choices=choices(Fidelity),
+    p.add_argument("--fidelity", default="rigid", choices=choices(PlanarFidelity),
                    help="rigid bodies (ModelOptions.rigid()); flexible: FE-reduced (Craig–Bampton, FFRF) cycloid "
                         "discs (ModelOptions.flexible_discs()); flexible-carrier: FE discs and carrier "
                         "(ModelOptions.flexible_discs_and_carrier(): output face = output frame, RBE3 seats, two "

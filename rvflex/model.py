@@ -280,6 +280,8 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None,
     ------
     SpecError
         Options that are not ModelOptions or a preset name; error counts that do not match the spec.
+    NotImplementedError
+        Spatial options (``options.spatial`` set): the spatial model is not built yet.
     """
     import dataclasses
 
@@ -287,6 +289,9 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None,
     from exudyn.itemInterface import MarkerNodeCoordinate, NodePointGround, ObjectGround
 
     options = as_options(options, "options")
+    if options.spatial is not None:
+        raise NotImplementedError("options.spatial: the spatial model is not built yet; build the planar model "
+                                  "(options.spatial = None)")
     if reduced_disc is not None:
         first = reduced_disc[0] if isinstance(reduced_disc, (tuple, list)) else reduced_disc
         options = dataclasses.replace(options, discs=first.settings)
