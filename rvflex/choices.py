@@ -19,7 +19,7 @@ from typing import Literal, get_args
 from rvflex.spec_types import SpecError
 
 __all__ = ["BodyFidelity", "ContactLawKind", "ConvergencePart", "CrankModel", "DesignKind", "Distribution", "EffectKind", "Executor", "FEPart",
-           "DiscrepancyKind", "EvidenceModel", "Fidelity", "Mismatch", "PatchShape", "PlanarFidelity", "RunCostKind", "RunKind", "SeatCoupling", "SeatMarker", "TEMode", "check_choice",
+           "DiscrepancyKind", "EvidenceModel", "Fidelity", "Mismatch", "PairContacts", "PatchShape", "PlanarFidelity", "RunCostKind", "RunKind", "SeatCoupling", "SeatMarker", "TEMode", "check_choice",
            "choices", "did_you_mean"]
 
 PlanarFidelity = Literal["rigid", "flexible", "flexible-carrier", "flexible-all"]
@@ -29,6 +29,10 @@ carrier and pin housing."""
 Fidelity = Literal[PlanarFidelity, "spatial"]
 """Names of the :class:`~rvflex.options.ModelOptions` presets: the planar ones (:data:`PlanarFidelity`) and
 ``"spatial"`` (rigid bodies free out of their plane, :meth:`~rvflex.options.ModelOptions.spatial_rigid`)."""
+
+PairContacts = Literal["springs", "element"]
+"""The main bearing pair's balls in an Exudyn carrier model (:mod:`rvflex.parts.main_bearing`): one linearised
+spring per ball (the cross-check), or the pair element on the pair's own kernel."""
 
 CrankModel = Literal["rigid", "beam"]
 """The cranks of the spatial model (:class:`~rvflex.options.SpatialSettings`): rigid bodies, or flexible
