@@ -113,13 +113,15 @@ class PairElement:
 
     def evaluate(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Force (6,) on the node's coordinates (N, N·m; zero on ψz), its stiffness −∂f/∂q (6, 6), and each
-        ball's load (N), at the node's displacement coordinates ``q`` (6,) (m, rad)."""
+        ball's load (N), at the node's displacement coordinates ``q`` (6,) (m, rad; the balls see them less the
+        seat offset)."""
         w = self._fill(np.asarray(q, dtype=float))
         return w.f.copy(), w.k.copy(), w.load.copy()
 
     def _fill(self, q: np.ndarray) -> _PairWork:
         w, m = self._work, self.model
-        pair_kernel(q[:5], m.inner_centres_m, m.outer_centres_m, m.centre_distance_m, m.stiffness, m.law_code,
+        np.subtract(q[:5], w.seat, out=w.q5)  # the carrier relative to the outer rings' seat
+        pair_kernel(w.q5, m.inner_centres_m, m.outer_centres_m, m.centre_distance_m, m.stiffness, m.law_code,
                     w.f5, w.k5, w.load, w.unit, w.squeeze)
         w.f[:5], w.k[:5, :5] = w.f5, w.k5
         w.key = q.tobytes()  # the Jacobian call checks it is asked at this state
@@ -145,15 +147,18 @@ class _PairWork:
     load: np.ndarray
     unit: np.ndarray
     squeeze: np.ndarray
+    seat: np.ndarray  # (x, y, 0, 0, 0): the outer rings' seat off the node's reference point (m)
+    q5: np.ndarray
     key: bytes = b""
 
     @classmethod
-    def for_balls(cls, n: int) -> _PairWork:
+    def for_balls(cls, n: int, seat_m: tuple[float, float] = (0.0, 0.0)) -> _PairWork:
         return cls(np.zeros(5), np.zeros((5, 5)), np.zeros(_NODE), np.zeros((_NODE, _NODE)), np.zeros(n),
-                   np.zeros((n, 3)), np.zeros(n))
+                   np.zeros((n, 3)), np.zeros(n), np.array([seat_m[0], seat_m[1], 0.0, 0.0, 0.0]), np.zeros(5))
 
 
-def add_pair_element(mbs, carrier_node: int, model: PairModel) -> PairElement:
+def add_pair_element(mbs, carrier_node: int, model: PairModel, *,
+                     seat_offset_m: tuple[float, float] = (0.0, 0.0)) -> PairElement:
     """Add the main bearing pair acting on the carrier's node to ``mbs`` (not assembled).
 
     Parameters
@@ -165,6 +170,10 @@ def add_pair_element(mbs, carrier_node: int, model: PairModel) -> PairElement:
         between the rows) and its reference tilt (ψx, ψy) zero.
     model : PairModel
         The pair (:func:`rvflex.contact.angular_contact.pair_model`); with or without preload.
+    seat_offset_m : tuple of float, optional
+        (x, y) of the outer rings' axis in the housing off the node's reference point (m): a runout of the
+        carrier's seat (``ErrorSpec.carrier_runout_m``); the balls are unloaded by the preload alone where the
+        carrier sits on that axis.
 
     Returns
     -------
@@ -185,7 +194,10 @@ def add_pair_element(mbs, carrier_node: int, model: PairModel) -> PairElement:
     if np.any(ref[3:5] != 0.0):
         raise ValueError(f"main bearing pair: node {carrier_node}'s reference tilt (ψx, ψy) = {ref[3:5].tolist()} "
                          "rad must be zero (the balls' kinematics start from the untilted carrier)")
-    element = PairElement(-1, int(carrier_node), model, _PairWork.for_balls(model.n_balls))
+    seat = tuple(float(v) for v in seat_offset_m)
+    if len(seat) != 2 or not all(np.isfinite(seat)):
+        raise ValueError(f"main bearing pair: seat_offset_m = {seat_offset_m!r} must be two finite lengths (m)")
+    element = PairElement(-1, int(carrier_node), model, _PairWork.for_balls(model.n_balls, seat))
     zero = np.zeros((_NODE, _NODE))
     idx = mbs.AddObject(ObjectGenericODE2(nodeNumbers=[carrier_node], massMatrix=zero, stiffnessMatrix=zero,
                                           dampingMatrix=zero, forceUserFunction=element._force_uf,

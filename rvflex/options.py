@@ -20,7 +20,8 @@ preset                                             discs            carrier     
 The spatial preset (``"spatial"``) keeps every part rigid but lets each body move out of its plane
 (:class:`SpatialSettings`): the carrier on its main bearing pair, the cranks on their support pairs, the discs
 tilting against the pins, whose contact is then sliced along the face width. :func:`rvflex.model.build_reducer`
-does not build that model yet: it refuses these options.
+builds it with rigid cranks (beam cranks are refused: not built yet), and Exudyn's solvers solve it (the
+compiled step of :mod:`rvflex.engine` does not take 3D bodies yet).
 
 Variants by :func:`dataclasses.replace` (e.g. more disc modes:
 ``replace(opts, discs=replace(opts.discs, n_modes=24))``) or :meth:`ModelOptions.with_fe`.
@@ -137,7 +138,7 @@ class ModelOptions:
         1, the default: one contact at each disc's mid-plane. At least 2 with ``spatial``.
     spatial : SpatialSettings or None
         None (the default): the planar model. Settings: the spatial model, every part a rigid body free out of
-        its plane (FE parts refused); not built yet (:func:`rvflex.model.build_reducer` refuses it).
+        its plane (FE parts refused; :func:`rvflex.model.build_reducer` builds it with rigid cranks).
     """
 
     discs: PartSettings | PartFidelity = "rigid"
@@ -212,7 +213,7 @@ class ModelOptions:
         Returns
         -------
         ModelOptions
-            The options (not built yet: :func:`rvflex.model.build_reducer` refuses them).
+            The options (:func:`rvflex.model.build_reducer` builds them with rigid cranks and refuses beam cranks).
         """
         return cls(face_slices=slices, spatial=SpatialSettings() if settings is None else settings)
 

@@ -151,3 +151,28 @@ def test_the_element_evaluates_the_kernel_on_the_carrier_node(pair):
         add_pair_element(mbs, mbs.AddNode(NodeRigidBody2D()), model)
     with pytest.raises(ValueError, match=r"reference tilt .* must be zero"):
         add_pair_element(mbs, mbs.AddNode(NodeRigidBodyRxyz(referenceCoordinates=[0, 0, 0, 0.01, 0, 0])), model)
+
+
+def test_a_seat_offset_moves_the_outer_rings(pair):
+    """With the outer rings' seat off the axis by (s_x, s_y) (a carrier runout), the element at q evaluates the
+    centred pair at q − (s_x, s_y, 0, 0, 0): a carrier sitting on the seat's axis carries the preload alone."""
+    import exudyn as exu
+    from exudyn.itemInterface import NodeRigidBodyRxyz
+
+    from rvflex.parts.main_bearing import add_pair_element
+
+    model = pair_model(pair)
+    mbs = exu.SystemContainer().AddSystem()
+    seat = (4e-6, -3e-6)
+    element = add_pair_element(mbs, mbs.AddNode(NodeRigidBodyRxyz(referenceCoordinates=[0.0] * 6)), model,
+                               seat_offset_m=seat)
+    q = np.array([1e-6, -2e-6, 3e-6, 1e-5, -2e-5, 0.0])
+    f, k, load = element.evaluate(q)
+    _, f5, k5, load5, _ = _kernel(model, q[:5] - np.array([*seat, 0.0, 0.0, 0.0]))
+    np.testing.assert_allclose(f[:5], f5, rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(load, load5, rtol=1e-12, atol=1e-9)
+    f0, _, _ = element.evaluate(np.array([*seat, 0.0, 0.0, 0.0, 0.0]))
+    assert np.abs(f0).max() < 1e-6 * model.n_balls * pair.preload_N  # the preload balances itself
+    with pytest.raises(ValueError, match=r"seat_offset_m = .* must be two finite lengths"):
+        add_pair_element(mbs, mbs.AddNode(NodeRigidBodyRxyz(referenceCoordinates=[0.0] * 6)), model,
+                         seat_offset_m=(1e-6,))

@@ -1,7 +1,7 @@
 """The spatial fidelity's inputs: the cranks' axial layout in the spec (TOML round trip, bad values refused in one
 line naming the field, the built-in units' assumed values), ``ReducerSpec.check_spatial``, and the options
-(``SpatialSettings``, the ``"spatial"`` preset, its table form) that ``build_reducer`` refuses until the spatial
-model is built."""
+(``SpatialSettings``, the ``"spatial"`` preset, its table form); ``build_reducer`` refuses what of them it does not
+build yet (beam cranks)."""
 
 from __future__ import annotations
 
@@ -164,13 +164,13 @@ def test_spatial_options_from_a_model_table():
         assert info.value.field == field and rule in msg and msg.startswith("d.toml: "), msg
 
 
-def test_build_reducer_refuses_the_spatial_model_before_building(rv40e):
+def test_build_reducer_refuses_beam_cranks_in_one_line(rv40e):
     from rvflex.model import build_reducer
 
     with pytest.raises(NotImplementedError) as info:
-        build_reducer(rv40e, options="spatial")
-    assert _one_line(info) == ("options.spatial: the spatial model is not built yet; build the planar model "
-                               "(options.spatial = None)")
+        build_reducer(rv40e, options=ModelOptions.spatial_rigid(4, SpatialSettings(crank="beam")))
+    assert _one_line(info) == ("options.spatial.crank = 'beam': flexible (beam) cranks are not built yet; use "
+                               "crank = 'rigid'")
 
 
 def test_the_planar_commands_and_the_unit_matrix_offer_no_spatial_fidelity():
