@@ -27,7 +27,7 @@ import numpy as np
 
 from rvflex.spec import SpecError, dumps_errors, dumps_spec
 
-__all__ = ["Result", "new_axes", "new_figure", "scenario_attrs", "variable"]
+__all__ = ["Result", "new_axes", "new_figure", "scenario_attrs", "spatial_variables", "variable"]
 
 UNIT_SUFFIX = {"rad": "rad", "arcsec": "arcsec", "arcmin": "arcmin", "N m": "Nm", "N": "N", "m": "m", "1": "",
                "N m/arcmin": "Nm_per_arcmin", "deg": "deg"}

@@ -1,10 +1,11 @@
-"""Output loads on the spatial model (``output_load=`` of rvflex.solve): the carrier's tilt and shift
+"""Output loads on the spatial model (``output_load=`` of rvflex.solve, ``--spatial``): the carrier's tilt and shift
 solved with the gear train (two-way), against the pair alone (rvflex.tilt.carrier_tilt) and the planar model's
 one-way tilt (rvflex.tilt.tilted_errors). Solved by Exudyn (the compiled step declines the spatial model); RV-40E,
 four slices, 64 positions over a third of an output revolution (13 periods of the disc-tooth order z_c = 39)."""
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -12,8 +13,9 @@ import pytest
 
 import rvflex
 from rvflex import catalog
+from rvflex.cli import main
 from rvflex.contact.angular_contact import PairLoad, pair_model, solve
-from rvflex.geometry.formulas import ARCSEC_PER_RAD
+from rvflex.geometry.formulas import ARCMIN_PER_RAD, ARCSEC_PER_RAD
 from rvflex.model import build_reducer
 from rvflex.options import ModelOptions
 from rvflex.solve import quasi_static, torque_stepping
@@ -188,3 +190,55 @@ def test_the_planar_model_takes_the_load_through_its_errors_not_the_solver(rv40e
         quasi_static(model, np.zeros(1), 100.0, output_load=load)
     with pytest.raises(ValueError, match="output_load: only the spatial model"):
         torque_stepping(model, np.array([0.0, 10.0]), output_load=load)
+
+
+def test_te_of_the_spatial_model_under_a_moment_from_the_command_line(tmp_path, capsys, rv40e):
+    out = tmp_path / "te"
+    code = main(["te", "--reducer", "rv40e", "--spatial", "--moment", "500", "--positions", "64", "--json",
+                 str(tmp_path / "te.json"), "--out", str(out)])
+    assert code == 0
+    text = " ".join(capsys.readouterr().out.split())
+    assert "solved with the gear train (spatial model" in text and "on its main bearing pair alone 0.705′" in text
+    doc = json.loads((tmp_path / "te.json").read_text())
+    ld = doc["output_load"]
+    assert doc["face_slices"] == MOMENT_SLICES and ld["moment_Nm"] == 500.0
+    pair = carrier_tilt(rv40e, 500.0)
+    assert ld["pair_carrier_tilt_arcmin"] == pytest.approx(pair.tilt_arcmin)
+    assert 0.95 * pair.tilt_arcmin < ld["carrier_tilt_arcmin"] <= pair.tilt_arcmin
+    assert f"the carrier tilts {ld['carrier_tilt_arcmin']:.3f}′" in text
+    assert len(ld["carrier_shift_m"]) == 3 and np.asarray(ld["disc_tilt_rad"]).shape == (2, 2)
+    assert (out / "pin_loads.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    import xarray as xr
+
+    with xr.open_dataset(out / "te.nc") as ds:
+        assert ds["carrier_tilt"].dims == ("position", "tilt_axis") and ds["carrier_tilt"].attrs["units"] == "rad"
+        assert ds["carrier_shift"].dims == ("position", "axis")
+        assert ds["disc_tilt"].dims == ("position", "disc", "tilt_axis")
+        assert ds["pin_slice_force"].dims == ("position", "disc", "slice", "pin")
+        assert float(ds["carrier_tilt"].sel(tilt_axis="x").mean()) * ARCMIN_PER_RAD == pytest.approx(
+            ld["carrier_tilt_arcmin"], rel=1e-3)
+        assert ds.attrs["pair_carrier_tilt_rad"][0] == pytest.approx(pair.tilt_rad[0])
+
+
+@pytest.mark.parametrize("command", [["lost-motion", "--steps", "40"], ["backlash"]])
+def test_lost_motion_and_backlash_take_spatial(tmp_path, capsys, command):
+    code = main([*command, "--reducer", "rv40e", "--spatial", "--moment", "500", "--json", str(tmp_path / "r.json")])
+    assert code == 0
+    assert "solved with the gear train" in capsys.readouterr().out
+    ld = json.loads((tmp_path / "r.json").read_text())["output_load"]
+    assert ld["carrier_tilt_rad"][0] > 0.9 * ld["pair_carrier_tilt_rad"][0] > 0.0
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--fidelity", "flexible"], "--spatial = True: takes rigid parts only (--fidelity rigid), got --fidelity "
+                                 "flexible"),
+    (["--slices", "1"], "--slices = 1: must be at least 2 with spatial"),
+    (["--moment", "5000"], "--moment = 5000.0: must lie in (0, 2300] N·m (the allowable moment of rv40e)"),
+])
+def test_what_spatial_cannot_take_is_a_one_line_error(tmp_path, capsys, argv, message):
+    code = main(["te", "--reducer", "rv40e", "--spatial", "--positions", "32", "--out", str(tmp_path / "o"), *argv])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert message in " ".join(err.split())
+    assert len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "o").exists()
