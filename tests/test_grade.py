@@ -593,3 +593,49 @@ def test_a_linearised_control_fit_that_sets_a_threshold_is_asked_to_be_refined()
     th = [thermal(-3e-6, True), thermal(-2e-6, False), thermal(5e-6, False)]
     assert unrefined_setters(th) == {2: {"thermal_expansion"}}
     assert unrefined_setters(th, tried={(2, "thermal_expansion")}) == {}
+
+
+def test_a_finding_tied_with_a_better_fit_that_healthy_units_reach_is_not_established():
+    """A crank phase error beyond every control (established on its own) and a pin-ring runout that fits better but
+    lies within the sizes healthy units reach: the runs cannot tell them apart (residuals within the tie ratio), so
+    the gap is as well a model-form gap and the phase error is held as consistent, with the phrase that says why.
+    A runout that fits worse, one beyond the controls too, or a pair with an effect beyond them (the pair claims that
+    effect: as a whole it is no model-form explanation) holds nothing."""
+    from rvflex.diagnosis.grade import grade
+    from rvflex.diagnosis.null import NullDistribution
+    from rvflex.diagnosis.stages.verdict import _healthy_rival, _held_by
+
+    settings = DiagnosisSettings()
+    local = {"explained_pct": 90.0, "groups": ["TE order 80"]}
+    null = NullDistribution({"pin_ring_runout": {"relative_max": 0.5, "magnitude_max": 15e-6},
+                             "crank_phase_error": {"relative_max": 0.2, "magnitude_max": 2e-3}}, unit="rv80e")
+
+    def graded(name, size, score, rss):
+        c = dataclasses.replace(_fitted(name, size, score), rss=rss)
+        return dataclasses.replace(c, grade=grade(c, settings, null, local))
+
+    phase = graded("crank_phase_error", 3.75e-3, 800.0, 10.0)
+    runout = graded("pin_ring_runout", 4.5e-6, 950.0, 9.0)
+    assert phase.grade["grade"] == ESTABLISHED and not phase.grade["healthy_reach"]
+    assert runout.grade["grade"] == CONSISTENT and runout.grade["healthy_reach"]
+    names, f0, w = {"crank_phase_error", "pin_ring_runout"}, np.zeros(4), np.ones(4)
+    rival = _healthy_rival([runout, phase], phase, settings, names, f0, w)
+    assert rival is runout
+    held = _held_by(phase, rival)
+    assert held.grade["grade"] == CONSISTENT and held.grade["fails"][-1].startswith(
+        "these runs cannot tell it from pin_ring_runout, which fits better (evidence 950 against 800)")
+    worse = graded("pin_ring_runout", 4.5e-6, 700.0, 11.0)
+    beyond = graded("pin_ring_runout", 20e-6, 950.0, 9.0)
+    assert beyond.grade["grade"] == ESTABLISHED
+    assert _healthy_rival([phase, worse], phase, settings, names, f0, w) is None
+    assert _healthy_rival([beyond, phase], phase, settings, names, f0, w) is None
+    # a pair whose other effect lies beyond the controls claims that effect: it is no model-form rival
+    a, b = EFFECTS["input_shaft_eccentricity"], EFFECTS["pin_ring_runout"]
+    x = np.r_[50e-6, 0.0, 4.5e-6, 0.0]
+    pair = dataclasses.replace(runout, effects=(a, b), x=x, interval=np.column_stack([0.75 * x, 1.25 * x]),
+                               magnitude=(50e-6, 4.5e-6), magnitude_interval=((37e-6, 63e-6), (3.4e-6, 5.6e-6)), k=4)
+    null_pair = NullDistribution(null.effects | {"input_shaft_eccentricity": {"relative_max": 0.0, "magnitude_max": 0.0}},
+                                 unit="rv80e")
+    pair = dataclasses.replace(pair, grade=grade(pair, settings, null_pair, local, {"pin_ring_runout": 100.0}))
+    assert pair.grade["healthy_reach"] == ["pin_ring_runout"]
+    assert _healthy_rival([pair, phase], phase, settings, names | {"input_shaft_eccentricity"}, f0, w) is None

@@ -108,7 +108,8 @@ def grade(c: Candidate, settings, null, local: dict, singles: dict | None = None
         test it fails), ``own_evidence`` and ``relative_evidence`` (effect → the evidence it earns on its own here,
         and that over ``leftover``, what the candidate leaves unexplained), ``relative_thresholds`` (effect → the
         relative evidence the ensemble's controls reach, None where the null has none), ``magnitude_thresholds``
-        (effect → size they reach), ``explained_where_pct`` and ``signature_groups``.
+        (effect → size they reach), ``explained_where_pct``, ``signature_groups`` and ``healthy_reach`` (its effects
+        that do not exceed a threshold of the null distribution: healthy units of other model forms reach them).
     """
     names = [e.name for e in c.attributed]
     own = {n: own_evidence(c.score, names, n, singles or {}) for n in names}
@@ -123,10 +124,12 @@ def grade(c: Candidate, settings, null, local: dict, singles: dict | None = None
     if not is_significant(c, settings):
         return out | {"grade": NOT_SIGNIFICANT, "fails": [f"its evidence {c.score:.0f} is below {settings.bic_threshold:g}"]}
     fails = _failed_tests(c, settings)
+    reached = []  # its effects healthy units of other model forms reach (a threshold not exceeded)
     for n in names:
         t = rel_ts.get(n)
         if t is None or rel[n] > t:
             continue
+        reached.append(n)
         earns = (f"its evidence {c.score:.0f} is" if len(names) == 1 else
                  f"its {n} earns an evidence of {own[n]:.0f} on its own (the pair's {c.score:.0f} less the other "
                  "effect's alone),")
@@ -138,6 +141,7 @@ def grade(c: Candidate, settings, null, local: dict, singles: dict | None = None
         if t is not None:
             mag_t[e.name] = t
         if not e.nominal and t is not None and abs(m) <= t:
+            reached.append(e.name)
             where = side_text(e.name, sg)
             fails.append(f"its {e.name} of {fmt_mag(e, abs(m))} is within the {fmt_mag(e, t)} healthy units of other "
                          f"model forms reach{where}{whose}")
@@ -154,7 +158,8 @@ def grade(c: Candidate, settings, null, local: dict, singles: dict | None = None
         fails.append(f"it removes only {max(pct or 0.0, 0.0):.0f} % of what calibration left where its signature "
                      f"lies ({where})")
     note = "" if null is not None else "not judged against healthy units of other model forms (no null distribution)"
-    return out | {"grade": CONSISTENT if fails else ESTABLISHED, "fails": fails, "note": note}
+    return out | {"grade": CONSISTENT if fails else ESTABLISHED, "fails": fails, "note": note,
+                  "healthy_reach": sorted(set(reached))}
 
 
 def _failed_tests(c: Candidate, settings) -> list[str]:

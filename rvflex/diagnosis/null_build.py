@@ -59,7 +59,7 @@ def _setters_refined(folder: Path, rows: list[dict], s, cache_dir, rounds: int, 
     after its control was diagnosed again with it (a refinement that failed) is not asked for again."""
     import dataclasses as dc
 
-    from rvflex.diagnosis.selfcheck import _diagnosis_job
+    from rvflex.diagnosis.selfcheck import diagnose_case
     from rvflex.parallel import map_warm
 
     def report(row):
@@ -84,7 +84,7 @@ def _setters_refined(folder: Path, rows: list[dict], s, cache_dir, rounds: int, 
                             also_refine=tuple(sorted(asked[i])))
             jobs.append((row["case"], folder / "datasets" / f"case_{row['case']:02d}",
                          folder / "truth" / f"case_{row['case']:02d}.json", report(row), s, ds, cache_dir))
-        for i, o in zip(sorted(todo), map_warm(_diagnosis_job, jobs, s.diagnosis.workers if len(jobs) > 1 else 0)):
+        for i, o in zip(sorted(todo), map_warm(diagnose_case, jobs, s.diagnosis.workers if len(jobs) > 1 else 0)):
             if not o.ok:
                 raise RuntimeError(f"control {rows[i]['case']} of {folder.name}: the diagnosis failed: {o.error}")
             rows[i] = {**o.value[0], "also_refined": sorted(asked[i])}

@@ -62,6 +62,7 @@ __all__ = [
     "GeneratorModel",
     "SelfCheckSettings",
     "campaign_plan",
+    "diagnose_case",
     "draw_truth",
     "generate_case",
     "score_case",
@@ -458,7 +459,7 @@ def _case_job(args):
     return None, msgs
 
 
-def _diagnosis_job(args):
+def diagnose_case(args):
     """One self-check case diagnosed blind with the diagnosis settings ``diag`` (serial when the cases run side
     by side, see :func:`selfcheck`), its report written as `rvflex diagnose --json` writes it (no plots: the
     misses can be read case by case) and scored against its truth, read only then. Returns (row, log line)."""
@@ -623,7 +624,7 @@ def selfcheck(out_dir: str | Path, settings: SelfCheckSettings = SelfCheckSettin
     # the pool for its runs)
     workers = settings.diagnosis.workers if len(ready) > 1 else 0
     diag_settings = dc.replace(settings.diagnosis, workers=1) if workers else settings.diagnosis
-    map_warm(_diagnosis_job, [(k, folder, truth_path, out / "reports" / f"case_{k:02d}.json", settings, diag_settings,
+    map_warm(diagnose_case, [(k, folder, truth_path, out / "reports" / f"case_{k:02d}.json", settings, diag_settings,
                                cache) for k, folder, truth_path in ready], workers, on_outcome=diagnosed)
     rows.sort(key=lambda r: r["case"])
     eff = [r for r in rows if not r.get("control") and "error" not in r]
