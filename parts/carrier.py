@@ -13,6 +13,10 @@ holds four massless virtual nodes appended to the reduced carrier whose mode row
 seat's RBE3 motion (:func:`rvflex.fe.couplings.rbe3_virtual_nodes`): the same kinematics, hence
 the same loads, as the marker on all 108–136 seat nodes with the reduction's weights
 (``seat_marker="all_nodes"``), at a fraction of the cost.
+
+:func:`build_spatial`: the carrier as a rigid body free in space (``NodeRigidBodyRxyz`` at the main pair's
+centre, on the axis in the discs' mid-plane) on the main bearing pair element
+(:func:`rvflex.parts.main_bearing.add_pair_element`), with a crank bore in each end plate at ±``support_span_m``/2.
 """
 
 from __future__ import annotations
@@ -28,10 +32,11 @@ from rvflex.fe import ffrf as ffrf_module
 from rvflex.fe.couplings import rbe3_virtual_nodes
 from rvflex.numerics import OUTPUT_REGULARISER_NM_RAD  # re-exported: the regulariser this builder installs
 from rvflex.parts import bearings
-from rvflex.spec import ErrorSpec, ReducerSpec
+from rvflex.parts.main_bearing import PairElement, add_pair_element
+from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
 
-__all__ = ["CarrierHandles", "build", "crank_axis_positions", "OUTPUT_REGULARISER_NM_RAD", "add_input_seat_bearings",
-           "split_support_bearing", "SEAT_MARKERS"]
+__all__ = ["CarrierHandles", "build", "build_spatial", "crank_axis_positions", "OUTPUT_REGULARISER_NM_RAD",
+           "add_input_seat_bearings", "split_support_bearing", "SEAT_MARKERS"]
 
 SEAT_MARKERS = choices(SeatMarker)  # flexible carrier: seat markers on 4 virtual RBE3 nodes | on all seat nodes
 
@@ -40,22 +45,27 @@ SEAT_MARKERS = choices(SeatMarker)  # flexible carrier: seat markers on 4 virtua
 class CarrierHandles:
     """node/body of the carrier; bore_markers: one rigid marker per crank bore;
     load: LoadCoordinate of the output torque; regulariser: weak torsional spring to the
-    kinematic output angle (offset set by the solver); main: the main bearing."""
+    kinematic output angle (offset set by the solver); main: the main bearing (a bushing; None on the spatial
+    carrier, whose main bearing is ``pair``)."""
 
     node: int
     body: int
     bore_markers: tuple[int, ...]
     load: int
     regulariser: int
-    main: bearings.BearingPair
+    main: bearings.BearingPair | None
     modal_node: int = -1  # flexible carrier: the NodeGenericODE2 of its modal coordinates
-    input_seat_markers: tuple[int, ...] = ()  # flexible carrier: the input-plate seat markers (bore_markers: output plate)
+    # flexible or spatial carrier: the input-plate seat markers (bore_markers: output plate)
+    input_seat_markers: tuple[int, ...] = ()
+    pair: PairElement | None = None  # spatial carrier: the main bearing pair element on its node
+    # spatial carrier: LoadCoordinate on its node's x, y, z, ψx, ψy (the output load; set by the solver)
+    output_loads: tuple[int, ...] = ()
 
     @property
     def angle_coordinate(self) -> int:
         """Index of the output angle θ_out among the node's coordinates: 2 (NodeRigidBody2D x, y, θ)
-        or 5 (the flexible carrier's NodeRigidBodyRxyz x, y, z, ψx, ψy, ψz)."""
-        return 2 if self.modal_node < 0 else 5
+        or 5 (the flexible or spatial carrier's NodeRigidBodyRxyz x, y, z, ψx, ψy, ψz)."""
+        return 2 if self.modal_node < 0 and self.pair is None else 5
 
 
 def crank_axis_positions(spec: ReducerSpec, errors: ErrorSpec) -> np.ndarray:
@@ -143,6 +153,80 @@ def build(mbs, spec: ReducerSpec, errors: ErrorSpec, ground_body: int, ground_co
     reg = mbs.AddObject(ObjectConnectorCoordinateSpringDamper(markerNumbers=[ground_coordinate, theta],
                                                               stiffness=OUTPUT_REGULARISER_NM_RAD, offset=0.0))
     return CarrierHandles(int(node), int(body), bores, int(load), int(reg), main)
+
+
+def build_spatial(mbs, spec: ReducerSpec, errors: ErrorSpec, ground_coordinate: int) -> CarrierHandles:
+    """Add the carrier as a rigid body free in space on its main bearing pair, and the output load.
+
+    The node (``NodeRigidBodyRxyz``) sits at the pair's centre, on the axis in the discs' mid-plane; the pair
+    element (:func:`rvflex.parts.main_bearing.add_pair_element`, Hertz balls with their preload) holds its
+    x, y, z, ψx, ψy, with the carrier runout as the offset of the outer rings' seat; the output torque and the
+    regulariser act on ψz. ``bore_markers`` are the output-plate crank bores at +``support_span_m``/2,
+    ``input_seat_markers`` the input-plate ones at −``support_span_m``/2 (the planet gears sit at −z).
+
+    Parameters
+    ----------
+    mbs : exudyn.MainSystem
+        The system to add to.
+    spec : ReducerSpec
+        The reducer; needs ``bearings.main_pair`` and ``cranks.support_span_m`` (``spec.check_spatial``).
+    errors : ErrorSpec
+        Its errors: the carrier runout and the crank bore positions apply.
+    ground_coordinate : int
+        A ground coordinate marker (the regulariser's other end).
+
+    Returns
+    -------
+    CarrierHandles
+        With ``main`` None and ``pair`` the pair element.
+
+    Raises
+    ------
+    SpecError
+        A main-bearing clearance error: the pair is preloaded and has no clearance in this model.
+    """
+    from exudyn.itemInterface import (
+        LoadCoordinate,
+        MarkerBodyRigid,
+        MarkerNodeCoordinate,
+        NodeRigidBodyRxyz,
+        ObjectConnectorCoordinateSpringDamper,
+        ObjectRigidBody,
+    )
+
+    from rvflex.contact.angular_contact import pair_model
+
+    spec.check_spatial("options.spatial")
+    if errors.main_bearing_clearance_m:
+        raise SpecError("errors.main_bearing_clearance_m", errors.main_bearing_clearance_m,
+                        "must be 0 in the spatial model: its main bearing is the preloaded ball pair, without clearance")
+    ca, half = spec.carrier, 0.5 * spec.cranks.support_span_m
+    rho = spec.materials.carriers.density_kg_m3
+    plate = rho * math.pi * ca.outer_radius_m**2 * ca.plate_thickness_m
+    mass = 2 * plate
+    izz = 0.5 * mass * ca.outer_radius_m**2
+    ixx = mass * (ca.outer_radius_m**2 / 4 + ca.plate_thickness_m**2 / 12 + half**2)  # two plates at ±span/2
+    node = int(mbs.AddNode(NodeRigidBodyRxyz(referenceCoordinates=[0.0] * 6)))
+    body = int(mbs.AddObject(ObjectRigidBody(nodeNumber=node, mass=mass, inertia=[ixx, ixx, izz, 0.0, 0.0, 0.0])))
+    seat = errors.carrier_runout_m * np.array([math.cos(errors.carrier_runout_phase_rad),
+                                               math.sin(errors.carrier_runout_phase_rad)])
+    pair = add_pair_element(mbs, node, pair_model(spec.bearings.main_pair), seat_offset_m=(seat[0], seat[1]))
+    axes = crank_axis_positions(spec, errors)
+    bores = tuple(int(mbs.AddMarker(MarkerBodyRigid(bodyNumber=body, localPosition=[p[0], p[1], half]))) for p in axes)
+    inputs = tuple(int(mbs.AddMarker(MarkerBodyRigid(bodyNumber=body, localPosition=[p[0], p[1], -half])))
+                   for p in axes)
+    theta = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=node, coordinate=5))
+    load = mbs.AddLoad(LoadCoordinate(markerNumber=theta, load=0.0))
+    reg = mbs.AddObject(ObjectConnectorCoordinateSpringDamper(markerNumbers=[ground_coordinate, theta],
+                                                              stiffness=OUTPUT_REGULARISER_NM_RAD, offset=0.0))
+    # the output load as generalized forces on x, y, z, ψx, ψy: the forces are exact (the node is the pair's
+    # centre, where the load acts); a moment M on (ψx, ψy) is Gᵀ·M with G the Rxyz angular-velocity matrix, = M to
+    # O(ψ) (2e-4 rad at the RV-40E's 500 N·m: a 0.02 % error of the moment)
+    outs = tuple(int(mbs.AddLoad(LoadCoordinate(markerNumber=mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=node,
+                                                                                                  coordinate=k)),
+                                                load=0.0))) for k in range(5))
+    return CarrierHandles(node, body, bores, int(load), int(reg), None, input_seat_markers=inputs, pair=pair,
+                          output_loads=outs)
 
 
 def _build_flexible(mbs, spec, errors, ground_body, ground_coordinate, reduced,

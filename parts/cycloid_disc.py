@@ -1,5 +1,8 @@
 """Cycloid discs: one planar body per disc on the crank eccentrics (clearance bearings in
-its crank bores), meshing with the pin ring through the exact contact element."""
+its crank bores), meshing with the pin ring through the exact contact element.
+
+:func:`build_spatial`: each disc a rigid body free in space (``NodeRigidBodyRxyz`` in its plane) whose pin
+contact is sliced along the face width, each slice seeing the section of the tilted disc at its axial lever."""
 
 from __future__ import annotations
 
@@ -16,7 +19,7 @@ from rvflex.geometry.pins import disc_planes
 from rvflex.parts import bearings
 from rvflex.spec import ErrorSpec, ReducerSpec
 
-__all__ = ["DiscHandles", "FEDiscPlacement", "build", "bore_positions", "contact_mode_table", "fe_disc_placements",
+__all__ = ["DiscHandles", "FEDiscPlacement", "build", "build_spatial", "bore_positions", "contact_mode_table", "fe_disc_placements",
            "face_line_loads", "fe_disc_spec", "slice_line_loads", "slice_planes"]
 
 
@@ -89,7 +92,7 @@ def build(mbs, spec: ReducerSpec, errors: ErrorSpec, cranks, law: ContactLaw, ec
     if fidelity == "flexible":
         return _build_flexible(mbs, spec, errors, cranks, law, eccentric_offsets, axes, reduced, ground_coordinate,
                                carried, sliced)
-    from exudyn.itemInterface import MarkerBodyRigid, NodeRigidBody2D, ObjectRigidBody2D
+    from exudyn.itemInterface import NodeRigidBody2D, ObjectRigidBody2D
 
     cy = spec.cycloid
     rho = spec.materials.gears_cranks_discs.density_kg_m3
@@ -102,13 +105,7 @@ def build(mbs, spec: ReducerSpec, errors: ErrorSpec, cranks, law: ContactLaw, ec
         centre = np.mean(axes + eccentric_offsets[:, d] - bores, axis=0)
         node = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[centre[0], centre[1], 0.0]))
         body = mbs.AddObject(ObjectRigidBody2D(nodeNumber=node, mass=mass, inertia=inertia))
-        pairs = []
-        for k in range(spec.cranks.count):
-            idx = k * cy.disc_count + d
-            extra = errors.eccentric_bearing_clearance_m[idx] if errors.eccentric_bearing_clearance_m else 0.0
-            bore = mbs.AddMarker(MarkerBodyRigid(bodyNumber=body, localPosition=[bores[k, 0], bores[k, 1], 0.0]))
-            pairs.append(bearings.build(mbs, cranks.eccentric_markers[k][d], bore, spec.bearings.eccentric,
-                                        extra_clearance_m=extra))
+        pairs = _eccentric_bearings(mbs, spec, errors, cranks, body, d, bores)
         # pin and disc errors may make pins interfere by a few µm at the nominal pose (the first
         # static step resolves it); deeper than 50 µm would be a broken spec
         slice_law, planes = sliced
@@ -119,6 +116,84 @@ def build(mbs, spec: ReducerSpec, errors: ErrorSpec, cranks, law: ContactLaw, ec
         bodies.append(int(body))
         ecc_bearings.append(tuple(pairs))
     return DiscHandles(tuple(nodes), tuple(bodies), tuple(contacts), tuple(ecc_bearings), slices=face_slices)
+
+
+def build_spatial(mbs, spec: ReducerSpec, errors: ErrorSpec, cranks, law: ContactLaw, eccentric_offsets: np.ndarray,
+                  axes: np.ndarray, *, face_slices: int) -> DiscHandles:
+    """Add the discs as rigid bodies free in space at their reference poses (output angle 0; in-plane as
+    :func:`build`), each node (``NodeRigidBodyRxyz``) in its disc's plane (:func:`rvflex.geometry.pins.disc_planes`).
+
+    Each crank bore sits on its eccentric (``cranks.eccentric_markers``, in the same plane) through the
+    eccentric (needle) bearing: the radial clearance law with its axial and tilt springs, the bore's clearance
+    error added. The pin contact is ``face_slices`` elements at :func:`slice_planes` (pins cut there, so a
+    tilted pin ring applies), each with its share of the law (:meth:`ContactLaw.sliced`) acting on the disc's
+    section at its lever from the node: the disc's tilt loads its pins' ends unequally and the slices' forces
+    tilt it back (:mod:`rvflex.contact.tilt_map`).
+
+    Parameters
+    ----------
+    mbs : exudyn.MainSystem
+        The system to add to.
+    spec : ReducerSpec
+        The reducer.
+    errors : ErrorSpec
+        Its errors (bores, profile, pins).
+    cranks : CrankHandles
+        The spatial cranks (:func:`rvflex.parts.crankshaft.build_spatial`).
+    law : ContactLaw
+        The whole face's pin contact law.
+    eccentric_offsets : numpy.ndarray
+        Eccentric centres in each crank's frame, (cranks, discs, 2) (m).
+    axes : numpy.ndarray
+        Crank axes in the carrier frame, (cranks, 2) (m).
+    face_slices : int
+        Contact slices per disc (≥ 1).
+
+    Returns
+    -------
+    DiscHandles
+        ``contacts[d * face_slices + s]`` disc d's slice s.
+    """
+    from exudyn.itemInterface import NodeRigidBodyRxyz, ObjectRigidBody
+
+    cy = spec.cycloid
+    rho = spec.materials.gears_cranks_discs.density_kg_m3
+    r_out, r_in, b = cy.pin_circle_radius_m - cy.pin_radius_m, cy.disc_center_hole_radius_m, cy.disc_thickness_m
+    mass = rho * math.pi * (r_out**2 - r_in**2) * b
+    izz = 0.5 * mass * (r_out**2 + r_in**2)
+    ixx = mass * ((r_out**2 + r_in**2) / 4 + b**2 / 12)
+    slice_law, planes = law.sliced(face_slices), slice_planes(spec, face_slices)
+    mid = disc_planes(spec)
+    nodes, bodies, contacts, ecc_bearings = [], [], [], []
+    for d in range(cy.disc_count):
+        bores = bore_positions(spec, errors, d)
+        centre = np.mean(axes + eccentric_offsets[:, d] - bores, axis=0)
+        node = int(mbs.AddNode(NodeRigidBodyRxyz(referenceCoordinates=[centre[0], centre[1], mid[d], 0.0, 0.0, 0.0])))
+        body = int(mbs.AddObject(ObjectRigidBody(nodeNumber=node, mass=mass, inertia=[ixx, ixx, izz, 0.0, 0.0, 0.0])))
+        pairs = _eccentric_bearings(mbs, spec, errors, cranks, body, d, bores)
+        for z in planes[d]:  # as build(): errors may interfere by a few µm at the nominal pose
+            contacts.append(add_cycloid_pin_contact(mbs, node, cy, slice_law, disc=d, errors=errors,
+                                                    initial_interference_m=50e-6, axial_m=z, lever_m=z - mid[d]))
+        nodes.append(node)
+        bodies.append(body)
+        ecc_bearings.append(tuple(pairs))
+    return DiscHandles(tuple(nodes), tuple(bodies), tuple(contacts), tuple(ecc_bearings), slices=face_slices)
+
+
+def _eccentric_bearings(mbs, spec: ReducerSpec, errors: ErrorSpec, cranks, body: int, d: int,
+                        bores: np.ndarray) -> list[bearings.BearingPair]:
+    """Disc ``d``'s eccentric bearings on rigid ``body``: one per crank between the crank's eccentric marker and a
+    rigid marker at the bore (``bores``, disc frame, m), each with its clearance error."""
+    from exudyn.itemInterface import MarkerBodyRigid
+
+    pairs = []
+    for k in range(spec.cranks.count):
+        idx = k * spec.cycloid.disc_count + d
+        extra = errors.eccentric_bearing_clearance_m[idx] if errors.eccentric_bearing_clearance_m else 0.0
+        bore = mbs.AddMarker(MarkerBodyRigid(bodyNumber=body, localPosition=[bores[k, 0], bores[k, 1], 0.0]))
+        pairs.append(bearings.build(mbs, cranks.eccentric_markers[k][d], bore, spec.bearings.eccentric,
+                                    extra_clearance_m=extra))
+    return pairs
 
 
 def slice_line_loads(spec: ReducerSpec, slice_force_N: np.ndarray) -> np.ndarray:

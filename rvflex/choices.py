@@ -18,13 +18,25 @@ from typing import Literal, get_args
 
 from rvflex.spec_types import SpecError
 
-__all__ = ["BodyFidelity", "ContactLawKind", "ConvergencePart", "DesignKind", "Distribution", "EffectKind", "Executor", "FEPart",
-           "DiscrepancyKind", "EvidenceModel", "Fidelity", "Mismatch", "PatchShape", "RunCostKind", "RunKind", "SeatCoupling", "SeatMarker", "TEMode", "check_choice",
+__all__ = ["BodyFidelity", "ContactLawKind", "ConvergencePart", "CrankModel", "DesignKind", "Distribution", "EffectKind", "Executor", "FEPart",
+           "DiscrepancyKind", "EvidenceModel", "Fidelity", "Mismatch", "PairContacts", "PatchShape", "PlanarFidelity", "RunCostKind", "RunKind", "SeatCoupling", "SeatMarker", "TEMode", "check_choice",
            "choices", "did_you_mean"]
 
-Fidelity = Literal["rigid", "flexible", "flexible-carrier", "flexible-all"]
-"""Names of the :class:`~rvflex.options.ModelOptions` presets (the CLI's ``--fidelity``): rigid
-parts; FE discs; FE discs and carrier; FE discs, carrier and pin housing."""
+PlanarFidelity = Literal["rigid", "flexible", "flexible-carrier", "flexible-all"]
+"""The planar presets (the CLI's ``--fidelity``): rigid parts; FE discs; FE discs and carrier; FE discs,
+carrier and pin housing."""
+
+Fidelity = Literal[PlanarFidelity, "spatial"]
+"""Names of the :class:`~rvflex.options.ModelOptions` presets: the planar ones (:data:`PlanarFidelity`) and
+``"spatial"`` (rigid bodies free out of their plane, :meth:`~rvflex.options.ModelOptions.spatial_rigid`)."""
+
+PairContacts = Literal["springs", "element"]
+"""The main bearing pair's balls in an Exudyn carrier model (:mod:`rvflex.parts.main_bearing`): one linearised
+spring per ball (the cross-check), or the pair element on the pair's own kernel."""
+
+CrankModel = Literal["rigid", "beam"]
+"""The cranks of the spatial model (:class:`~rvflex.options.SpatialSettings`): rigid bodies, or flexible
+(Timoshenko) shafts."""
 
 BodyFidelity = Literal["rigid", "flexible"]
 """How a part builder (:mod:`rvflex.parts`) builds its part: a planar rigid body or a

@@ -18,7 +18,7 @@ from pathlib import Path
 import rvflex.scenarios  # noqa: F401 -- registers the scenarios sweeps run (rvflex.scenarios.sweepable)
 from rvflex import catalog
 from rvflex.bench_te import CASES as BENCH_TE_CASES
-from rvflex.choices import Executor, Fidelity, RunCostKind, TEMode, choices
+from rvflex.choices import Executor, PlanarFidelity, RunCostKind, TEMode, choices
 from rvflex.io import emit, write_json, write_text
 from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
 from rvflex.tilt import MOMENT_SLICES
@@ -103,15 +103,30 @@ def _output_load(args: argparse.Namespace):
 
 
 def _loaded_options(args: argparse.Namespace, load):
-    """``_options(args)`` with ``--slices`` (default :data:`~rvflex.tilt.MOMENT_SLICES` under an output load)."""
-    slices = args.slices if args.slices is not None else (MOMENT_SLICES if load is not None else 1)
+    """``_options(args)`` with ``--slices`` (default :data:`~rvflex.tilt.MOMENT_SLICES` under an output load or
+    with ``--spatial``), the spatial rigid model with ``--spatial`` (refused with another ``--fidelity``)."""
+    from rvflex.options import ModelOptions
+
+    spatial = getattr(args, "spatial", False)
+    slices = args.slices if args.slices is not None else (MOMENT_SLICES if load is not None or spatial else 1)
+    if spatial:
+        if args.fidelity != "rigid":
+            raise SpecError("--spatial", True, f"takes rigid parts only (--fidelity rigid), got --fidelity "
+                                               f"{args.fidelity}: FE bodies free out of their plane are not built yet")
+        _options(args)  # the --fe-* flags are refused as with --fidelity rigid
+        return ModelOptions.spatial_rigid(slices)
     return dataclasses.replace(_options(args), face_slices=slices)
 
 
-def _tilt_report(scenario, doc: dict) -> None:
-    """Print how the output load moves the carrier and add it to ``doc`` (nothing without a load)."""
+def _tilt_report(scenario, doc: dict, raw=None) -> None:
+    """Print how the output load moves the carrier and add it to ``doc`` (nothing without a load).
+
+    The planar model (``raw`` None, before the run): the carrier's tilt and shift on its main bearing pair alone,
+    which the model takes as moved pins. The spatial model (``raw`` the solver's record, after the run): the tilt,
+    shift and disc tilts solved with the gear train (means over the run's steps) beside the pair-alone ones."""
     import numpy as np
 
+    from rvflex.geometry.formulas import ARCMIN_PER_RAD
     from rvflex.geometry.pins import disc_planes
 
     tilt = scenario.tilt
@@ -121,13 +136,30 @@ def _tilt_report(scenario, doc: dict) -> None:
     parts = [f"moment {ld.moment_Nm:g} N·m at {math.degrees(ld.moment_angle_rad):g}°"] if ld.moment_Nm else []
     parts += [f"axial force {ld.axial_force_N:g} N"] if ld.axial_force_N else []
     parts += [f"radial force {ld.radial_force_N:g} N at {math.degrees(ld.radial_angle_rad):g}°"] if ld.radial_force_N else []
+    load = {k: float(v) for k, v in dataclasses.asdict(ld).items()}
+    if raw is not None and getattr(raw, "carrier_tilt_rad", None) is not None:
+        theta = np.nanmean(raw.carrier_tilt_rad, axis=0)
+        shift = np.nanmean(raw.carrier_shift_m, axis=0)
+        discs = np.nanmean(raw.disc_tilt_rad, axis=0)
+        print(f"output load {', '.join(parts)}, solved with the gear train (spatial model, mean over the run): the "
+              f"carrier tilts {np.hypot(*theta) * ARCMIN_PER_RAD:.3f}′ (on its main bearing pair alone "
+              f"{tilt.tilt_arcmin:.3f}′) and moves {np.hypot(*shift[:2]) * 1e6:.2f} µm radially, "
+              f"{shift[2] * 1e6:.2f} µm along the axis; the discs tilt "
+              + ", ".join(f"{np.hypot(*t) * ARCMIN_PER_RAD:.3f}′" for t in discs)
+              + f" ({tilt.balls_in_contact} balls loaded, {tilt.peak_pressure_Pa / 1e9:.2f} GPa at the most loaded, "
+                f"pair alone)")
+        doc["output_load"] = {**load, "carrier_tilt_rad": theta.tolist(),
+                              "carrier_tilt_arcmin": float(np.hypot(*theta) * ARCMIN_PER_RAD),
+                              "carrier_shift_m": shift.tolist(), "disc_tilt_rad": discs.tolist(),
+                              "pair_carrier_tilt_rad": list(tilt.tilt_rad), "pair_carrier_tilt_arcmin": tilt.tilt_arcmin,
+                              "pair_carrier_shift_m": list(tilt.shift_m), "peak_ball_pressure_Pa": tilt.peak_pressure_Pa}
+        return
     shift = np.mean([np.hypot(*tilt.disc_shift_m(z)) for z in disc_planes(scenario.spec)])
     print(f"output load {', '.join(parts)}: the carrier tilts {tilt.tilt_arcmin:.3f}′ and moves "
           f"{np.hypot(*tilt.shift_m) * 1e6:.2f} µm on its main bearing pair ({tilt.balls_in_contact} balls loaded, "
           f"{tilt.peak_pressure_Pa / 1e9:.2f} GPa at the most loaded); the discs move {shift * 1e6:.2f} µm against "
           f"the pins at their mid-planes")
-    doc["output_load"] = {**{k: float(v) for k, v in dataclasses.asdict(ld).items()},
-                          "carrier_tilt_rad": list(tilt.tilt_rad), "carrier_tilt_arcmin": tilt.tilt_arcmin,
+    doc["output_load"] = {**load, "carrier_tilt_rad": list(tilt.tilt_rad), "carrier_tilt_arcmin": tilt.tilt_arcmin,
                           "carrier_shift_m": list(tilt.shift_m), "peak_ball_pressure_Pa": tilt.peak_pressure_Pa}
 
 
@@ -144,9 +176,13 @@ def _cmd_te(args: argparse.Namespace) -> int:
                                spec.rated_output_speed_rpm if args.speed_out is None else args.speed_out,
                                options=options, output_load=load)
     doc = {}
-    _tilt_report(scenario, doc)
+    spatial = options.spatial is not None
+    if not spatial:
+        _tilt_report(scenario, doc)
     result, wall = _with_progress(scenario.n_positions, "loaded TE",
                                   lambda progress: rvflex.run(scenario, progress=progress))
+    if spatial:
+        _tilt_report(scenario, doc, result.raw)
     met, n = result.metrics, len(result.raw.te_rad)
     doc = {
         "te_pp_arcsec": met.te_pp_arcsec, "te_min_arcsec": met.te_min_arcsec, "te_max_arcsec": met.te_max_arcsec,
@@ -177,9 +213,13 @@ def _cmd_lost_motion(args: argparse.Namespace) -> int:
     sc = rvflex.LostMotion(spec, errors, spec.rated_torque_Nm if args.torque is None else args.torque,
                            args.steps, _loaded_options(args, load), output_load=load)
     extra = {}
-    _tilt_report(sc, extra)
+    spatial = sc.options.spatial is not None
+    if not spatial:
+        _tilt_report(sc, extra)
     result, wall = _with_progress(len(sc.torques_Nm), "hysteresis",
                                   lambda progress: rvflex.run(sc, progress=progress))
+    if spatial:
+        _tilt_report(sc, extra, result.raw)
     met = result.metrics
     doc = {**result.metrics_dict(), "wall_s": wall, **extra}
     print(f"lost motion {met.lost_motion_arcmin:.4f}′, hysteresis loss {met.hysteresis_loss_arcmin:.4f}′, "
@@ -196,8 +236,12 @@ def _cmd_backlash(args: argparse.Namespace) -> int:
     load = _output_load(args)
     sc = rvflex.ReversalBacklash(spec, errors, args.load, options=_loaded_options(args, load), output_load=load)
     extra = {}
-    _tilt_report(sc, extra)
+    spatial = sc.options.spatial is not None
+    if not spatial:
+        _tilt_report(sc, extra)
     result = rvflex.run(sc)
+    if spatial:
+        _tilt_report(sc, extra, result.forward)
     doc = {**result.metrics_dict(), "wall_s": result.wall_s, **extra}
     print(f"reversal backlash {result.metrics.reversal_backlash_arcmin:.4f}′ at ±{sc.load_Nm:g} N·m "
           f"({doc['wall_s']:.1f} s)")
@@ -380,7 +424,7 @@ def _model_arguments(p: argparse.ArgumentParser) -> None:
     from rvflex.options import CARRIER_FE, DISC_FE
 
     p.add_argument("--reducer", required=True, help=f"built-in reducer ({', '.join(catalog.names())}) or a spec TOML path")
-    p.add_argument("--fidelity", default="rigid", choices=choices(Fidelity),
+    p.add_argument("--fidelity", default="rigid", choices=choices(PlanarFidelity),
                    help="rigid bodies (ModelOptions.rigid()); flexible: FE-reduced (Craig–Bampton, FFRF) cycloid "
                         "discs (ModelOptions.flexible_discs()); flexible-carrier: FE discs and carrier "
                         "(ModelOptions.flexible_discs_and_carrier(): output face = output frame, RBE3 seats, two "
@@ -431,7 +475,11 @@ def _load_arguments(p: argparse.ArgumentParser) -> None:
                    help="direction of the radial force in the housing frame, degrees from +x (default 0)")
     p.add_argument("--slices", type=int,
                    help=f"slices of the pin contact along the face width (default {MOMENT_SLICES} under an output "
-                        f"load, else 1; docs/spatial.md: convergence)")
+                        f"load or with --spatial, else 1; at least 2 with --spatial; docs/spatial.md: convergence)")
+    p.add_argument("--spatial", action="store_true",
+                   help="the spatial rigid model: carrier, cranks and discs free out of their plane, the output load "
+                        "on the carrier and its tilt solved with the gear train (with --fidelity rigid only; "
+                        "docs/spatial.md)")
 
 
 def _output_arguments(p: argparse.ArgumentParser, files: str) -> None:

@@ -916,6 +916,8 @@ def compiled_step(model) -> CompiledStep | None:
     """The compiled step of ``model``, or None when its system holds an item the compiled step does not
     replicate (other connector laws, an FE body free out of its plane, user functions on an FE body): that model is
     solved by Exudyn."""
+    if model.carrier.main is None:
+        return None  # the spatial model (3D bodies, the main bearing pair element): Exudyn solves it
     mbs = model.mbs
     sd = mbs.systemData
     bearing_law = {}  # connector → (ε, w) of rvflex's clearance law

@@ -7,6 +7,12 @@ clearance bearings, mesh with the sun and carry the discs on clearance (needle) 
 discs mesh with the pins through the exact contact element. Every ErrorSpec field reaches the
 geometry or connector it belongs to (see the part modules).
 
+Spatial rigid fidelity (``options.spatial``, rigid cranks): carrier, cranks and discs are rigid bodies free in
+space (``NodeRigidBodyRxyz``; z the axis, z = 0 the discs' mid-plane): the carrier on the main bearing pair
+element, each crank on two support bearings at ±``support_span_m``/2, each disc on its eccentric (needle)
+bearings with their axial and tilt springs, the pin contact in face slices that see the disc's tilt, and each
+planet gear's mesh at its own plane on the tilting crank. The sun stays a planar body (held on the axis).
+
 Reference configuration: input and output angles 0, every crank at relative angle 0, each
 disc where its eccentrics put it.
 """
@@ -75,6 +81,8 @@ class ReducerModel:
         FE discs: every disc's reduction (the same object where discs share one); empty when rigid.
     reduced_housing : ReducedPart, optional
         The FE reduction of the pin housing (flexible housing), else None.
+    out_of_plane_held : bool
+        Spatial model built with ``hold_out_of_plane``: every body's z, ψx, ψy held (a test hook).
     """
 
     spec: ReducerSpec
@@ -95,6 +103,12 @@ class ReducerModel:
     reduced_carrier: object = None  # the carrier's ReducedPart (FE carrier), else None
     reduced_discs: tuple = ()  # FE discs: every disc's ReducedPart (the same object where discs share one)
     reduced_housing: object = None  # the pin housing's ReducedPart (FE housing), else None
+    out_of_plane_held: bool = False  # spatial model with every body's z, ψx, ψy held (build_reducer's test hook)
+
+    @property
+    def spatial(self) -> bool:
+        """True for the spatial model (bodies free out of their plane)."""
+        return self.options.spatial is not None
 
     @property
     def fidelity(self) -> str:
@@ -130,23 +144,28 @@ class ReducerModel:
         """Kinematic ratio i = θ_in/θ_out (–)."""
         return self.spec.nominal_ratio
 
+    def _body_nodes(self) -> dict[str, int]:
+        """The node of every body by name, in order: sun, carrier, crank0…, disc0…"""
+        out = {"sun": self.sun.node, "carrier": self.carrier.node}
+        out.update({f"crank{k}": n for k, n in enumerate(self.cranks.nodes)})
+        out.update({f"disc{d}": n for d, n in enumerate(self.discs.nodes)})
+        return out
+
     def node_slices(self) -> dict[str, slice]:
         """ODE2 coordinate ranges of the planar (x, y, θ) nodes.
 
         Returns
         -------
         dict of str to slice
-            Sun, rigid carrier, cranks and rigid discs (FFRF bodies have no contiguous
-            (x, y, θ): use :meth:`planar_index`).
+            The bodies on a ``NodeRigidBody2D``: the sun, and the carrier, cranks and discs of the planar rigid
+            model (an FFRF frame's or a spatial body's ``NodeRigidBodyRxyz`` has no contiguous (x, y, θ): use
+            :meth:`planar_index`).
         """
-        idx = {"sun": self.sun.node} if self.flexible_carrier else {"sun": self.sun.node, "carrier": self.carrier.node}
-        idx.update({f"crank{k}": n for k, n in enumerate(self.cranks.nodes)})
-        if not self.discs.modal_nodes:
-            idx.update({f"disc{d}": n for d, n in enumerate(self.discs.nodes)})
         out = {}
-        for name, node in idx.items():
-            i = self.mbs.GetNodeODE2Index(node)
-            out[name] = slice(i, i + 3)
+        for name, node in self._body_nodes().items():
+            if self.mbs.GetNode(node)["nodeType"] == "RigidBody2D":
+                i = self.mbs.GetNodeODE2Index(node)
+                out[name] = slice(i, i + 3)
         return out
 
     def planar_index(self) -> dict[str, np.ndarray]:
@@ -155,24 +174,41 @@ class ReducerModel:
         Returns
         -------
         dict of str to numpy.ndarray
-            Three indices per body (a flexible disc's or carrier's reference node is a
-            NodeRigidBodyRxyz: x, y, ψz).
+            Three indices per body (a flexible or spatial body's node is a NodeRigidBodyRxyz: x, y, ψz).
         """
         return dict(self._planar_index)
+
+    def spatial_index(self) -> dict[str, np.ndarray]:
+        """ODE2 indices of (x, y, z, ψx, ψy, ψz) of every body on a ``NodeRigidBodyRxyz`` (the spatial model's
+        carrier, cranks and discs; the FE bodies' frames), by name as :meth:`planar_index`.
+
+        Returns
+        -------
+        dict of str to numpy.ndarray
+            Six indices per body (m, m, m, rad, rad, rad; R = Rx(ψx)·Ry(ψy)·Rz(ψz)); the planar bodies are absent.
+        """
+        return dict(self._spatial_index)
 
     @functools.cached_property
     def _planar_index(self) -> dict[str, np.ndarray]:
         # computed once: the system is assembled before the model exists and a run adds no item, and every
         # quasi-static step asks for it (Exudyn's index look-ups were 8 % of a rigid run, measured)
-        out = {name: np.arange(s.start, s.stop) for name, s in self.node_slices().items()}
-        if self.flexible_carrier:
-            i = self.mbs.GetNodeODE2Index(self.carrier.node)
-            out = {"sun": out.pop("sun"), "carrier": np.array([i, i + 1, i + 5]), **out}
-        for d, n in enumerate(self.discs.nodes):
-            i = self.mbs.GetNodeODE2Index(n)
-            out[f"disc{d}"] = np.array([i, i + 1, i + 5] if self.discs.modal_nodes else [i, i + 1, i + 2])
-        for a in out.values():
-            a.flags.writeable = False  # shared by every call
+        out = {}
+        for name, node in self._body_nodes().items():
+            i = self.mbs.GetNodeODE2Index(node)
+            out[name] = np.array([i, i + 1, i + 5] if self.mbs.GetNode(node)["nodeType"] == "RigidBodyRxyz"
+                                 else [i, i + 1, i + 2])
+            out[name].flags.writeable = False  # shared by every call
+        return out
+
+    @functools.cached_property
+    def _spatial_index(self) -> dict[str, np.ndarray]:
+        out = {}
+        for name, node in self._body_nodes().items():
+            if self.mbs.GetNode(node)["nodeType"] == "RigidBodyRxyz":
+                i = self.mbs.GetNodeODE2Index(node)
+                out[name] = np.arange(i, i + 6)
+                out[name].flags.writeable = False
         return out
 
     def kinematic_coordinates(self, theta_in: float) -> np.ndarray:
@@ -229,7 +265,7 @@ def disc_mesh_spec(spec: ReducerSpec, modification=None) -> ReducerSpec:
 def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None,
                   options: ModelOptions | str | None = None, *, law: ContactLaw | None = None,
                   reduced_disc=None, reduced_carrier=None, reduced_housing=None,
-                  disc_mesh_modification=None) -> ReducerModel:
+                  disc_mesh_modification=None, hold_out_of_plane: bool = False) -> ReducerModel:
     """Assemble the Exudyn model of a reducer.
 
     Rigid parts are planar rigid bodies. FE discs (``options.discs`` a ``PartSettings``) are
@@ -243,6 +279,10 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None,
     which the model's ``options`` record. ``law`` overrides ``options.contact_law``. An FE pin
     housing (``options.housing``, or ``reduced_housing`` injected) carries the pins on its seats
     (:mod:`rvflex.parts.pin_ring`; mount face clamped to ground).
+
+    Spatial options (``options.spatial``, rigid cranks) build the spatial rigid model (module docstring;
+    ``spec.check_spatial`` first); Exudyn's solvers solve it (:func:`rvflex.solve.quasi_static` falls back to
+    them: the compiled step declines it).
 
     Every layout takes FE discs: a disc that is disc 0 turned by a symmetry of the crank and
     pillar layout (to a whole number of teeth) shares disc 0's reduction; any other disc (three
@@ -270,6 +310,10 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None,
         a modification deviation of −8/+6 µm meshed as the nominal disc: TE within 0.025″,
         torque cycle within 0.0014″, against 16.3″ of TE ripple), while each new mesh and
         reduction costs about 15 s and 90 MB of cache.
+    hold_out_of_plane : bool, optional
+        Spatial model only, a test hook: hold z, ψx and ψy of the carrier, every crank and every disc by
+        coordinate constraints, which reduces the spatial model to the planar one with the same face slices
+        (tests/test_spatial_model.py). Default False.
 
     Returns
     -------
@@ -280,6 +324,12 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None,
     ------
     SpecError
         Options that are not ModelOptions or a preset name; error counts that do not match the spec.
+        A spec without what the spatial model needs (``check_spatial``); a main-bearing clearance error under
+        spatial options.
+    NotImplementedError
+        Spatial options with beam (flexible) cranks: not built yet.
+    ValueError
+        ``hold_out_of_plane`` with planar options.
     """
     import dataclasses
 
@@ -287,6 +337,11 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None,
     from exudyn.itemInterface import MarkerNodeCoordinate, NodePointGround, ObjectGround
 
     options = as_options(options, "options")
+    if options.spatial is not None and options.spatial.crank == "beam":
+        raise NotImplementedError("options.spatial.crank = 'beam': flexible (beam) cranks are not built yet; use "
+                                  "crank = 'rigid'")
+    if hold_out_of_plane and options.spatial is None:
+        raise ValueError("hold_out_of_plane: applies to the spatial model only (options.spatial is None)")
     if reduced_disc is not None:
         first = reduced_disc[0] if isinstance(reduced_disc, (tuple, list)) else reduced_disc
         options = dataclasses.replace(options, discs=first.settings)
@@ -298,6 +353,8 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None,
     errors = errors or ErrorSpec()
     errors.check_against(spec)
     law = law or options.contact_law or default_contact_law(spec)
+    if options.spatial is not None:
+        return _build_spatial(spec, errors, options, law, hold_out_of_plane)
     flexible_carrier = options.flexible_carrier_on
     sc = exu.SystemContainer()
     mbs = sc.AddSystem()
@@ -357,3 +414,37 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None,
     centres = np.array([np.asarray(mbs.GetNode(n)["referenceCoordinates"])[:2] for n in discs.nodes])
     return ReducerModel(spec, errors, options, sc, mbs, sun, carrier, cranks, discs, pins, ref, axes, centres, seat_in,
                         reduced_disc, reduced_carrier, reduced_discs, reduced_housing)
+
+
+def _build_spatial(spec: ReducerSpec, errors: ErrorSpec, options: ModelOptions, law: ContactLaw,
+                   hold_out_of_plane: bool) -> ReducerModel:
+    """The spatial rigid model (module docstring) of :func:`build_reducer`.
+
+    Pin bending (``options.spatial.pin_bending``) needs a pin seat span, which no spec gives yet: the pins
+    are rigid, as :class:`~rvflex.options.SpatialSettings` states for a spec without one.
+    """
+    import exudyn as exu
+    from exudyn.itemInterface import CoordinateConstraint, MarkerNodeCoordinate, NodePointGround
+
+    spec.check_spatial("options.spatial")
+    sc = exu.SystemContainer()
+    mbs = sc.AddSystem()
+    ground_coord = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=mbs.AddNode(NodePointGround()), coordinate=0))
+    pins = pin_ring.build(mbs, spec, errors, fidelity="rigid")
+    sun = input_stage.build(mbs, spec, ground_coord, fidelity="rigid")
+    carrier = carrier_part.build_spatial(mbs, spec, errors, ground_coord)
+    axes = carrier_part.crank_axis_positions(spec, errors)
+    # each crank's two support bearings are the two the planar model lumps into spec.bearings.crank_support
+    cranks = crankshaft.build_spatial(mbs, carrier_part.split_support_bearing(spec), errors, carrier, sun.node, axes)
+    discs = cycloid_disc.build_spatial(mbs, spec, errors, cranks, law, crankshaft.eccentric_offsets(spec, errors), axes,
+                                       face_slices=options.face_slices)
+    if hold_out_of_plane:
+        for node in (carrier.node, *cranks.nodes, *discs.nodes):
+            for coord in (2, 3, 4):  # z, ψx, ψy
+                m = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=node, coordinate=coord))
+                mbs.AddObject(CoordinateConstraint(markerNumbers=[ground_coord, m]))
+    mbs.Assemble()
+    ref = np.asarray(mbs.systemData.GetODE2Coordinates(configuration=exu.ConfigurationType.Reference))
+    centres = np.array([np.asarray(mbs.GetNode(n)["referenceCoordinates"])[:2] for n in discs.nodes])
+    return ReducerModel(spec, errors, options, sc, mbs, sun, carrier, cranks, discs, pins, ref, axes, centres,
+                        cranks.input_supports, out_of_plane_held=bool(hold_out_of_plane))

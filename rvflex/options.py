@@ -14,7 +14,14 @@ preset                                             discs            carrier     
 :meth:`ModelOptions.flexible_discs`                :data:`DISC_FE`  rigid               rigid
 :meth:`ModelOptions.flexible_discs_and_carrier`    :data:`DISC_FE`  :data:`CARRIER_FE`  rigid
 :meth:`ModelOptions.flexible_all`                  :data:`DISC_FE`  :data:`CARRIER_FE`  :data:`HOUSING_FE`
+:meth:`ModelOptions.spatial_rigid`                 rigid            rigid               rigid
 =================================================  ===============  ==================  ==================
+
+The spatial preset (``"spatial"``) keeps every part rigid but lets each body move out of its plane
+(:class:`SpatialSettings`): the carrier on its main bearing pair, the cranks on their support pairs, the discs
+tilting against the pins, whose contact is then sliced along the face width. :func:`rvflex.model.build_reducer`
+builds it with rigid cranks (beam cranks are refused: not built yet), and Exudyn's solvers solve it (the
+compiled step of :mod:`rvflex.engine` does not take 3D bodies yet).
 
 Variants by :func:`dataclasses.replace` (e.g. more disc modes:
 ``replace(opts, discs=replace(opts.discs, n_modes=24))``) or :meth:`ModelOptions.with_fe`.
@@ -27,19 +34,20 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal
 
-from rvflex.choices import Fidelity, SeatCoupling, SeatMarker, check_choice, choices, did_you_mean
+from rvflex.choices import CrankModel, Fidelity, SeatCoupling, SeatMarker, check_choice, choices, did_you_mean
 from rvflex.fe.reduce import DEFAULTS, PartSettings
 from rvflex.spec import SpecError
+from rvflex.tilt import MOMENT_SLICES
 
 if TYPE_CHECKING:
     from rvflex.contact.cycloid_pin import ContactLaw
 
 __all__ = ["CARRIER_FE", "DISC_FE", "FIDELITIES", "HOUSING_FE", "Fidelity", "ModelOptions", "PartFidelity", "SeatCoupling",
-           "SeatMarker", "as_options"]
+           "SeatMarker", "SpatialSettings", "as_options"]
 
 FIDELITIES: tuple[str, ...] = choices(Fidelity)
 """The preset names: ``"rigid"``, ``"flexible"`` (FE discs), ``"flexible-carrier"`` (FE discs and carrier),
-``"flexible-all"`` (FE discs, carrier and pin housing)."""
+``"flexible-all"`` (FE discs, carrier and pin housing), ``"spatial"`` (rigid parts free out of their plane)."""
 
 PartFidelity = Literal["rigid"]
 """A part that is not FE-reduced (the alternative to a :class:`PartSettings`)."""
@@ -67,8 +75,43 @@ HOUSING_FE: PartSettings = DEFAULTS["housing"]
 default): mount face clamped to ground, two in-plane attachment modes per pin seat, 8
 fixed-interface modes, 8 mm quadratic tets (docs/flexible.md: convergence)."""
 
-MODEL_TABLE_KEYS = ("fidelity", "discs", "carrier", "housing", "carrier_seat_marker", "face_slices")
+MODEL_TABLE_KEYS = ("fidelity", "discs", "carrier", "housing", "carrier_seat_marker", "face_slices", "spatial")
 """Keys of a TOML ``[model]`` table (:meth:`ModelOptions.from_table`)."""
+
+
+@dataclass(frozen=True)
+class SpatialSettings:
+    """What the spatial fidelity models beyond rigid bodies free out of their plane.
+
+    Parameters
+    ----------
+    crank : {"rigid", "beam"}
+        The crankshafts: rigid bodies, or flexible (Timoshenko) shafts between their support bearings
+        carrying the eccentrics and the gear at their axial positions.
+    crank_elements : int
+        Beam elements per crank segment (1 to 64; read with ``crank="beam"`` only).
+    pin_bending : bool
+        Let each pin bend between its housing seats where the spec gives their span (no span: the pins
+        stay rigid whatever this says).
+    """
+
+    crank: CrankModel = "rigid"
+    crank_elements: int = 1
+    pin_bending: bool = True
+
+    def __post_init__(self) -> None:
+        check_choice("crank", self.crank, CrankModel)
+        if isinstance(self.crank_elements, bool) or not isinstance(self.crank_elements, int) \
+                or not 1 <= self.crank_elements <= 64:
+            raise SpecError("crank_elements", self.crank_elements, "must be an integer from 1 to 64 (beam elements "
+                                                                   "per crank segment)")
+        if not isinstance(self.pin_bending, bool):
+            raise SpecError("pin_bending", self.pin_bending, "must be true or false")
+
+    def describe(self) -> str:
+        """A few words: the crank model and the pins, e.g. ``rigid cranks, pins bending where seated``."""
+        crank = "rigid cranks" if self.crank == "rigid" else f"beam cranks ({self.crank_elements} elements/segment)"
+        return f"{crank}, {'pins bending where seated' if self.pin_bending else 'rigid pins'}"
 
 
 @dataclass(frozen=True)
@@ -92,7 +135,10 @@ class ModelOptions:
         Slices of each disc's pin contact along the face width (≥ 1): each slice a contact element at its own
         axial position carrying its share of the width (:meth:`ContactLaw.sliced`), so a disc moved against the
         pins differently at its two faces (a tilted output, :mod:`rvflex.tilt`) loads its pins' ends unequally.
-        1, the default: one contact at each disc's mid-plane.
+        1, the default: one contact at each disc's mid-plane. At least 2 with ``spatial``.
+    spatial : SpatialSettings or None
+        None (the default): the planar model. Settings: the spatial model, every part a rigid body free out of
+        its plane (FE parts refused; :func:`rvflex.model.build_reducer` builds it with rigid cranks).
     """
 
     discs: PartSettings | PartFidelity = "rigid"
@@ -101,6 +147,7 @@ class ModelOptions:
     carrier_seat_marker: SeatMarker = "virtual"
     contact_law: ContactLaw | None = None
     face_slices: int = 1
+    spatial: SpatialSettings | None = None
 
     def __post_init__(self) -> None:
         for name in ("discs", "carrier", "housing"):
@@ -118,6 +165,16 @@ class ModelOptions:
 
             if not isinstance(self.contact_law, ContactLaw):
                 raise SpecError("contact_law", self.contact_law, "must be an rvflex.contact.cycloid_pin.ContactLaw")
+        if self.spatial is not None:
+            if not isinstance(self.spatial, SpatialSettings):
+                raise SpecError("spatial", self.spatial, "must be None or an rvflex.options.SpatialSettings")
+            fe = [name for name in ("discs", "carrier", "housing") if isinstance(getattr(self, name), PartSettings)]
+            if fe:
+                raise SpecError("spatial", self.spatial, f"needs rigid parts, got FE {', '.join(fe)}: FE bodies "
+                                                         "free out of their plane are not modelled")
+            if self.face_slices < 2:
+                raise SpecError("face_slices", self.face_slices, "must be at least 2 with spatial (a tilted disc "
+                                                                 "loads its pins' ends through the slices)")
 
     # -- presets ------------------------------------------------------------------------------
     @classmethod
@@ -142,14 +199,33 @@ class ModelOptions:
         return cls(discs=DISC_FE, carrier=CARRIER_FE, housing=HOUSING_FE)
 
     @classmethod
+    def spatial_rigid(cls, slices: int = MOMENT_SLICES, settings: SpatialSettings | None = None) -> ModelOptions:
+        """Every part a rigid body free out of its plane, the pin contact in ``slices`` slices along the face width.
+
+        Parameters
+        ----------
+        slices : int, optional
+            Slices of each disc's pin contact (≥ 2); default :data:`rvflex.tilt.MOMENT_SLICES`, the converged
+            count of a run under a moment.
+        settings : SpatialSettings, optional
+            Crank and pin models; default rigid cranks, pins bending where the spec gives their seat span.
+
+        Returns
+        -------
+        ModelOptions
+            The options (:func:`rvflex.model.build_reducer` builds them with rigid cranks and refuses beam cranks).
+        """
+        return cls(face_slices=slices, spatial=SpatialSettings() if settings is None else settings)
+
+    @classmethod
     def preset(cls, fidelity: Fidelity) -> ModelOptions:
         """The preset of a fidelity name.
 
         Parameters
         ----------
-        fidelity : {"rigid", "flexible", "flexible-carrier", "flexible-all"}
+        fidelity : {"rigid", "flexible", "flexible-carrier", "flexible-all", "spatial"}
             Rigid parts; FE-reduced discs; FE-reduced discs and carrier; FE-reduced discs,
-            carrier and pin housing.
+            carrier and pin housing; rigid parts free out of their plane.
 
         Returns
         -------
@@ -158,7 +234,8 @@ class ModelOptions:
         """
         check_choice("fidelity", fidelity, Fidelity)
         presets = {"rigid": cls.rigid, "flexible": cls.flexible_discs,
-                   "flexible-carrier": cls.flexible_discs_and_carrier, "flexible-all": cls.flexible_all}
+                   "flexible-carrier": cls.flexible_discs_and_carrier, "flexible-all": cls.flexible_all,
+                   "spatial": cls.spatial_rigid}
         return presets[fidelity]()
 
     @classmethod
@@ -166,12 +243,13 @@ class ModelOptions:
         """Options from a TOML table (a sweep design's ``[model]``), checked key by key.
 
         ``fidelity`` names the preset (``"rigid"``, the default, ``"flexible"``,
-        ``"flexible-carrier"`` or ``"flexible-all"``); the sub-tables ``discs``, ``carrier`` and
+        ``"flexible-carrier"``, ``"flexible-all"`` or ``"spatial"``); the sub-tables ``discs``, ``carrier`` and
         ``housing`` override fields of that
         preset's reduction of the part (:class:`PartSettings` field names, SI: ``maxh_m``,
         ``n_modes``, ``attach_per_tooth`` …; the part must be flexible in the preset);
         ``carrier_seat_marker`` is a :data:`SeatMarker`; ``face_slices`` the pin contact's slices along the face
-        width. No other key is accepted.
+        width; the sub-table ``spatial`` overrides :class:`SpatialSettings` fields (``crank``, ``crank_elements``,
+        ``pin_bending``; with ``fidelity = "spatial"`` only). No other key is accepted.
 
         Parameters
         ----------
@@ -210,6 +288,8 @@ class ModelOptions:
                 options = dataclasses.replace(options, face_slices=table["face_slices"])
             except SpecError as err:
                 raise err.within(where, source) from None
+        if "spatial" in table:
+            options = _spatial_from_table(options, table["spatial"], f"{where}.spatial", fidelity, source)
         fields = tuple(f.name for f in dataclasses.fields(PartSettings))
         for part in ("discs", "carrier", "housing"):
             if part not in table:
@@ -250,9 +330,11 @@ class ModelOptions:
 
     @property
     def fidelity(self) -> str:
-        """The preset name these options extend: ``"rigid"``, ``"flexible"``, ``"flexible-carrier"``
-        or ``"flexible-all"`` (reductions other than the presets' keep their preset's name; see
+        """The preset name these options extend: ``"rigid"``, ``"flexible"``, ``"flexible-carrier"``,
+        ``"flexible-all"`` or ``"spatial"`` (reductions other than the presets' keep their preset's name; see
         :meth:`describe`; a flexible housing on another combination adds ``"+housing"``)."""
+        if self.spatial is not None:
+            return "spatial"
         if self.flexible_housing_on:
             if self.flexible_carrier_on and self.flexible_discs_on:
                 return "flexible-all"
@@ -312,7 +394,8 @@ class ModelOptions:
             f"FE {self.housing.maxh_m * 1e3:g} mm order {self.housing.mesh_order}, {self.housing.n_modes} modes, "
             f"2 attachment modes/pin seat")
         sliced = f"; pin contact in {self.face_slices} slices along the face width" if self.face_slices > 1 else ""
-        return f"discs {part(self.discs)}; carrier {car}; housing {hou}{sliced}"
+        spatial = "" if self.spatial is None else f"; spatial: {self.spatial.describe()}"
+        return f"discs {part(self.discs)}; carrier {car}; housing {hou}{sliced}{spatial}"
 
     def as_dict(self) -> dict:
         """Plain values (for result attributes and JSON).
@@ -320,20 +403,42 @@ class ModelOptions:
         Returns
         -------
         dict
-            Part settings as dicts, the contact law by kind.
+            Part settings as dicts, the contact law by kind; ``spatial`` (its settings as a dict) only when set,
+            so a planar model's record, and a stored sweep's digest made from it, stay what they were.
         """
         def part(p):
             return dataclasses.asdict(p) if isinstance(p, PartSettings) else p
-        return {"discs": part(self.discs), "carrier": part(self.carrier), "housing": part(self.housing),
-                "carrier_seat_marker": self.carrier_seat_marker,
-                "contact_law": "default (line)" if self.contact_law is None else self.contact_law.kind,
-                "face_slices": self.face_slices}
+        out = {"discs": part(self.discs), "carrier": part(self.carrier), "housing": part(self.housing),
+               "carrier_seat_marker": self.carrier_seat_marker,
+               "contact_law": "default (line)" if self.contact_law is None else self.contact_law.kind,
+               "face_slices": self.face_slices}
+        if self.spatial is not None:
+            out["spatial"] = dataclasses.asdict(self.spatial)
+        return out
+
+
+def _spatial_from_table(options: ModelOptions, over: object, where: str, fidelity: Fidelity,
+                        source: str | None) -> ModelOptions:
+    """``options`` with the :class:`SpatialSettings` fields of a ``[model.spatial]`` table, checked key by key."""
+    if not isinstance(over, Mapping):
+        raise SpecError(where, over, "must be a table of SpatialSettings fields", source)
+    if options.spatial is None:
+        raise SpecError(where, dict(over), f"the model is planar with fidelity = {fidelity!r}: spatial settings "
+                                           "apply with fidelity = 'spatial' only", source)
+    fields = tuple(f.name for f in dataclasses.fields(SpatialSettings))
+    unknown = sorted(set(over) - set(fields))
+    if unknown:
+        raise SpecError(f"{where}.{unknown[0]}", over[unknown[0]], f"unknown key; valid: {', '.join(fields)}", source)
+    try:
+        return dataclasses.replace(options, spatial=dataclasses.replace(options.spatial, **over))
+    except SpecError as err:
+        raise err.within(where, source) from None
 
 
 def as_options(value: ModelOptions | Fidelity | None, field: str = "options") -> ModelOptions:
     """``value`` as :class:`ModelOptions`: options pass through, a preset name maps to its preset
-    (``"rigid"``, ``"flexible"``, ``"flexible-carrier"``, ``"flexible-all"``), None is rigid; anything else is refused
-    naming ``field``."""
+    (``"rigid"``, ``"flexible"``, ``"flexible-carrier"``, ``"flexible-all"``, ``"spatial"``), None is rigid; anything
+    else is refused naming ``field``."""
     if value is None:
         return ModelOptions.rigid()
     if isinstance(value, ModelOptions):

@@ -27,7 +27,7 @@ import numpy as np
 
 from rvflex.spec import SpecError, dumps_errors, dumps_spec
 
-__all__ = ["Result", "new_axes", "new_figure", "scenario_attrs", "variable"]
+__all__ = ["Result", "new_axes", "new_figure", "scenario_attrs", "spatial_variables", "variable"]
 
 UNIT_SUFFIX = {"rad": "rad", "arcsec": "arcsec", "arcmin": "arcmin", "N m": "Nm", "N": "N", "m": "m", "1": "",
                "N m/arcmin": "Nm_per_arcmin", "deg": "deg"}
@@ -37,6 +37,39 @@ UNIT_SUFFIX = {"rad": "rad", "arcsec": "arcsec", "arcmin": "arcmin", "N m": "Nm"
 def variable(dims, values, units: str, long_name: str) -> tuple:
     """An ``xarray`` variable tuple ``(dims, values, attrs)`` with ``units`` and ``long_name``."""
     return (dims, np.asarray(values), {"units": units, "long_name": long_name})
+
+
+def spatial_variables(raw, dim: str, suffix: str = "") -> tuple[dict, dict]:
+    """The spatial model's out-of-plane records of a solver result ``raw`` as xarray variables over ``dim``.
+
+    Parameters
+    ----------
+    raw : rvflex.solve.QuasiStaticResult or rvflex.solve.TorqueStepResult
+        With ``carrier_tilt_rad``, ``carrier_shift_m``, ``disc_tilt_rad`` (None for the planar model).
+    dim : str
+        The steps' dimension.
+    suffix : str, optional
+        Appended to the variables' names (``"_forward"``).
+
+    Returns
+    -------
+    data, coords : dict
+        ``carrier_tilt`` (dim × tilt_axis, rad), ``carrier_shift`` (dim × axis, m) and ``disc_tilt``
+        (dim × disc × tilt_axis, rad), and their axis coordinates; both empty for the planar model.
+    """
+    if getattr(raw, "carrier_tilt_rad", None) is None:
+        return {}, {}
+    nd = raw.disc_tilt_rad.shape[1]
+    coords = {"tilt_axis": variable(("tilt_axis",), np.array(["x", "y"]), "1", "tilt about the housing's axis"),
+              "axis": variable(("axis",), np.array(["x", "y", "z"]), "1", "housing axis (z: the reducer's)"),
+              "disc": variable(("disc",), np.arange(1, nd + 1), "1", "cycloid disc number")}
+    data = {f"carrier_tilt{suffix}": variable((dim, "tilt_axis"), raw.carrier_tilt_rad, "rad",
+                                              "carrier tilt (ψx, ψy) on the main bearing pair, solved"),
+            f"carrier_shift{suffix}": variable((dim, "axis"), raw.carrier_shift_m, "m",
+                                               "carrier displacement at the main bearing pair's centre, solved"),
+            f"disc_tilt{suffix}": variable((dim, "disc", "tilt_axis"), raw.disc_tilt_rad, "rad",
+                                           "cycloid disc tilt (ψx, ψy), solved")}
+    return data, coords
 
 
 def scenario_attrs(scenario, **extra) -> dict:

@@ -63,6 +63,10 @@ class QuasiStaticResult:
     force (slice 0 at the disc's face towards −z, :func:`rvflex.parts.cycloid_disc.slice_planes`) and
     slice_resultant_N (steps, discs, slices, 2) the resultant (x, y) of each slice's pin forces on the disc; None
     with one.
+    The spatial model (``model.spatial``) records its out-of-plane motion per step, None for the planar one:
+    carrier_tilt_rad (steps, 2) the carrier's tilt (ψx, ψy) about the housing's x and y axes, carrier_shift_m
+    (steps, 3) its displacement (x, y, z) at the main bearing pair's centre, disc_tilt_rad (steps, discs, 2) each
+    disc's tilt (ψx, ψy).
     """
 
     theta_in: np.ndarray
@@ -77,6 +81,61 @@ class QuasiStaticResult:
     disc_torque_Nm: np.ndarray | None = None
     pin_slice_force_N: np.ndarray | None = None
     slice_resultant_N: np.ndarray | None = None
+    carrier_tilt_rad: np.ndarray | None = None
+    carrier_shift_m: np.ndarray | None = None
+    disc_tilt_rad: np.ndarray | None = None
+
+
+def _set_output_load(model: ReducerModel, load, fraction: float = 1.0) -> None:
+    """Set ``fraction`` of the output load ``load`` (:class:`rvflex.tilt.OutputLoad` or None: none) on the spatial
+    carrier's node (:attr:`rvflex.parts.carrier.CarrierHandles.output_loads`)."""
+    if not model.carrier.output_loads:
+        return
+    values = np.zeros(5) if load is None else fraction * load.coordinate_loads()
+    for item, v in zip(model.carrier.output_loads, values):
+        model.mbs.SetLoadParameter(item, "load", float(v))
+
+
+def _check_output_load(model: ReducerModel, load) -> None:
+    """Refuse an output load the model cannot carry: the planar model takes it as moved pins
+    (:func:`rvflex.tilt.tilted_errors` in the model's errors), not as a load."""
+    from rvflex.tilt import OutputLoad
+
+    if load is None:
+        return
+    if not isinstance(load, OutputLoad):
+        raise TypeError(f"output_load: expected an rvflex.tilt.OutputLoad or None, got {type(load).__name__}")
+    if not model.carrier.output_loads:
+        raise ValueError("output_load: only the spatial model (options.spatial) carries it as a load; the planar "
+                         "model takes it through its errors (rvflex.tilt.tilted_errors)")
+
+
+class _SpatialRecord:
+    """The spatial model's per-step out-of-plane state (carrier tilt and shift, disc tilts), read from the
+    absolute coordinates of each converged step; empty for the planar model."""
+
+    def __init__(self, model: ReducerModel, n: int):
+        self.on = model.spatial
+        if not self.on:
+            return
+        idx = model.spatial_index()
+        self.car = idx["carrier"]
+        self.discs = np.array([idx[f"disc{d}"] for d in range(len(model.discs.nodes))])
+        self.tilt = np.full((n, 2), np.nan)
+        self.shift = np.full((n, 3), np.nan)
+        self.disc_tilt = np.full((n, len(self.discs), 2), np.nan)
+
+    def record(self, j: int, q: np.ndarray) -> None:
+        if self.on:
+            self.shift[j] = q[self.car[:3]]
+            self.tilt[j] = q[self.car[3:5]]
+            self.disc_tilt[j] = q[self.discs[:, 3:5]]
+
+    def fields(self, m: int) -> dict:
+        if not self.on:
+            return {}
+        return {"carrier_tilt_rad": self.tilt[:m], "carrier_shift_m": self.shift[:m],
+                "disc_tilt_rad": self.disc_tilt[:m]}
 
 
 def static_settings():
@@ -483,7 +542,7 @@ def _advance(model: ReducerModel, ss, q: np.ndarray, th0: float, th1: float, lev
 
 def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float = 0.0, *,
                  progress=None, chord_newton: bool | None = None, fail_fast: bool = False,
-                 skip_unsolved: bool = False, contact_states: bool = True) -> QuasiStaticResult:
+                 skip_unsolved: bool = False, contact_states: bool = True, output_load=None) -> QuasiStaticResult:
     """Static equilibria at the input angles ``theta_in`` (rad; increasing runs forward,
     decreasing runs reverse) under the output torque ``torque_out_Nm`` (N·m, ≥ 0) resisting
     the motion. With ``chord_newton`` the steps are solved by :class:`_ChordNewton` from an
@@ -512,12 +571,20 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
     Without ``contact_states`` the pin forces and gaps are not read (NaN): a caller that needs the
     TE alone saves a tenth of a rigid run.
 
+    ``output_load`` (:class:`rvflex.tilt.OutputLoad`, spatial model only) loads the carrier with a tilting
+    moment, an axial and a radial force at the main bearing pair's centre, ramped with the torque's
+    continuation at the first pose and held over the run: the carrier's tilt and shift are then solved with the
+    gear train (two-way), and recorded per step (:class:`QuasiStaticResult`). The planar model takes such a
+    load through its errors instead (:func:`rvflex.tilt.tilted_errors`): a load given to it is refused
+    (ValueError).
+
     Raises
     ------
     SolveError
         A step failed: the message names the step, the input angle and the largest
         residual; ``error.result`` holds the converged steps.
     """
+    _check_output_load(model, output_load)
     mbs = model.mbs
     ss = static_settings()
     if fail_fast:  # a step Exudyn's solver cannot take in load increments down to 1e-3 fails (and is bisected)
@@ -531,6 +598,7 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
     gaps = forces.copy()
     torques = np.full((n, nc), 0.0 if contact_states else np.nan)
     resultants = np.full((n, nc, 2), 0.0 if contact_states else np.nan)
+    spatial = _SpatialRecord(model, n)
     t0 = time.perf_counter()
     q = model.kinematic_coordinates(theta_in[0])
     done = 0
@@ -545,7 +613,8 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
             res = resultants[:m].reshape(m, nd, ns, 2)
         return QuasiStaticResult(theta_in[:m], th_out, th_out - theta_in[:m] / model.ratio, f, g,
                                  torque_out_Nm, model.ratio, time.perf_counter() - t0,
-                                 compiled.counts() if compiled is not None else None, tq, per_slice, res)
+                                 compiled.counts() if compiled is not None else None, tq, per_slice, res,
+                                 **spatial.fields(m))
 
     direction = -1.0 if len(theta_in) > 1 and theta_in[-1] < theta_in[0] else 1.0
     k_work = OUTPUT_REGULARISER_NM_RAD
@@ -593,6 +662,7 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
             if reached <= done:
                 continue
         mbs.SetLoadParameter(model.carrier.load, "load", -direction * frac * torque_out_Nm)
+        _set_output_load(model, output_load, frac)  # ramped with the torque above rated, as far as it is
         mbs.SetObjectParameter(model.carrier.regulariser, "stiffness", k_reg)
         if record and compiled is not None and history and done > 0 and done != stopped_at:
             # the steps from here in compiled runs of COMPILED_RUN_STEPS (the same guess, Newton and checks as one
@@ -640,7 +710,7 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
                 # with a 6 µm pin-ring runout, stiff regulariser, full rated torque at once): load the unit
                 # step by step with the torque-stepping engine instead (input locked at 0, its free-play
                 # handling), then go on with the recorded steps
-                q = _loaded_by_torque_stepping(model, -direction * torque_out_Nm)
+                q = _loaded_by_torque_stepping(model, -direction * torque_out_Nm, output_load)
                 loaded_by_stepping = True
                 mbs.SetObjectParameter(model.carrier.regulariser, "stiffness", k_work)
                 for nw in (newton, kept):
@@ -650,6 +720,7 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
             if skip_unsolved and record and done > 0 and skipped != done - 1:
                 for rec in (out, forces, gaps, torques, resultants):
                     rec[done] = np.nan
+                spatial.record(done, np.full_like(q, np.nan))
                 skipped = done
                 done += 1
                 if newton is not None:
@@ -670,6 +741,7 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
                     orbit.record(kin, q - kin, th)
             last_te = q[car] - th / model.ratio
             out[done] = q[car]
+            spatial.record(done, q)
             for d, c in enumerate(model.discs.contacts if contact_states else ()):
                 if compiled is not None and compiled.solved:  # its last evaluation is the step's
                     forces[done, d], gaps[done, d], torques[done, d], resultants[done, d] = compiled.pin_outputs(d)
@@ -692,13 +764,13 @@ COMPILED_RUN_STEPS = 512  # recorded steps per compiled call (the progress bar m
 LOADING_FRACTIONS = (0.005, 0.01, 0.02, 0.04, 0.1, 0.2, 0.35, 0.5, 0.75, 1.0)  # of the torque: the fallback loading path
 
 
-def _loaded_by_torque_stepping(model: ReducerModel, torque_Nm: float) -> np.ndarray:
+def _loaded_by_torque_stepping(model: ReducerModel, torque_Nm: float, output_load=None) -> np.ndarray:
     """Absolute coordinates of the unit loaded by ``torque_Nm`` on the output (input locked at 0),
     reached along LOADING_FRACTIONS by :func:`torque_stepping`; the load stays applied. An intermediate
     step that fails is left out: the path is only a way there, and without friction the end state does
     not depend on it (measured: a 7.4 µm crank-bearing clearance with a 3.5 µm pin-ring runout fails the
     1 % step however it is started; the state agrees with the path without that step within 1e-3″, test)."""
-    torque_stepping(model, torque_Nm * np.asarray(LOADING_FRACTIONS), skip_unsolved=True)
+    torque_stepping(model, torque_Nm * np.asarray(LOADING_FRACTIONS), skip_unsolved=True, output_load=output_load)
     return np.asarray(model.mbs.systemData.GetODE2Coordinates()) + model.reference
 
 
@@ -706,12 +778,17 @@ def _loaded_by_torque_stepping(model: ReducerModel, torque_Nm: float) -> np.ndar
 class TorqueStepResult:
     """Input locked, output torque stepped: torque (N·m, on the output, positive in the forward
     direction), output angle (rad; NaN for a step left out by ``skip_unsolved``), one row per step
-    taken; ``compiled`` as :class:`QuasiStaticResult`'s."""
+    taken; ``compiled`` as :class:`QuasiStaticResult`'s; the spatial model's carrier_tilt_rad (steps, 2),
+    carrier_shift_m (steps, 3) and disc_tilt_rad (steps, discs, 2) as :class:`QuasiStaticResult`'s (None for the
+    planar model)."""
 
     torque_Nm: np.ndarray
     theta_out: np.ndarray
     wall_s: float
     compiled: dict | None = None
+    carrier_tilt_rad: np.ndarray | None = None
+    carrier_shift_m: np.ndarray | None = None
+    disc_tilt_rad: np.ndarray | None = None
 
 
 HYSTERESIS_FINE_FRACTIONS = (0.005, 0.01, 0.02, 0.03, 0.04)  # of T: the lost-motion points and the free play
@@ -740,7 +817,8 @@ TORQUE_BISECTIONS = 3  # a failing torque step is split in 2, 4, then 8 from the
 
 
 def torque_stepping(model: ReducerModel, torques_Nm: np.ndarray, *, progress=None,
-                    chord_newton: bool = True, before_solve=None, skip_unsolved: bool = False) -> TorqueStepResult:
+                    chord_newton: bool = True, before_solve=None, skip_unsolved: bool = False,
+                    output_load=None) -> TorqueStepResult:
     """Input locked at angle 0, output torque stepped along ``torques_Nm``: the torsional
     hysteresis test of the catalogues, and the diagnosis's replay of a bench torque cycle (one
     engine, so both reach the same equilibria).
@@ -777,11 +855,16 @@ def torque_stepping(model: ReducerModel, torques_Nm: np.ndarray, *, progress=Non
     clearance with a 3 µm pin-ring runout, 12.4 N·m, residual stuck at 2e-4 N along a direction of
     stiffness 7e-4). The first and last steps, and two steps in a row, are never skipped.
 
+    ``output_load`` (:class:`rvflex.tilt.OutputLoad`, spatial model only; refused with the planar one as by
+    :func:`quasi_static`) is held on the carrier over the whole cycle (a robot arm's moment does not change with
+    the joint's torque); its first step reaches it by Exudyn's load steps from the unloaded state.
+
     Raises
     ------
     SolveError
         A step failed (message names the step and torque); ``error.result`` has the converged steps.
     """
+    _check_output_load(model, output_load)
     mbs = model.mbs
     ss = static_settings()
     ss.staticSolver.minimumStepSize = CYCLE_MIN_LOAD_STEP
@@ -789,9 +872,11 @@ def torque_stepping(model: ReducerModel, torques_Nm: np.ndarray, *, progress=Non
     torques = np.asarray(torques_Nm, float)
     amplitude = float(np.max(np.abs(torques))) if len(torques) else 0.0
     out = np.full(len(torques), np.nan)
+    spatial = _SpatialRecord(model, len(torques))
     t0 = time.perf_counter()
     q_kin = model.kinematic_coordinates(0.0)
     mbs.SetObjectParameter(model.carrier.regulariser, "stiffness", OUTPUT_REGULARISER_NM_RAD)
+    _set_output_load(model, output_load)
     # the compiled step (rvflex.engine) where it replicates the system, else the chord Newton on Exudyn's residual
     compiled = _compiled(model) if chord_newton else None
     if compiled is not None:
@@ -800,7 +885,7 @@ def torque_stepping(model: ReducerModel, torques_Nm: np.ndarray, *, progress=Non
 
     def result(m: int) -> TorqueStepResult:
         return TorqueStepResult(torques[:m], out[:m], time.perf_counter() - t0,
-                                compiled.counts() if compiled is not None else None)
+                                compiled.counts() if compiled is not None else None, **spatial.fields(m))
 
     class _Abort(Exception):
         pass
@@ -904,6 +989,7 @@ def torque_stepping(model: ReducerModel, torques_Nm: np.ndarray, *, progress=Non
                     raise SolveError(f"torque step {j} ({torque:.3f} N·m) did not converge: {err}",
                                      result(done)) from None
             out[j] = q[car]
+            spatial.record(j, q)
             solved[float(torque)] = q
             prev = float(torque)
             done = j + 1

@@ -295,7 +295,34 @@ class CycloidStage:
 
 @dataclass(frozen=True, slots=True)
 class Cranks:
-    """Crankshafts: ``count`` cranks on a circle, each with one eccentric per disc."""
+    """Crankshafts: ``count`` cranks on a circle, each with one eccentric per disc.
+
+    Axial positions are along the reducer axis from the discs' mid-plane (m). The last three fields
+    place the crank in space (the spatial model); a planar model reads none of them.
+
+    Parameters
+    ----------
+    count : int
+        Cranks (2 or 3).
+    crank_circle_radius_m : float
+        Radius of the circle of crank axes, m.
+    angles_rad : tuple of float
+        Angle of each crank axis, rad.
+    eccentric_axial_positions_m : tuple of float
+        Axial position of each eccentric (one per disc), m.
+    eccentric_journal_radius_m : float
+        Radius of the eccentric journals, m.
+    disc_bore_radius_m : float
+        Radius of the crank bores in the discs, m.
+    support_span_m : float or None, optional
+        Axial distance between a crank's two support bearings in the carrier's end plates, m, symmetric
+        about the discs' mid-plane; the eccentrics lie between them (None: not stated).
+    support_journal_radius_m : float or None, optional
+        Radius of the crank's journals in its support bearings, m (None: not stated).
+    gear_axial_position_m : float or None, optional
+        Axial position of the mid-plane of the crank's spur gear (the planet of the input stage), m
+        (None: not stated).
+    """
 
     count: int
     crank_circle_radius_m: float
@@ -303,6 +330,9 @@ class Cranks:
     eccentric_axial_positions_m: tuple[float, ...]
     eccentric_journal_radius_m: float
     disc_bore_radius_m: float
+    support_span_m: float | None = None
+    support_journal_radius_m: float | None = None
+    gear_axial_position_m: float | None = None
 
     def __post_init__(self) -> None:
         if self.count not in (2, 3):
@@ -319,6 +349,19 @@ class Cranks:
         if not self.eccentric_journal_radius_m < self.disc_bore_radius_m < self.crank_circle_radius_m:
             raise SpecError("disc_bore_radius_m", self.disc_bore_radius_m,
                             "must lie between the eccentric journal radius and the crank circle radius")
+        if self.support_span_m is not None:
+            _range("support_span_m", self.support_span_m, 1 * MM, 1.0,
+                   "expected a positive length in metres, 1 mm to 1 m")
+            outer = max((abs(z) for z in self.eccentric_axial_positions_m), default=0.0)
+            if not outer < self.support_span_m / 2:
+                raise SpecError("support_span_m", self.support_span_m,
+                                f"must exceed twice the outermost eccentric's axial position ({2 * outer:g} m): "
+                                "the eccentrics lie between the two support bearings")
+        if self.support_journal_radius_m is not None:
+            _range("support_journal_radius_m", self.support_journal_radius_m, 1 * MM, 0.2,
+                   "expected a positive length in metres, 1 mm to 200 mm")
+        if self.gear_axial_position_m is not None:
+            _range("gear_axial_position_m", self.gear_axial_position_m, -0.5, 0.5, "expected metres within ±0.5 m")
 
 
 @dataclass(frozen=True, slots=True)
@@ -593,6 +636,30 @@ class ReducerSpec:
                 and 0.0 < value <= self.allowable_moment_Nm):
             raise SpecError(field_name, value, f"must lie in (0, {self.allowable_moment_Nm:g}] N·m "
                                                f"(the allowable moment of {self.name})")
+
+    def check_spatial(self, field: str = "--spatial") -> None:
+        """Refuse a spec the spatial model cannot be built from: it needs the main bearing pair's
+        geometry (the output's support in tilt and along the axis) and the cranks' support span (their
+        support in tilt).
+
+        Parameters
+        ----------
+        field : str, optional
+            The option that asked for the spatial model, named in the message.
+
+        Raises
+        ------
+        SpecError
+            Naming ``bearings.main_pair`` or ``cranks.support_span_m``, whichever is absent first.
+        """
+        if self.bearings.main_pair is None:
+            raise SpecError("bearings.main_pair", None, f"{self.name} gives no main bearing pair geometry, which "
+                                                        f"{field} needs: add a [bearings.main_pair] table "
+                                                        "(docs/spatial.md)")
+        if self.cranks.support_span_m is None:
+            raise SpecError("cranks.support_span_m", None, f"{self.name} gives no crank support span, which {field} "
+                                                           "needs: add support_span_m (m, between a crank's two "
+                                                           "support bearings) to [cranks]")
 
     @property
     def nominal_ratio(self) -> float:

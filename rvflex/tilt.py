@@ -81,6 +81,17 @@ class OutputLoad:
         """True when the output carries a moment or a force."""
         return bool(self.moment_Nm or self.axial_force_N or self.radial_force_N)
 
+    def coordinate_loads(self) -> np.ndarray:
+        """The load as the spatial carrier's node takes it (:func:`rvflex.parts.carrier.build_spatial`).
+
+        Returns
+        -------
+        numpy.ndarray
+            (F_x, F_y, F_z, M_x, M_y) in N and N·m, on the node's x, y, z, ψx, ψy.
+        """
+        p = self.pair_load()
+        return np.array([*p.force_N, *p.moment_Nm], float)
+
     def pair_load(self):
         """The load as the pair model takes it.
 

@@ -52,7 +52,10 @@ def check_model(scenario, model: ReducerModel | None) -> ReducerModel:
 
 class OutputLoaded:
     """What a model scenario with an ``output_load`` field (:class:`rvflex.tilt.OutputLoad` or None) derives from
-    it: the carrier's tilt on its main bearing pair and the errors its model is built with."""
+    it: the carrier's tilt on its main bearing pair alone, and how the model takes the load. The planar model takes
+    it one way, as the pins moved against the pair's tilt (:attr:`model_errors`); the spatial model
+    (``options.spatial``) carries it as a load on the carrier (:attr:`solver_load`), its tilt solved with the
+    gear train."""
 
     def _check_output_load(self) -> None:
         """Check the load against the spec (in ``__post_init__``): a moment within the allowable, the main
@@ -78,9 +81,16 @@ class OutputLoaded:
 
     @property
     def model_errors(self) -> ErrorSpec:
-        """The errors the model is built with: the unit's, with the pins moved against the carrier displaced by
-        ``output_load`` (:func:`rvflex.tilt.tilted_errors`)."""
+        """The errors the model is built with: the unit's, with (planar model) the pins moved against the carrier
+        displaced by ``output_load`` (:func:`rvflex.tilt.tilted_errors`); the spatial model's are the unit's."""
         from rvflex.tilt import tilted_errors
 
         tilt = self.tilt
-        return self.errors if tilt is None else tilted_errors(self.errors, tilt)
+        return self.errors if tilt is None or self.options.spatial is not None else tilted_errors(self.errors, tilt)
+
+    @property
+    def solver_load(self):
+        """The output load the solver puts on the carrier (``output_load=`` of :func:`rvflex.solve.quasi_static`
+        and :func:`rvflex.solve.torque_stepping`): ``output_load`` for the spatial model, None for the planar one
+        (it is in :attr:`model_errors`)."""
+        return self.output_load if self.options.spatial is not None else None

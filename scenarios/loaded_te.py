@@ -20,7 +20,7 @@ from rvflex.geometry.formulas import ARCSEC_PER_RAD
 from rvflex.metrics import TEMetrics, order_spectrum, te_metrics
 from rvflex.model import ReducerModel
 from rvflex.options import ModelOptions
-from rvflex.result import Result, new_axes, new_figure, scenario_attrs, variable
+from rvflex.result import Result, new_axes, new_figure, scenario_attrs, spatial_variables, variable
 from rvflex.scenarios.common import OutputLoaded, check_model, check_scenario_inputs
 from rvflex.solve import QuasiStaticResult, dynamic, quasi_static
 from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
@@ -103,6 +103,9 @@ class LoadedTE(OutputLoaded):
         check_choice("mode", self.mode, TEMode)
         if self.mode == "dynamic" and not self.speed_out_rpm > 0:
             raise SpecError("speed_out_rpm", self.speed_out_rpm, "must be positive in dynamic mode (rpm at the output)")
+        if self.mode == "dynamic" and self.output_load is not None and self.options.spatial is not None:
+            raise SpecError("mode", self.mode, "the spatial model's dynamic run takes no output load yet: run it "
+                                               "quasi-static")
         if self.mode == "dynamic" and self.direction < 0:
             raise SpecError("direction", self.direction, "dynamic runs go forward (reverse: quasi-static)")
 
@@ -156,8 +159,11 @@ class LoadedTEResult(Result):
 
     def to_xarray(self):
         """Dataset over ``position`` (nominal output angle θ_in/i, rad) and, for quasi-static runs,
-        ``disc`` × ``pin``: ``theta_out`` (rad), ``te`` (arcsec), ``pin_force`` (N), ``pin_gap`` (m);
-        the metrics in ``attrs``.
+        ``disc`` × ``pin``: ``theta_out`` (rad), ``te`` (arcsec), ``pin_force`` (N), ``pin_gap`` (m); with the
+        contact in slices ``pin_slice_force`` (N); the spatial model's ``carrier_tilt`` (rad), ``carrier_shift``
+        (m) and ``disc_tilt`` (rad) (:func:`rvflex.result.spatial_variables`); the metrics in ``attrs`` (with an
+        output load, its components and the pair-alone tilt and shift: ``carrier_tilt_rad``/``carrier_shift_m``,
+        named ``pair_carrier_tilt_rad``/``pair_carrier_shift_m`` beside the spatial model's solved ones).
 
         Returns
         -------
@@ -187,12 +193,17 @@ class LoadedTEResult(Result):
                                              "axial position of the slice from the discs' mid-plane")
             data["pin_slice_force"] = variable(("position", "disc", "slice", "pin"), r.pin_slice_force_N, "N",
                                                "pin normal force of each contact slice")
+        more, axes = spatial_variables(r, "position")
+        data.update(more)
+        coords.update(axes)
         m = self.metrics
         extra = {}
         tilt = self.scenario.tilt
         if tilt is not None:
+            # the pair-alone tilt; the spatial model's solved one is the variable carrier_tilt
+            pair = "pair_" if more else ""
             extra = {**{k: float(v) for k, v in dc.asdict(tilt.load).items()},
-                     "carrier_tilt_rad": list(tilt.tilt_rad), "carrier_shift_m": list(tilt.shift_m)}
+                     f"{pair}carrier_tilt_rad": list(tilt.tilt_rad), f"{pair}carrier_shift_m": list(tilt.shift_m)}
         attrs = scenario_attrs(self.scenario, te_pp_arcsec=m.te_pp_arcsec, te_min_arcsec=m.te_min_arcsec,
                                te_max_arcsec=m.te_max_arcsec, mean_windup_arcsec=m.mean_windup_arcsec,
                                output_torque_Nm=float(r.torque_out_Nm), ratio=float(r.ratio), **extra)
@@ -413,7 +424,7 @@ def run_loaded_te(scenario: LoadedTE, progress=None, *, model: ReducerModel | No
     theta = np.linspace(0.0, 2 * math.pi * scenario.revolutions * model.ratio, n, endpoint=False)
     if scenario.direction < 0:
         theta = -theta
-    res = quasi_static(model, theta, scenario.load_Nm, progress=progress)
+    res = quasi_static(model, theta, scenario.load_Nm, progress=progress, output_load=scenario.solver_load)
     return res, te_metrics(res.te_rad, scenario.revolutions)
 
 

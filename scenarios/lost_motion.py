@@ -18,7 +18,7 @@ from rvflex.geometry.formulas import ARCSEC_PER_RAD
 from rvflex.metrics import HysteresisMetrics, hysteresis_metrics
 from rvflex.model import ReducerModel
 from rvflex.options import ModelOptions
-from rvflex.result import Result, new_axes, scenario_attrs, variable
+from rvflex.result import Result, new_axes, scenario_attrs, spatial_variables, variable
 from rvflex.scenarios.common import OutputLoaded, check_model, check_scenario_inputs
 from rvflex.solve import TorqueStepResult, hysteresis_cycle, torque_stepping
 from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
@@ -101,7 +101,7 @@ def run_lost_motion(scenario: LostMotion, progress=None, *, model: ReducerModel 
                     ) -> tuple[TorqueStepResult, HysteresisMetrics]:
     """Run the torque cycle on ``model`` (None: built here) and evaluate the catalogue metrics."""
     model = check_model(scenario, model)
-    res = torque_stepping(model, scenario.torques_Nm, progress=progress)
+    res = torque_stepping(model, scenario.torques_Nm, progress=progress, output_load=scenario.solver_load)
     return res, hysteresis_metrics(res.torque_Nm, res.theta_out, scenario.torque_Nm)
 
 
@@ -128,7 +128,8 @@ class LostMotionResult(Result):
 
     def to_xarray(self):
         """Dataset over ``torque_step``: coordinate ``torque`` (N m), ``theta_out`` (rad) and
-        ``output_angle`` (arcmin); the metrics in ``attrs``.
+        ``output_angle`` (arcmin); the spatial model's ``carrier_tilt``, ``carrier_shift`` and ``disc_tilt``
+        (:func:`rvflex.result.spatial_variables`); the metrics in ``attrs``.
 
         Returns
         -------
@@ -143,7 +144,9 @@ class LostMotionResult(Result):
         data = {"theta_out": variable(dims, r.theta_out, "rad", "output angle θ_out (input locked)"),
                 "output_angle": variable(dims, r.theta_out * ARCSEC_PER_RAD / 60.0, "arcmin",
                                          "output angle θ_out (input locked)")}
-        return xr.Dataset(data, coords=coords, attrs=scenario_attrs(self.scenario, **self.metrics_dict()))
+        more, axes = spatial_variables(r, "torque_step")
+        return xr.Dataset({**data, **more}, coords={**coords, **axes},
+                          attrs=scenario_attrs(self.scenario, **self.metrics_dict()))
 
     def plot(self, ax=None):
         """The hysteresis loop (torque against output angle in arcmin) with the ±3 % band; returns the axes.

@@ -11,6 +11,7 @@ catalogue's lost-motion level) it is the free play plus the small elastic turn a
 
 from __future__ import annotations
 
+import dataclasses as dc
 import math
 import time
 from dataclasses import dataclass
@@ -21,7 +22,7 @@ import numpy as np
 from rvflex.geometry.formulas import ARCMIN_PER_RAD
 from rvflex.model import ReducerModel
 from rvflex.options import ModelOptions
-from rvflex.result import Result, new_axes, scenario_attrs, variable
+from rvflex.result import Result, new_axes, scenario_attrs, spatial_variables, variable
 from rvflex.scenarios.common import OutputLoaded, check_model, check_scenario_inputs
 from rvflex.solve import QuasiStaticResult, quasi_static
 from rvflex.spec import ErrorSpec, ReducerSpec, SpecError
@@ -114,14 +115,22 @@ def run_reversal_backlash(sc: ReversalBacklash, *, model: ReducerModel | None = 
     model = check_model(sc, model)
     span = math.radians(sc.window_out_deg) * model.ratio
     grid = np.linspace(0.0, span, sc.positions)
-    fwd = quasi_static(model, grid, sc.load_Nm)
+    fwd = quasi_static(model, grid, sc.load_Nm, output_load=sc.solver_load)
     if progress is not None:
         progress(1, 2)
-    rev = quasi_static(model, grid[::-1], sc.load_Nm)
+    rev = quasi_static(model, grid[::-1], sc.load_Nm, output_load=sc.solver_load)
     if progress is not None:
         progress(2, 2)
     lost = float(np.mean(fwd.theta_out - rev.theta_out[::-1])) * ARCMIN_PER_RAD
     return abs(lost), fwd, rev
+
+
+def _reversed(run: QuasiStaticResult) -> QuasiStaticResult:
+    """The spatial records of a reverse run in the forward run's order of input angles (the rest unchanged)."""
+    if run.carrier_tilt_rad is None:
+        return run
+    return dc.replace(run, carrier_tilt_rad=run.carrier_tilt_rad[::-1], carrier_shift_m=run.carrier_shift_m[::-1],
+                      disc_tilt_rad=run.disc_tilt_rad[::-1])
 
 
 @dataclass(frozen=True, eq=False)
@@ -149,7 +158,9 @@ class ReversalBacklashResult(Result):
 
     def to_xarray(self):
         """Dataset over ``position`` (nominal output angle θ_in/i, rad): ``te_forward`` and
-        ``te_reverse`` (arcmin) at equal input angle; the metric in ``attrs``.
+        ``te_reverse`` (arcmin) at equal input angle; the spatial model's ``carrier_tilt_forward``,
+        ``carrier_shift_forward``, ``disc_tilt_forward`` and their ``_reverse`` twins
+        (:func:`rvflex.result.spatial_variables`), at equal input angle too; the metric in ``attrs``.
 
         Returns
         -------
@@ -164,6 +175,10 @@ class ReversalBacklashResult(Result):
         data = {"te_forward": variable(dims, f.te_rad * ARCMIN_PER_RAD, "arcmin", "TE θ_out − θ_in/i, input forward"),
                 "te_reverse": variable(dims, r.te_rad[::-1] * ARCMIN_PER_RAD, "arcmin",
                                        "TE θ_out − θ_in/i, input reversed")}
+        for suffix, run in (("_forward", f), ("_reverse", _reversed(r))):
+            more, axes = spatial_variables(run, "position", suffix)
+            data.update(more)
+            coords.update(axes)
         return xr.Dataset(data, coords=coords, attrs=scenario_attrs(self.scenario, **self.metrics_dict()))
 
     def plot(self, ax=None):

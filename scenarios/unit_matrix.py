@@ -22,7 +22,7 @@ from pathlib import Path
 
 from rvflex import catalog
 from rvflex.api import RunError, one_line
-from rvflex.choices import Fidelity, check_choice, choices
+from rvflex.choices import PlanarFidelity, check_choice, choices
 from rvflex.model import build_reducer
 from rvflex.options import ModelOptions
 from rvflex.scenarios.loaded_te import LoadedTE
@@ -32,7 +32,7 @@ from rvflex.spec import ReducerSpec, SpecError
 __all__ = ["COARSE_CARRIER", "COARSE_DISC", "COARSE_HOUSING", "FIDELITIES", "Cell", "markdown", "options_for", "run_cell",
            "run_matrix"]
 
-FIDELITIES: tuple[Fidelity, ...] = ("rigid", "flexible", "flexible-carrier")
+FIDELITIES: tuple[PlanarFidelity, ...] = ("rigid", "flexible", "flexible-carrier")
 """The matrix's default fidelities; ``"flexible-all"`` (with the FE pin housing) runs when asked
 (``--fidelity``), not by default: it adds a housing reduction per unit."""
 COARSE_DISC = {"maxh_m": 8e-3, "n_modes": 12, "mesh_order": 1, "attach_per_tooth": 0}
@@ -50,7 +50,7 @@ class Cell:
     ``error`` is the one-line failure when the cell did not run (then the figures are NaN)."""
 
     unit: str
-    fidelity: Fidelity
+    fidelity: PlanarFidelity
     ratio: float
     rated_torque_Nm: float
     cranks: int
@@ -70,9 +70,9 @@ class Cell:
     error: str = ""
 
 
-def options_for(fidelity: Fidelity, *, coarse: bool = False) -> ModelOptions:
+def options_for(fidelity: PlanarFidelity, *, coarse: bool = False) -> ModelOptions:
     """The ModelOptions preset of ``fidelity``; ``coarse`` with the tests' quick reductions."""
-    check_choice("fidelity", fidelity, Fidelity)
+    check_choice("fidelity", fidelity, PlanarFidelity)
     if fidelity == "rigid":
         return ModelOptions.rigid()
     if fidelity == "flexible":
@@ -87,7 +87,7 @@ def options_for(fidelity: Fidelity, *, coarse: bool = False) -> ModelOptions:
     return opts.with_fe("discs", **COARSE_DISC).with_fe("carrier", **COARSE_CARRIER).with_fe("housing", **COARSE_HOUSING)
 
 
-def run_cell(spec: ReducerSpec, fidelity: Fidelity, *, positions: int = 2048, steps: int = 200,
+def run_cell(spec: ReducerSpec, fidelity: PlanarFidelity, *, positions: int = 2048, steps: int = 200,
              coarse: bool = False, moment_fraction: float = 0.0) -> Cell:
     """Build ``spec`` at ``fidelity`` and run loaded TE (rated torque, one output revolution,
     ``positions`` positions) and the lost-motion cycle (``steps`` torque steps) on it.
@@ -227,7 +227,7 @@ def register(sub) -> None:
                                    "Exit code 1 when a cell failed (its row says what failed).")
     p.add_argument("--units", nargs="+", metavar="UNIT",
                    help=f"catalogue names or spec TOML paths (default every built-in unit: {', '.join(catalog.names())})")
-    p.add_argument("--fidelity", nargs="+", choices=choices(Fidelity), default=list(FIDELITIES),
+    p.add_argument("--fidelity", nargs="+", choices=choices(PlanarFidelity), default=list(FIDELITIES),
                    help="fidelities (default all three)")
     p.add_argument("--positions", type=int, default=2048, help="loaded-TE positions per output revolution (default 2048)")
     p.add_argument("--steps", type=int, default=200, help="lost-motion torque steps (default 200)")

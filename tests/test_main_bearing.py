@@ -154,27 +154,27 @@ def test_contact_loss_softens_the_pair(pair):
     # Hertz: the tangent falls when balls start to lift off, before the Hertz hardening wins
     hz = pair_model(pair)
     state0 = solve(hz, PairLoad())
-    after = MomentRigidity(catalog.load("rv40e")).run().metrics.contact_loss_moment_Nm
+    after = MomentRigidity(catalog.load("rv40e"), model="pair").run().metrics.contact_loss_moment_Nm
     state = solve(hz, PairLoad(moment_Nm=(1.5 * after, 0.0)))
     assert state.balls_in_contact < hz.n_balls
     assert state.tilt_stiffness_Nm_rad() < 0.9 * state0.tilt_stiffness_Nm_rad()
 
 
 def test_moment_sign_symmetry_and_direction_independence(rv40e):
-    r = MomentRigidity(rv40e, steps=8).run()
+    r = MomentRigidity(rv40e, steps=8, model="pair").run()
     # equal to the solver's tolerance: 1e-12 m at the balls against ~1e-5 m of tilt motion there
     assert r.tilt_rad[::-1] == pytest.approx(-r.tilt_rad, rel=1e-7, abs=1e-15)
     assert np.all(np.diff(r.tilt_rad) > 0)  # more moment, more tilt
     # a moment axis half a ball pitch away (a ball on the loaded line instead of on the tilt
     # axis): the figure moves by far less than the model's other uncertainties (measured 4e-5)
     z = rv40e.bearings.main_pair.balls_per_row
-    turned = MomentRigidity(rv40e, steps=8, phase_rad=math.pi / z).run()
+    turned = MomentRigidity(rv40e, steps=8, phase_rad=math.pi / z, model="pair").run()
     assert turned.metrics.moment_rigidity_Nm_per_arcmin == pytest.approx(
         r.metrics.moment_rigidity_Nm_per_arcmin, rel=1e-3)
 
 
 def test_figure_units_are_newton_metres_per_arcminute(rv40e):
-    r = MomentRigidity(rv40e, steps=4).run()
+    r = MomentRigidity(rv40e, steps=4, model="pair").run()
     m = r.moment_Nm[-1]
     per_rad = 2 * m / (r.tilt_rad[-1] - r.tilt_rad[0])  # N·m/rad
     assert r.metrics.moment_rigidity_Nm_per_arcmin == pytest.approx(per_rad * math.pi / 10800, rel=1e-12)

@@ -1,5 +1,5 @@
-"""`rvflex moment-rigidity`: the printed figure, its JSON and files, and the one-line refusals (a
-moment beyond the allowable, a spec without the main bearing pair)."""
+"""`rvflex moment-rigidity`: the printed figure, its JSON and files (the unit's and the pair's figures), and the
+one-line refusals (a moment beyond the allowable, a spec without the main bearing pair)."""
 
 from __future__ import annotations
 
@@ -29,9 +29,16 @@ def test_json_has_the_figure_the_curve_and_the_inputs(run):
     met, curve = doc["metrics"], doc["curve"]
     assert met["moment_Nm"] == 2300.0 == doc["inputs"]["allowable_moment_Nm"]
     assert len(curve["moment_Nm"]) == len(curve["tilt_arcmin"]) == 21
-    # the figure is the secant of the curve it ships with
+    # each figure is the secant of the curve it ships with; the default figure is the unit's
     secant = 2 * curve["moment_Nm"][-1] / (curve["tilt_arcmin"][-1] - curve["tilt_arcmin"][0])
-    assert met["moment_rigidity_Nm_per_arcmin"] == pytest.approx(secant, rel=1e-12)
+    assert met["pair_moment_rigidity_Nm_per_arcmin"] == pytest.approx(secant, rel=1e-12)
+    unit = doc["unit_curve"]
+    assert met["model"] == doc["inputs"]["model"] == "unit" and len(unit["moment_Nm"]) == 9
+    assert unit["moment_Nm"][0] == -2300.0 and unit["moment_Nm"][-1] == 2300.0
+    secant = 2 * unit["moment_Nm"][-1] / (unit["tilt_arcmin"][-1] - unit["tilt_arcmin"][0])
+    assert met["moment_rigidity_Nm_per_arcmin"] == met["unit_moment_rigidity_Nm_per_arcmin"]
+    assert met["unit_moment_rigidity_Nm_per_arcmin"] == pytest.approx(secant, rel=1e-12)
+    assert met["unit_torque_Nm"] == doc["inputs"]["torque_Nm"] == 412.0  # the rated torque
     assert 0 < met["contact_loss_moment_Nm"] < met["moment_Nm"]
     assert doc["inputs"]["main_pair"]["preload_N"] == 1000.0
     assert met["catalogue_moment_rigidity_Nm_per_arcmin"] is None  # none sourced for the built-in units
@@ -54,8 +61,20 @@ def test_printed_line_states_the_figure_and_its_basis(capsys):
     assert "main bearing ball contacts only" in text
 
 
-def test_a_moment_beyond_the_allowable_is_one_line_naming_flag_and_limit(tmp_path, capsys):
-    code = main(["moment-rigidity", "--reducer", "rv40e", "--moment", "5000", "--json", str(tmp_path / "x.json")])
+def test_model_pair_gives_the_pair_alone(tmp_path, capsys):
+    assert main(["moment-rigidity", "--reducer", "rv40e", "--model", "pair", "--steps", "4",
+                 "--json", str(tmp_path / "p.json")]) == 0
+    doc = json.loads((tmp_path / "p.json").read_text())
+    met = doc["metrics"]
+    assert doc["unit_curve"] is None and met["unit_moment_rigidity_Nm_per_arcmin"] is None
+    assert met["model"] == "pair" and met["moment_rigidity_Nm_per_arcmin"] == met["pair_moment_rigidity_Nm_per_arcmin"]
+    assert "of the unit" not in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("model", ["unit", "pair"])
+def test_a_moment_beyond_the_allowable_is_one_line_naming_flag_and_limit(tmp_path, capsys, model):
+    code = main(["moment-rigidity", "--reducer", "rv40e", "--model", model, "--moment", "5000",
+                 "--json", str(tmp_path / "x.json")])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2
     assert err == ["rvflex: error: --moment = 5000.0: must lie in (0, 2300] N·m (the allowable moment of rv40e)"]

@@ -22,7 +22,9 @@ Equilibrium minimises the potential Π(q) = Σ_j (2/5)·K·max(δ_j, 0)^2.5 − 
 convex function of q (the norm of an affine map) and the contact potential a convex,
 non-decreasing function of δ_j, so Π is convex and a Newton iteration with a line search on Π
 converges from any start (the Hessian is the symmetric tangent stiffness of the pair). Every
-ball is evaluated at once with numpy: no Python runs per ball.
+ball is evaluated in one numba call (:func:`pair_kernel`): no Python runs per ball. The same kernel is the
+force and Jacobian of the pair's Exudyn element (:func:`rvflex.parts.main_bearing.add_pair_element`), so the
+solver here and a multibody model share one law.
 
 Contact laws (:data:`LAWS`): ``"hertz"`` (the bearing); ``"linear"`` (Q = k·max(δ, 0), the
 closed-form checks and the Exudyn cross-check of :mod:`rvflex.parts.main_bearing`).
@@ -34,6 +36,7 @@ import math
 from dataclasses import dataclass
 from typing import Literal
 
+import numba as nb
 import numpy as np
 from scipy import optimize, special
 
@@ -41,20 +44,25 @@ from rvflex.spec import AngularContactPair, SpecError
 
 __all__ = [
     "LAWS",
+    "LAW_CODES",
     "HertzPointContact",
     "PairLoad",
     "PairModel",
     "PairState",
     "hertz_point_contact",
     "ball_raceway_contacts",
+    "pair_kernel",
     "pair_model",
     "solve",
 ]
 
 LAWS = ("hertz", "linear")
 Law = Literal["hertz", "linear"]
+LAW_CODES = {"hertz": 0, "linear": 1}
+"""The laws' codes in :func:`pair_kernel`."""
 
 _DOF = 5  # δx, δy, δz, θx, θy
+_jit = nb.njit(cache=True, nogil=True)
 
 
 # --------------------------------------------------------------------------- Hertz point contact
@@ -212,16 +220,18 @@ class PairModel:
         """Balls in both rows (count)."""
         return len(self.row)
 
+    @property
+    def law_code(self) -> int:
+        """The law's code in :func:`pair_kernel` (:data:`LAW_CODES`)."""
+        return LAW_CODES[self.law]
+
     def ball_load_N(self, squeeze_m):
         """Ball load Q (N) of a squeeze δ = |v| − A (m; array), zero where the ball is free."""
-        return _law_load(self.law, self.stiffness, squeeze_m)
+        return _ball_laws(self.law_code, self.stiffness, squeeze_m)[0]
 
     def ball_stiffness_N_m(self, squeeze_m):
         """dQ/dδ (N/m) at a squeeze δ (m; array)."""
-        x = np.maximum(squeeze_m, 0.0)
-        if self.law == "hertz":
-            return 1.5 * self.stiffness * np.sqrt(x)
-        return np.where(squeeze_m > 0.0, self.stiffness, 0.0)
+        return _ball_laws(self.law_code, self.stiffness, squeeze_m)[1]
 
     def jacobians(self) -> np.ndarray:
         """(n, 3, 5) maps of q = (δx, δy, δz, θx, θy) to each inner centre's displacement δ + θ × p (m per m or rad)."""
@@ -236,10 +246,108 @@ class PairModel:
         return jac
 
 
-def _law_load(law: str, stiffness: float, squeeze_m):
-    """Ball load (N) of the law at a squeeze (m; array): K·δ^1.5 or k·δ, zero when free."""
-    x = np.maximum(squeeze_m, 0.0)
-    return stiffness * (x * np.sqrt(x) if law == "hertz" else x)
+@_jit
+def _ball_law(law_code, stiffness, squeeze):
+    """Energy (J), load Q (N) and dQ/dδ (N/m) of one ball at a squeeze δ (m): Hertz (code 0)
+    (2/5)Kδ^2.5, Kδ^1.5, 1.5Kδ^0.5, or linear (code 1) kδ²/2, kδ, k; all zero while the ball is free (δ ≤ 0)."""
+    if squeeze <= 0.0:
+        return 0.0, 0.0, 0.0
+    if law_code == 0:
+        root = math.sqrt(squeeze)
+        return 0.4 * stiffness * squeeze * squeeze * root, stiffness * squeeze * root, 1.5 * stiffness * root
+    return 0.5 * stiffness * squeeze * squeeze, stiffness * squeeze, stiffness
+
+
+def _ball_laws(law_code: int, stiffness: float, squeeze_m):
+    """Load (N) and dQ/dδ (N/m) of the law (:func:`_ball_law`) at squeezes (m; scalar or array, shape kept)."""
+    sq = np.asarray(squeeze_m, dtype=float)
+    flat = sq.ravel()
+    load, kt = np.empty_like(flat), np.empty_like(flat)
+    for j, x in enumerate(flat):
+        _, load[j], kt[j] = _ball_law(law_code, stiffness, float(x))
+    return load.reshape(sq.shape), kt.reshape(sq.shape)
+
+
+@_jit
+def pair_kernel(q, inner, outer, centre_distance, stiffness, law_code, force, kmat, load, unit, squeeze):
+    """Contact forces and tangent stiffness of every ball of the pair at the carrier's displacement ``q``.
+
+    The carrier moves each inner groove centre p to p + δ + θ × p, θ = (θx, θy, 0) (small rotations, as
+    :func:`solve`); ball j's groove centres are v = outer − (p + δ + θ × p) apart and it is squeezed by
+    |v| − A. Its load Q acts on the carrier along v̂, so with J_j = ∂(δ + θ × p)/∂q the generalized force is
+    f = Σ_j Q_j J_jᵀ v̂_j and the stiffness −∂f/∂q = Σ_j (dQ/dδ − Q/|v|) J_jᵀ v̂ v̂ᵀ J_j + (Q/|v|) J_jᵀ J_j,
+    the Hessian of the contact potential: symmetric.
+
+    Parameters
+    ----------
+    q : numpy.ndarray
+        (5,) the carrier's (δx, δy, δz, θx, θy), m and rad.
+    inner, outer : numpy.ndarray
+        (n, 3) inner groove centres on the carrier (preload shift included) and outer ones on the housing, m.
+    centre_distance : float
+        A, the groove centres' distance where a ball just touches both, m.
+    stiffness : float
+        K of Q = K·δ^1.5 (N/m^1.5, Hertz) or k of Q = k·δ (N/m, linear).
+    law_code : int
+        :data:`LAW_CODES`: 0 Hertz, 1 linear.
+    force : numpy.ndarray
+        (5,) out: generalized contact force on the carrier (N, N·m), conjugate to q.
+    kmat : numpy.ndarray
+        (5, 5) out: −∂force/∂q (N/m, N, N·m/rad).
+    load, unit, squeeze : numpy.ndarray
+        (n,), (n, 3), (n,) out: each ball's load (N), v̂ and squeeze (m).
+
+    Returns
+    -------
+    float
+        The contact potential Σ_j ∫Q dδ, J.
+    """
+    force[:] = 0.0
+    kmat[:, :] = 0.0
+    energy = 0.0
+    ju = np.empty(5)
+    for j in range(inner.shape[0]):
+        px, py, pz = inner[j, 0], inner[j, 1], inner[j, 2]
+        # inner centre moved by δ + θ × p, θ × p = (θy·pz, −θx·pz, θx·py − θy·px); the unloaded gap (outer − p,
+        # ~0.1 mm) first, then the µm motion: the squeeze |v| − A keeps the precision the geometry has
+        vx = (outer[j, 0] - px) - (q[0] + q[4] * pz)
+        vy = (outer[j, 1] - py) - (q[1] - q[3] * pz)
+        vz = (outer[j, 2] - pz) - (q[2] + q[3] * py - q[4] * px)
+        length = math.sqrt(vx * vx + vy * vy + vz * vz)
+        ux, uy, uz = vx / length, vy / length, vz / length
+        unit[j, 0], unit[j, 1], unit[j, 2] = ux, uy, uz
+        squeeze[j] = length - centre_distance
+        e, qj, kt = _ball_law(law_code, stiffness, squeeze[j])
+        load[j] = qj
+        if qj == 0.0 and kt == 0.0:
+            continue
+        energy += e
+        # J_jᵀ v̂: columns of J are e_x, e_y, e_z, ∂/∂θx = (0, −pz, py), ∂/∂θy = (pz, 0, −px)
+        ju[0], ju[1], ju[2] = ux, uy, uz
+        ju[3] = -uy * pz + uz * py
+        ju[4] = ux * pz - uz * px
+        geo = qj / length  # the loaded ball's lateral (geometric) stiffness
+        for a in range(5):
+            force[a] += qj * ju[a]
+            for b in range(5):
+                kmat[a, b] += (kt - geo) * ju[a] * ju[b]
+        # + geo·J_jᵀJ_j
+        kmat[0, 0] += geo
+        kmat[1, 1] += geo
+        kmat[2, 2] += geo
+        kmat[0, 4] += geo * pz
+        kmat[4, 0] += geo * pz
+        kmat[1, 3] -= geo * pz
+        kmat[3, 1] -= geo * pz
+        kmat[2, 3] += geo * py
+        kmat[3, 2] += geo * py
+        kmat[2, 4] -= geo * px
+        kmat[4, 2] -= geo * px
+        kmat[3, 3] += geo * (pz * pz + py * py)
+        kmat[4, 4] += geo * (pz * pz + px * px)
+        kmat[3, 4] -= geo * py * px
+        kmat[4, 3] -= geo * py * px
+    return energy
 
 
 def _row_geometry(pair: AngularContactPair, row_sign: float) -> tuple[np.ndarray, np.ndarray]:
@@ -296,7 +404,7 @@ def pair_model(pair: AngularContactPair, *, law: Law = "hertz", linear_stiffness
 
     def row_axial(h: float) -> float:
         length = math.hypot(ar, az + h)
-        return z * float(_law_load(law, k, length - a)) * (az + h) / length - pair.preload_N
+        return z * _ball_law(LAW_CODES[law], k, length - a)[1] * (az + h) / length - pair.preload_N
 
     h = 0.0 if pair.preload_N == 0.0 else optimize.brentq(row_axial, 0.0, a, xtol=1e-16, rtol=1e-15)
     for row, sign in ((0, -1.0), (1, 1.0)):
@@ -380,22 +488,14 @@ class PairState:
         return float(1.0 / np.linalg.inv(self.stiffness)[3, 3])
 
 
-def _evaluate(model: PairModel, q: np.ndarray, jac: np.ndarray):
-    """Potential, gradient and Hessian of the contact part of Π at q, with per-ball data."""
-    v = model.outer_centres_m - model.inner_centres_m - jac @ q
-    length = np.linalg.norm(v, axis=1)
-    unit = v / length[:, None]
-    squeeze = length - model.centre_distance_m
-    load = model.ball_load_N(squeeze)
-    x = np.maximum(squeeze, 0.0)
-    energy = model.stiffness * (0.4 * x**2 * np.sqrt(x) if model.law == "hertz" else 0.5 * x**2)
-    # dδ/dq = −v̂ᵀJ; the force on the carrier is Q·v̂, so the contact gradient of Π is −Σ Jᵀ Q v̂
-    ju = np.einsum("nk,nkd->nd", unit, jac)
-    grad = -(load[:, None] * ju).sum(axis=0)
-    kt = model.ball_stiffness_N_m(squeeze)
-    geo = load / length  # the preloaded ball's lateral (geometric) stiffness
-    hess = np.einsum("n,nd,ne->de", kt - geo, ju, ju) + np.einsum("n,nkd,nke->de", geo, jac, jac)
-    return float(energy.sum()), grad, hess, load, unit, squeeze
+def _evaluate(model: PairModel, q: np.ndarray):
+    """Potential, gradient and Hessian of the contact part of Π at q, with per-ball data (:func:`pair_kernel`)."""
+    n = model.n_balls
+    force, hess = np.empty(_DOF), np.empty((_DOF, _DOF))
+    load, unit, squeeze = np.empty(n), np.empty((n, 3)), np.empty(n)
+    energy = pair_kernel(np.asarray(q, dtype=float), model.inner_centres_m, model.outer_centres_m,
+                         model.centre_distance_m, model.stiffness, model.law_code, force, hess, load, unit, squeeze)
+    return energy, -force, hess, load, unit, squeeze
 
 
 def solve(model: PairModel, load: PairLoad, *, start: np.ndarray | None = None, tol_m: float = 1e-12,
@@ -429,12 +529,11 @@ def solve(model: PairModel, load: PairLoad, *, start: np.ndarray | None = None, 
     RuntimeError
         No convergence within ``max_iterations``.
     """
-    jac = model.jacobians()
     reach = 0.5 * model.pair.pitch_diameter_m
     scale = np.array([1e-6, 1e-6, 1e-6, 1e-6 / reach, 1e-6 / reach])  # one unit: 1 µm at the balls
     f = load.vector()
     q = np.zeros(_DOF) if start is None else np.asarray(start, dtype=float).copy()
-    energy, grad, hess, _, _, _ = _evaluate(model, q, jac)
+    energy, grad, hess, _, _, _ = _evaluate(model, q)
     ref = float(np.abs(np.diag(hess) * scale**2).max())
     if ref == 0.0:  # no preload, start at zero: every ball just touches and nothing is stiff yet
         ref = float(model.ball_stiffness_N_m(np.array([1e-6]))[0] * model.n_balls * 1e-12)
@@ -450,7 +549,7 @@ def solve(model: PairModel, load: PairLoad, *, start: np.ndarray | None = None, 
         t = 1.0
         while True:
             trial = q + t * step * scale
-            e_t, g_t, h_t, _, _, _ = _evaluate(model, trial, jac)
+            e_t, g_t, h_t, _, _, _ = _evaluate(model, trial)
             if e_t - f @ trial <= pi0 + 1e-4 * t * (g @ step):
                 break
             t *= 0.5
@@ -467,7 +566,7 @@ def solve(model: PairModel, load: PairLoad, *, start: np.ndarray | None = None, 
     else:  # noqa: PLW0120 -- the loop ends by break when converged
         raise RuntimeError(f"main bearing pair: no equilibrium after {max_iterations} Newton iterations "
                            f"(load {f.tolist()})")
-    _, grad, hess, ball_load, unit, squeeze = _evaluate(model, q, jac)
+    _, grad, hess, ball_load, unit, squeeze = _evaluate(model, q)
     p_in = model.inner.peak_pressure_Pa(ball_load)
     p_out = model.outer.peak_pressure_Pa(ball_load)
     angle = np.arcsin(np.clip(np.abs(unit[:, 2]), 0.0, 1.0))

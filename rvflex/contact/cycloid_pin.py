@@ -16,6 +16,11 @@ Which deformation it carries: the local contact compliance only (the normal law)
 deformation of the disc belongs to the flexible body (Craig–Bampton modes), not here; a
 flexible pin housing moves the pins by its modal seat displacement (``housing_node``, ``seat``:
 :func:`rvflex.contact._cycloid_kernel.evaluate_housing`).
+
+On a spatial rigid disc (``NodeRigidBodyRxyz``, ``lever_m`` given) the element is one face slice: the kernel sees
+the in-plane pose of the disc's section at that axial lever, which the disc's tilt moves, and its force and
+Jacobians map back onto the node's six coordinates with the exact Jacobian of that pose
+(:mod:`rvflex.contact.tilt_map`).
 """
 
 from __future__ import annotations
@@ -29,6 +34,7 @@ import numpy as np
 
 from rvflex.choices import ContactLawKind, check_choice
 from rvflex.contact import _cycloid_kernel as K
+from rvflex.contact.tilt_map import NODE, map_to_body, section_pose
 from rvflex.geometry.pins import pin_centres, pin_radii
 from rvflex.geometry.profile import CurveKey, CycloidProfile, build_profile
 from rvflex.spec import CycloidStage, ErrorSpec, Material
@@ -263,6 +269,24 @@ class CycloidPinContact:
     rigid_index: tuple[int, int, int] = (0, 1, 2)  # (x, y, θ) within the node's coordinates
     housing_node: int = -1  # NodeGenericODE2 of a flexible housing's modal coordinates, −1: pins fixed
     seat: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 0)), repr=False)  # (n_pins, 2, h) seat rows
+    lever_m: float | None = None  # a slice of a tilting (Rxyz) disc: its axial lever from the node (m); None: planar
+
+    @property
+    def tilted(self) -> bool:
+        """True when the element is a slice of a spatial disc whose tilt moves it (:mod:`rvflex.contact.tilt_map`)."""
+        return self.lever_m is not None
+
+    def section(self, q_node: np.ndarray, qd_node: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """In-plane pose (x, y, θ) (m, rad) and its rates of the disc section this element acts on, from the disc
+        node's absolute coordinates ``q_node`` and rates ``qd_node`` (zero if None)."""
+        q_node = np.asarray(q_node, float)
+        qd_node = np.zeros(len(q_node)) if qd_node is None else np.asarray(qd_node, float)
+        if self.lever_m is None:
+            ri = list(self.rigid_index)
+            return q_node[ri].copy(), qd_node[ri].copy()
+        s, jac = np.empty(3), np.empty((3, NODE))
+        section_pose(q_node, self.lever_m, s, jac)
+        return s, jac @ qd_node
 
     @property
     def n_modes(self) -> int:
@@ -315,9 +339,8 @@ class CycloidPinContact:
 
     def pin_state(self, mbs) -> PinState:
         """Per-pin gap, force and contact point at the system's current state."""
-        ri = list(self.rigid_index)
-        q = (self.reference + np.asarray(mbs.GetNodeOutput(self.node, _exu().OutputVariableType.Coordinates)))[ri]
-        qd = np.asarray(mbs.GetNodeOutput(self.node, _exu().OutputVariableType.Coordinates_t))[ri]
+        q, qd = self.section(self.reference + np.asarray(mbs.GetNodeOutput(self.node, _exu().OutputVariableType.Coordinates)),
+                             np.asarray(mbs.GetNodeOutput(self.node, _exu().OutputVariableType.Coordinates_t)))
         eta = eta_d = xi = xi_d = None
         if self.modal_node >= 0:
             eta = np.asarray(mbs.GetNodeOutput(self.modal_node, _exu().OutputVariableType.Coordinates))
@@ -346,6 +369,8 @@ class CycloidPinContact:
         w.key = q.tobytes() + q_t.tobytes()  # the Jacobian call checks it is asked at this state
         if self.housing_node >= 0:
             return self._force_housing(q, q_t)
+        if self.lever_m is not None:
+            return self._force_tilted(q, q_t)
         if w.scatter is None:  # a rigid disc: the object's coordinates are (x, y, θ)
             np.add(self.reference, q, out=w.q)
             w.qd[:] = q_t
@@ -363,6 +388,21 @@ class CycloidPinContact:
             return w.f
         w.f_obj[w.scatter] = w.f
         return w.f_obj
+
+    def _force_tilted(self, q: np.ndarray, q_t: np.ndarray) -> np.ndarray:
+        """Force user function of a slice of a spatial disc: the kernel on the section's in-plane pose, mapped
+        back onto the node's coordinates (x, y, z, ψx, ψy, ψz)."""
+        w = self._work
+        qa, jac, f6, k6, d6 = w.tilt
+        np.add(self.reference, q, out=qa)
+        section_pose(qa, self.lever_m, w.q, jac)
+        np.dot(jac, q_t, out=w.qd)
+        w.penetration, w.bad = K.evaluate(w.q, w.qd, self.offset_rad, self.pins_m, self.radii_m, self.profile.par,
+                                          self.profile.herr, self.profile.hpsi, self._law_vec, self._t_cache,
+                                          self.phi, w.no_modes, w.no_modes, w.f, w.k, w.d, w.out, self.zones,
+                                          self.zone_window_rad, w.pout, w.count)
+        map_to_body(qa, self.lever_m, jac, w.f, w.k, w.d, f6, k6, d6)
+        return f6
 
     def _force_housing(self, q: np.ndarray, q_t: np.ndarray) -> np.ndarray:
         """Force user function with the pins on a flexible housing: the object's coordinates are
@@ -395,6 +435,9 @@ class CycloidPinContact:
         # bitwise compare with the last evaluated state (tobytes: ~0.2 µs, (a == b).all(): ~3 µs)
         if w.key != np.asarray(q, float).tobytes() + np.asarray(q_t, float).tobytes():
             self._force_uf(mbs, t, item, q, q_t)  # Newton asks at a state the force was not evaluated at (rare)
+        if w.tilt:
+            _, _, _, k6, d6 = w.tilt
+            return (k6 if f_ode2 == 1.0 else f_ode2 * k6) if f_ode2_t == 0.0 else f_ode2 * k6 + f_ode2_t * d6
         if w.scatter is None:
             if f_ode2_t == 0.0:  # statics: no damping term, no temporary
                 return w.k if f_ode2 == 1.0 else f_ode2 * w.k
@@ -425,10 +468,11 @@ class _Workspace:
     penetration: float = -math.inf
     bad: int = 0
     pin_buffers: tuple = ()  # flexible housing: one pin's force and Jacobians, (3 + m,), ((3 + m)²) ×2
+    tilt: tuple = ()  # a tilting slice: the node's absolute coordinates, ∂s/∂q (3, 6), force (6,), K, D (6, 6)
 
     @classmethod
     def for_pins(cls, n: int, rigid_index: tuple[int, int, int] = (0, 1, 2), node_coords: int = 3,
-                 modes: int = 0, housing_modes: int = 0) -> "_Workspace":
+                 modes: int = 0, housing_modes: int = 0, tilted: bool = False) -> "_Workspace":
         k = 3 + modes + housing_modes
         nobj = node_coords + modes + housing_modes
         scatter = None
@@ -436,10 +480,13 @@ class _Workspace:
             scatter = np.array(list(rigid_index) + list(range(node_coords, nobj)), dtype=np.intp)
         kp = 3 + modes
         pins = (np.zeros(kp), np.zeros((kp, kp)), np.zeros((kp, kp))) if housing_modes else ()
+        tilt = (np.zeros(NODE), np.zeros((3, NODE)), np.zeros(NODE), np.zeros((NODE, NODE)),
+                np.zeros((NODE, NODE))) if tilted else ()
         return cls(np.full(3, np.nan), np.full(3, np.nan), np.zeros(k), np.zeros((k, k)), np.zeros((k, k)),
                    np.zeros((n, K.N_OUT)), *K.empty_points(n), b"",
                    np.zeros(0), scatter,
-                   np.asarray(rigid_index, dtype=np.intp), np.zeros(nobj), np.zeros((nobj, nobj)), pin_buffers=pins)
+                   np.asarray(rigid_index, dtype=np.intp), np.zeros(nobj), np.zeros((nobj, nobj)), pin_buffers=pins,
+                   tilt=tilt)
 
 
 def install_penetration_guard(mbs, contacts: list[CycloidPinContact]) -> None:
@@ -560,7 +607,7 @@ def add_cycloid_pin_contact(mbs, disc_node: int, stage: CycloidStage, law: Conta
                             profile: CycloidProfile | None = None, modal_node: int = -1,
                             phi: np.ndarray | None = None, offset_rad: float | None = None,
                             housing_node: int = -1, seat: np.ndarray | None = None,
-                            axial_m: float = 0.0) -> CycloidPinContact:
+                            axial_m: float = 0.0, lever_m: float | None = None) -> CycloidPinContact:
     """Add the contact between disc ``disc`` of ``stage`` (on ``disc_node``) and the fixed pin ring.
 
     Parameters
@@ -596,6 +643,10 @@ def add_cycloid_pin_contact(mbs, disc_node: int, stage: CycloidStage, law: Conta
     axial_m : float, optional
         The disc's axial position from the discs' mid-plane (m): where a tilted pin ring
         (``errors.pin_ring_tilt_rad``) is cut.
+    lever_m : float, optional
+        A spatial rigid disc: ``disc_node`` is its ``NodeRigidBodyRxyz`` and the element acts on the disc's
+        section at this axial distance from the node (m; the slice's plane less the node's), whose in-plane pose
+        the disc's tilt moves (:mod:`rvflex.contact.tilt_map`). None (default): a planar or FE disc.
 
     Raises
     ------
@@ -605,15 +656,20 @@ def add_cycloid_pin_contact(mbs, disc_node: int, stage: CycloidStage, law: Conta
     """
     node = mbs.GetNode(disc_node)
     flexible = modal_node >= 0
-    if node.get("nodeType") != ("RigidBodyRxyz" if flexible else "RigidBody2D"):
-        need = "a NodeRigidBodyRxyz (flexible disc)" if flexible else "a NodeRigidBody2D"
+    tilted = lever_m is not None
+    if tilted and (flexible or housing_node >= 0 or not math.isfinite(lever_m)):
+        raise ValueError(f"lever_m = {lever_m!r}: a tilting slice needs a finite lever on a rigid disc with fixed "
+                         "pins (no modal_node, no housing_node)")
+    if node.get("nodeType") != ("RigidBodyRxyz" if flexible or tilted else "RigidBody2D"):
+        need = ("a NodeRigidBodyRxyz (flexible disc)" if flexible else "a NodeRigidBodyRxyz (spatial disc)" if tilted
+                else "a NodeRigidBody2D")
         raise ValueError(f"disc_node = {disc_node}: must be {need}, not {node.get('nodeType')}")
     phi = np.zeros((0, 2, 0)) if phi is None else np.ascontiguousarray(phi, dtype=float)
     m = phi.shape[2]
     if flexible and (phi.ndim != 3 or phi.shape[1] != 2 or phi.shape[0] < 8
                      or mbs.GetNode(modal_node).get("numberOfODE2Coordinates") != m):
         raise ValueError(f"phi {phi.shape}: must be (n_grid ≥ 8, 2, m) with m the modal node's coordinates")
-    rigid_index = (0, 1, 5) if flexible else (0, 1, 2)
+    rigid_index = (0, 1, 5) if flexible or tilted else (0, 1, 2)
     seat = np.zeros((0, 2, 0)) if seat is None else np.ascontiguousarray(seat, dtype=float)
     h = seat.shape[2]
     if housing_node >= 0 and (seat.shape[:2] != (stage.pin_count, 2) or h == 0
@@ -641,10 +697,11 @@ def add_cycloid_pin_contact(mbs, disc_node: int, stage: CycloidStage, law: Conta
         reference=ref,
         max_penetration_m=max_penetration_m, _law_vec=law.vector(),
         _t_cache=np.full(len(radii), np.nan),
-        _work=_Workspace.for_pins(len(radii), rigid_index, len(ref), m, h),
+        _work=_Workspace.for_pins(len(radii), rigid_index, len(ref), m, h, tilted),
         zones=concave_zones(prof, float(radii.max()), float(radii.min())), zone_window_rad=math.pi / stage.disc_teeth,
-        modal_node=modal_node, phi=phi, rigid_index=rigid_index, housing_node=int(housing_node), seat=seat)
-    _, _, _, out, _ = contact.evaluate(init[list(rigid_index)])
+        modal_node=modal_node, phi=phi, rigid_index=rigid_index, housing_node=int(housing_node), seat=seat,
+        lever_m=float(lever_m) if tilted else None)
+    _, _, _, out, _ = contact.evaluate(contact.section(init)[0])
     worst = int(np.argmin(out[:, K.O_GAP]))
     if -out[worst, K.O_GAP] > initial_interference_m:
         raise ValueError(f"initial configuration: pin {worst} interferes with disc {disc} by "

@@ -107,6 +107,11 @@ symmetric Hessian). Hence one ``ObjectGenericODE2`` with a numba force kernel an
 analytic Jacobian. Exudyn's convention, checked against its own numerical differentiation
 in the tests: the Jacobian user function returns ∂(−f)/∂q·fODE2 + ∂(−f)/∂q̇·fODE2_t, with
 f the force the user function returns (right-hand side) and q excluding reference values.
+
+A spatial crank (planet on a ``NodeRigidBodyRxyz``, ``planet_lever_m`` given): the object sits on [sun, planet]
+with 3 + 6 coordinates; the kernel sees the planet gear's section at its axial lever from the crank's node
+(:mod:`rvflex.contact.tilt_map`: the crank's tilt moves the gear's centre in the plane), its force and Jacobians
+mapped back onto the crank's six coordinates with the exact Jacobian of that pose.
 """
 
 from __future__ import annotations
@@ -119,6 +124,7 @@ import numba as nb
 import numpy as np
 from exudyn.itemInterface import ObjectGenericODE2, VObjectGenericODE2
 
+from rvflex.contact.tilt_map import add_curvature, section_pose
 from rvflex.spec import ErrorSpec, InputStage, SpecError
 
 __all__ = [
@@ -363,6 +369,35 @@ def _exudyn_jacobian(q, qt, par, f_ode2, f_ode2_t):
     return -(f_ode2 * dfdq + f_ode2_t * dfdqt)
 
 
+@_jit
+def _tilted(q, qt, par, lever, f_ode2, f_ode2_t, f, lhs, with_jacobian):
+    """The mesh with the planet on a NodeRigidBodyRxyz: ``q``, ``qt`` (9,) the sun's (x, y, θ) and the crank's
+    (x, y, z, ψx, ψy, ψz) displacements; the gear's section at ``lever`` (m) is the kernel's planet. Fills the
+    force ``f`` (9,) and, ``with_jacobian``, ``lhs`` (9, 9) in Exudyn's convention (as :func:`_exudyn_jacobian`)."""
+    s = np.empty(3)
+    jac = np.empty((3, 6))
+    section_pose(q[3:9], lever, s, jac)
+    t = np.zeros((6, 9))  # ∂(sun, section)/∂(sun, crank)
+    for i in range(3):
+        t[i, i] = 1.0
+        for j in range(6):
+            t[3 + i, 3 + j] = jac[i, j]
+    q6 = np.empty(6)
+    qt6 = np.empty(6)
+    q6[:3] = q[:3]
+    qt6[:3] = qt[:3]
+    q6[3:] = s
+    qt6[3:] = jac @ qt[3:9]
+    f6 = np.empty(6)
+    dfdq = np.empty((6, 6))
+    dfdqt = np.empty((6, 6))
+    _kernel(q6, qt6, par, f6, dfdq, dfdqt, np.empty(N_STATE), with_jacobian)
+    f[:] = t.T @ f6
+    if with_jacobian:
+        lhs[:, :] = t.T @ (-(f_ode2 * dfdq + f_ode2_t * dfdqt)) @ t
+        add_curvature(q[3:9], lever, f6[3:], f_ode2, lhs, 3)
+
+
 # --------------------------------------------------------------------------- public API
 
 
@@ -379,6 +414,7 @@ class GearMeshHandles:
     sun_node: int
     planet_node: int
     parameters: tuple[float, ...]
+    planet_lever_m: float | None = None  # a spatial crank: the gear's axial lever from its node (m); None: planar
 
 
 @dataclass(frozen=True, slots=True)
@@ -438,8 +474,8 @@ def _planet_entry(errors: ErrorSpec, field: str, planet_index: int) -> float:
     return float(values[planet_index])
 
 
-def _node_index(mbs, node, name: str) -> int:
-    """``node`` (int or exudyn.NodeIndex) as an int, if it is a NodeRigidBody2D of ``mbs``."""
+def _node_index(mbs, node, name: str, kind_needed: str = "RigidBody2D") -> int:
+    """``node`` (int or exudyn.NodeIndex) as an int, if it is a node of ``mbs`` of type ``kind_needed``."""
     count = mbs.systemData.NumberOfNodes()
     try:
         index = int(node) if not isinstance(node, (bool, float)) else -1
@@ -448,14 +484,15 @@ def _node_index(mbs, node, name: str) -> int:
     if not 0 <= index < count:
         raise SpecError(name, node, f"must be the index of a node in mbs (0 … {count - 1})")
     kind = mbs.GetNode(index)["nodeType"]
-    if kind != "RigidBody2D":
-        raise SpecError(name, node, f"must be a NodeRigidBody2D (x, y, θ), got a {kind} node")
+    if kind != kind_needed:
+        what = "a NodeRigidBody2D (x, y, θ)" if kind_needed == "RigidBody2D" else f"a Node{kind_needed}"
+        raise SpecError(name, node, f"must be {what}, got a {kind} node")
     return index
 
 
 def add_gear_mesh(mbs, sun_node: int, planet_node: int, stage: InputStage, *, planet_index: int = 0,
                   errors: ErrorSpec | None = None, name: str = "",
-                  smoothing_m: float = SMOOTHING_M) -> GearMeshHandles:
+                  smoothing_m: float = SMOOTHING_M, planet_lever_m: float | None = None) -> GearMeshHandles:
     """Add the involute mesh between ``sun_node`` and ``planet_node`` to ``mbs``.
 
     Parameters
@@ -478,6 +515,10 @@ def add_gear_mesh(mbs, sun_node: int, planet_node: int, stage: InputStage, *, pl
         Name of the Exudyn object.
     smoothing_m : float, optional
         Width w (m) of the smoothed contact onset, default :data:`SMOOTHING_M`.
+    planet_lever_m : float, optional
+        A spatial crank: ``planet_node`` is its ``NodeRigidBodyRxyz`` (reference tilt zero) and the gear's
+        mid-plane lies this far along the axis from the node (m); the crank's tilt moves the gear's centre
+        (module docstring). None (default): a planar planet.
 
     Returns
     -------
@@ -499,11 +540,18 @@ def add_gear_mesh(mbs, sun_node: int, planet_node: int, stage: InputStage, *, pl
     if not isinstance(errors, ErrorSpec):
         raise SpecError("errors", type(errors).__name__, "must be an rvflex.spec.ErrorSpec or None")
     sun_node = _node_index(mbs, sun_node, "sun_node")
-    planet_node = _node_index(mbs, planet_node, "planet_node")
+    spatial = planet_lever_m is not None
+    if spatial and not (isinstance(planet_lever_m, (int, float)) and math.isfinite(planet_lever_m)):
+        raise SpecError("planet_lever_m", planet_lever_m, "must be a finite axial distance in m")
+    planet_node = _node_index(mbs, planet_node, "planet_node", "RigidBodyRxyz" if spatial else "RigidBody2D")
     if sun_node == planet_node:
         raise SpecError("planet_node", planet_node, "must differ from sun_node")
     ref_s, ref_p = (np.asarray(mbs.GetNodeParameter(n, "referenceCoordinates"), dtype=np.float64)
                     for n in (sun_node, planet_node))
+    if spatial:
+        if np.any(ref_p[3:5] != 0.0):
+            raise SpecError("planet_node", planet_node, "a spatial planet's reference tilt (ψx, ψy) must be zero")
+        ref_p = ref_p[[0, 1, 5]]  # the gear's in-plane reference pose: the node's (x, y, ψz)
 
     rbs, rbp = base_radii(stage)
     rb = rbs + rbp
@@ -549,19 +597,34 @@ def add_gear_mesh(mbs, sun_node: int, planet_node: int, stage: InputStage, *, pl
     a_in, psi_in = errors.input_shaft_angle_error_rad, errors.input_shaft_angle_error_phase_rad
     par[P_UC], par[P_US] = a_in * math.cos(psi_in), a_in * math.sin(psi_in)
 
-    def force(mbs_, t, item, q, q_t):
-        return _force(np.asarray(q, dtype=np.float64), np.asarray(q_t, dtype=np.float64), par)
+    if spatial:
+        lever = float(planet_lever_m)
+        f9, lhs = np.empty(9), np.empty((9, 9))
 
-    def jacobian(mbs_, t, item, q, q_t, f_ode2, f_ode2_t):
-        return _exudyn_jacobian(np.asarray(q, dtype=np.float64), np.asarray(q_t, dtype=np.float64), par,
-                                f_ode2, f_ode2_t)
+        def force(mbs_, t, item, q, q_t):
+            _tilted(np.asarray(q, dtype=np.float64), np.asarray(q_t, dtype=np.float64), par, lever, 1.0, 0.0, f9,
+                    lhs, False)
+            return f9
+
+        def jacobian(mbs_, t, item, q, q_t, f_ode2, f_ode2_t):
+            _tilted(np.asarray(q, dtype=np.float64), np.asarray(q_t, dtype=np.float64), par, lever, f_ode2,
+                    f_ode2_t, f9, lhs, True)
+            return lhs
+    else:
+        def force(mbs_, t, item, q, q_t):
+            return _force(np.asarray(q, dtype=np.float64), np.asarray(q_t, dtype=np.float64), par)
+
+        def jacobian(mbs_, t, item, q, q_t, f_ode2, f_ode2_t):
+            return _exudyn_jacobian(np.asarray(q, dtype=np.float64), np.asarray(q_t, dtype=np.float64), par,
+                                    f_ode2, f_ode2_t)
 
     obj = mbs.AddObject(ObjectGenericODE2(
         name=name, nodeNumbers=[sun_node, planet_node],
         forceUserFunction=force, jacobianUserFunction=jacobian,
         visualization=VObjectGenericODE2(show=False)))
     return GearMeshHandles(mesh_object=int(obj), sun_node=sun_node, planet_node=planet_node,
-                           parameters=tuple(float(x) for x in par))
+                           parameters=tuple(float(x) for x in par),
+                           planet_lever_m=float(planet_lever_m) if spatial else None)
 
 
 def evaluate(handles: GearMeshHandles, q, q_t=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -594,8 +657,8 @@ def mesh_state(mbs, handles: GearMeshHandles, configuration=exu.ConfigurationTyp
                q=None, q_t=None) -> MeshState:
     """Mesh deflection, flank overlaps and forces of ``handles`` in ``mbs`` (or at given ``q``, ``q_t``).
 
-    ``q``/``q_t`` (6 displacements from the reference configuration) override the state
-    read from ``mbs`` in ``configuration``; pass ``mbs=None`` then.
+    ``q``/``q_t`` (6 displacements from the reference configuration; 9 for a spatial crank, its node's six)
+    override the state read from ``mbs`` in ``configuration``; pass ``mbs=None`` then.
     """
     if q is None:
         ot = exu.OutputVariableType
@@ -604,5 +667,9 @@ def mesh_state(mbs, handles: GearMeshHandles, configuration=exu.ConfigurationTyp
         q_t = np.concatenate([mbs.GetNodeOutput(n, ot.Coordinates_t, configuration)
                               for n in (handles.sun_node, handles.planet_node)])
     q = np.ascontiguousarray(q, dtype=np.float64)
-    qt = np.zeros(6) if q_t is None else np.ascontiguousarray(q_t, dtype=np.float64)
+    qt = np.zeros(len(q)) if q_t is None else np.ascontiguousarray(q_t, dtype=np.float64)
+    if handles.planet_lever_m is not None and len(q) == 9:  # a spatial crank: its gear's section
+        sec, jac = np.empty(3), np.empty((3, 6))
+        section_pose(q[3:], handles.planet_lever_m, sec, jac)
+        q, qt = np.concatenate([q[:3], sec]), np.concatenate([qt[:3], jac @ qt[3:]])
     return _state(handles, q, qt)
