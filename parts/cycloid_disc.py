@@ -95,10 +95,7 @@ def build(mbs, spec: ReducerSpec, errors: ErrorSpec, cranks, law: ContactLaw, ec
     from exudyn.itemInterface import NodeRigidBody2D, ObjectRigidBody2D
 
     cy = spec.cycloid
-    rho = spec.materials.gears_cranks_discs.density_kg_m3
-    r_out = cy.pin_circle_radius_m - cy.pin_radius_m
-    mass = rho * math.pi * (r_out**2 - cy.disc_center_hole_radius_m**2) * cy.disc_thickness_m
-    inertia = 0.5 * mass * (r_out**2 + cy.disc_center_hole_radius_m**2)
+    mass, inertia, _ = _disc_inertia(spec)
     nodes, bodies, contacts, ecc_bearings = [], [], [], []
     for d in range(cy.disc_count):
         bores = bore_positions(spec, errors, d)
@@ -157,11 +154,7 @@ def build_spatial(mbs, spec: ReducerSpec, errors: ErrorSpec, cranks, law: Contac
     from exudyn.itemInterface import NodeRigidBodyRxyz, ObjectRigidBody
 
     cy = spec.cycloid
-    rho = spec.materials.gears_cranks_discs.density_kg_m3
-    r_out, r_in, b = cy.pin_circle_radius_m - cy.pin_radius_m, cy.disc_center_hole_radius_m, cy.disc_thickness_m
-    mass = rho * math.pi * (r_out**2 - r_in**2) * b
-    izz = 0.5 * mass * (r_out**2 + r_in**2)
-    ixx = mass * ((r_out**2 + r_in**2) / 4 + b**2 / 12)
+    mass, izz, ixx = _disc_inertia(spec)
     slice_law, planes = law.sliced(face_slices), slice_planes(spec, face_slices)
     mid = disc_planes(spec)
     nodes, bodies, contacts, ecc_bearings = [], [], [], []
@@ -178,6 +171,16 @@ def build_spatial(mbs, spec: ReducerSpec, errors: ErrorSpec, cranks, law: Contac
         bodies.append(body)
         ecc_bearings.append(tuple(pairs))
     return DiscHandles(tuple(nodes), tuple(bodies), tuple(contacts), tuple(ecc_bearings), slices=face_slices)
+
+
+def _disc_inertia(spec: ReducerSpec) -> tuple[float, float, float]:
+    """A rigid disc as an annulus from the pin circle less a pin radius to its centre hole: mass (kg), moment of
+    inertia about its axis and about a diameter through its centre (kg·m²)."""
+    cy = spec.cycloid
+    rho = spec.materials.gears_cranks_discs.density_kg_m3
+    r_out, r_in, b = cy.pin_circle_radius_m - cy.pin_radius_m, cy.disc_center_hole_radius_m, cy.disc_thickness_m
+    mass = rho * math.pi * (r_out**2 - r_in**2) * b
+    return mass, 0.5 * mass * (r_out**2 + r_in**2), mass * ((r_out**2 + r_in**2) / 4 + b**2 / 12)
 
 
 def _eccentric_bearings(mbs, spec: ReducerSpec, errors: ErrorSpec, cranks, body: int, d: int,

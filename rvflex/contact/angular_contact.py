@@ -258,13 +258,19 @@ def _ball_law(law_code, stiffness, squeeze):
     return 0.5 * stiffness * squeeze * squeeze, stiffness * squeeze, stiffness
 
 
+@_jit
+def _ball_laws_into(law_code, stiffness, squeeze, load, kt):
+    """:func:`_ball_law`'s load and dQ/dδ at every squeeze of the flat array ``squeeze``, into ``load`` and ``kt``."""
+    for j in range(squeeze.shape[0]):
+        _, load[j], kt[j] = _ball_law(law_code, stiffness, squeeze[j])
+
+
 def _ball_laws(law_code: int, stiffness: float, squeeze_m):
     """Load (N) and dQ/dδ (N/m) of the law (:func:`_ball_law`) at squeezes (m; scalar or array, shape kept)."""
     sq = np.asarray(squeeze_m, dtype=float)
-    flat = sq.ravel()
+    flat = np.ascontiguousarray(sq.ravel())
     load, kt = np.empty_like(flat), np.empty_like(flat)
-    for j, x in enumerate(flat):
-        _, load[j], kt[j] = _ball_law(law_code, stiffness, float(x))
+    _ball_laws_into(law_code, float(stiffness), flat, load, kt)
     return load.reshape(sq.shape), kt.reshape(sq.shape)
 
 
