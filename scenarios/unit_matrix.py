@@ -3,6 +3,9 @@
 Each cell is one unit × one fidelity: the model is built once (FE reductions from the cache
 or computed, the build time says which) and runs the two catalogue tests on it — loaded TE
 at rated torque over one output revolution, and the lost-motion torque cycle ±rated. The
+``"spatial"`` cells build every part a rigid body free out of its plane
+(:meth:`~rvflex.options.ModelOptions.spatial_rigid`); a spec without the geometry that needs
+(main bearing pair, crank support span) gets a row saying so, not a failure. The
 table (:func:`markdown`) is docs/units.md; ``rvflex units --markdown docs/units.md``
 regenerates it. ``coarse=True`` swaps the FE reductions for the quick ones the tests use
 (8 mm linear tets), for CI.
@@ -22,7 +25,7 @@ from pathlib import Path
 
 from rvflex import catalog
 from rvflex.api import RunError, one_line
-from rvflex.choices import PlanarFidelity, check_choice, choices
+from rvflex.choices import Fidelity, check_choice, choices
 from rvflex.model import build_reducer
 from rvflex.options import ModelOptions
 from rvflex.scenarios.loaded_te import LoadedTE
@@ -32,7 +35,7 @@ from rvflex.spec import ReducerSpec, SpecError
 __all__ = ["COARSE_CARRIER", "COARSE_DISC", "COARSE_HOUSING", "FIDELITIES", "Cell", "markdown", "options_for", "run_cell",
            "run_matrix"]
 
-FIDELITIES: tuple[PlanarFidelity, ...] = ("rigid", "flexible", "flexible-carrier")
+FIDELITIES: tuple[Fidelity, ...] = ("rigid", "flexible", "flexible-carrier", "spatial")
 """The matrix's default fidelities; ``"flexible-all"`` (with the FE pin housing) runs when asked
 (``--fidelity``), not by default: it adds a housing reduction per unit."""
 COARSE_DISC = {"maxh_m": 8e-3, "n_modes": 12, "mesh_order": 1, "attach_per_tooth": 0}
@@ -50,7 +53,7 @@ class Cell:
     ``error`` is the one-line failure when the cell did not run (then the figures are NaN)."""
 
     unit: str
-    fidelity: PlanarFidelity
+    fidelity: Fidelity
     ratio: float
     rated_torque_Nm: float
     cranks: int
@@ -68,13 +71,16 @@ class Cell:
     lost_motion_moment_arcmin: float = float("nan")
     face_load_ratio: float = float("nan")
     error: str = ""
+    not_built: str = ""  # why the spec cannot be built at this fidelity (not a failure: it lacks the data)
 
 
-def options_for(fidelity: PlanarFidelity, *, coarse: bool = False) -> ModelOptions:
+def options_for(fidelity: Fidelity, *, coarse: bool = False) -> ModelOptions:
     """The ModelOptions preset of ``fidelity``; ``coarse`` with the tests' quick reductions."""
-    check_choice("fidelity", fidelity, PlanarFidelity)
+    check_choice("fidelity", fidelity, Fidelity)
     if fidelity == "rigid":
         return ModelOptions.rigid()
+    if fidelity == "spatial":
+        return ModelOptions.spatial_rigid()
     if fidelity == "flexible":
         opts = ModelOptions.flexible_discs()
         return opts.with_fe("discs", **COARSE_DISC) if coarse else opts
@@ -87,16 +93,20 @@ def options_for(fidelity: PlanarFidelity, *, coarse: bool = False) -> ModelOptio
     return opts.with_fe("discs", **COARSE_DISC).with_fe("carrier", **COARSE_CARRIER).with_fe("housing", **COARSE_HOUSING)
 
 
-def run_cell(spec: ReducerSpec, fidelity: PlanarFidelity, *, positions: int = 2048, steps: int = 200,
+def run_cell(spec: ReducerSpec, fidelity: Fidelity, *, positions: int = 2048, steps: int = 200,
              coarse: bool = False, moment_fraction: float = 0.0) -> Cell:
     """Build ``spec`` at ``fidelity`` and run loaded TE (rated torque, one output revolution,
     ``positions`` positions) and the lost-motion cycle (``steps`` torque steps) on it.
 
-    With ``moment_fraction`` > 0 both run again on a second model under that fraction of the spec's allowable
-    tilting moment (:mod:`rvflex.tilt`), the pin contact in :data:`~rvflex.tilt.MOMENT_SLICES` slices along the face
-    width: the TE, wind-up and lost motion under the moment and the largest line load at the discs' faces over the
-    largest mean over the face width (``face_load_ratio``); a spec without a main bearing pair or an allowable
-    moment leaves them NaN.
+    With ``moment_fraction`` > 0 both run again under that fraction of the spec's allowable tilting moment: on a
+    second planar model whose carrier the moment tilts on its main bearing pair alone (:mod:`rvflex.tilt`), the pin
+    contact in :data:`~rvflex.tilt.MOMENT_SLICES` slices along the face width; a ``"spatial"`` cell's own model
+    carries the moment on its output (solved with the gear train). Recorded: the TE, wind-up and lost motion under
+    the moment and the largest line load at the discs' faces over the largest mean over the face width
+    (``face_load_ratio``); a spec without a main bearing pair or an allowable moment leaves them NaN.
+
+    A spec the spatial model cannot be built from (:meth:`~rvflex.spec.ReducerSpec.check_spatial`) gives a
+    ``"spatial"`` cell with ``not_built`` saying what it lacks.
 
     A failure (a reduction, a step that does not converge) is recorded in ``Cell.error`` as
     :class:`rvflex.RunError` words it, so one bad cell does not stop the matrix.
@@ -105,6 +115,11 @@ def run_cell(spec: ReducerSpec, fidelity: PlanarFidelity, *, positions: int = 20
 
     base = Cell(spec.name, fidelity, spec.nominal_ratio, spec.rated_torque_Nm, spec.cranks.count)
     opts = options_for(fidelity, coarse=coarse)
+    if opts.spatial is not None:
+        try:
+            spec.check_spatial("the spatial fidelity")
+        except SpecError as exc:
+            return dataclasses.replace(base, not_built=str(exc))
     te = LoadedTE(spec, positions_per_rev=positions, options=opts)
     lm = LostMotion(spec, steps=steps, options=opts)
     t0 = time.perf_counter()
@@ -141,7 +156,8 @@ def _under_moment(base: Cell, spec: ReducerSpec, opts: ModelOptions, positions: 
     if spec.allowable_moment_Nm is None or spec.bearings.main_pair is None:
         return base  # nothing to tilt it on: the columns stay empty ("—")
     load = OutputLoad(moment_Nm=fraction * spec.allowable_moment_Nm)
-    sliced = dataclasses.replace(opts, face_slices=MOMENT_SLICES)
+    # planar: sliced, the carrier's tilt from its pair alone; spatial: the cell's own model, the moment on its output
+    sliced = opts if opts.spatial is not None else dataclasses.replace(opts, face_slices=MOMENT_SLICES)
     te = LoadedTE(spec, positions_per_rev=positions, options=sliced, output_load=load)
     try:
         model = build_reducer(spec, te.model_errors, sliced)
@@ -195,15 +211,18 @@ def markdown(cells: list[Cell], *, command: str, positions: int, steps: int, coa
         if moment:
             row += (f" {_f(c.moment_Nm, '.0f')} | {_f(c.te_pp_moment_arcsec, '.2f')} | {_f(c.windup_moment_arcsec, '.1f')} | "
                     f"{_f(c.lost_motion_moment_arcmin, '.3f')} | {_f(c.face_load_ratio, '.2f')} |")
-        lines.append(row if not c.error else row + f" failed: {c.error}")
+        lines.append(row + (f" failed: {c.error}" if c.error else f" not built: {c.not_built}" if c.not_built else ""))
     fe = "the tests' coarse reductions (8 mm linear tets)" if coarse else "the presets' reductions (6 mm quadratic tets)"
     head = (f"<!-- generated by `{command}`; do not edit the table by hand -->\n\n"
             f"Loaded TE at rated torque over one output revolution ({positions} positions) and the lost-motion "
             f"cycle 0 → +T_r → −T_r → 0 ({steps} torque steps) on one model per cell, FE parts from {fe}. "
             f"Wind-up is the mean TE (negative: the output lags). \"build\" includes the FE reductions; "
             f"\"(reduced)\" marks a cell that computed them (otherwise they came from the cache)."
+            + " \"spatial\": every part a rigid body free out of its plane, the pin contact in slices along the face "
+              "width ([spatial](spatial.md))."
             + (" Under a moment: the same runs on a second model, the carrier tilted on its main bearing pair by that "
-               "moment and the pin contact in slices along the face width ([spatial](spatial.md)); the last column is "
+               "moment and the pin contact in slices along the face width; a spatial cell carries the moment on its own "
+               "model's output, solved with the gear train; the last column is "
                "the largest line load at the discs' faces over the largest mean over the face width; \"—\": the spec gives no "
                "main bearing pair." if moment else "")
             + "\n\n")
@@ -227,8 +246,8 @@ def register(sub) -> None:
                                    "Exit code 1 when a cell failed (its row says what failed).")
     p.add_argument("--units", nargs="+", metavar="UNIT",
                    help=f"catalogue names or spec TOML paths (default every built-in unit: {', '.join(catalog.names())})")
-    p.add_argument("--fidelity", nargs="+", choices=choices(PlanarFidelity), default=list(FIDELITIES),
-                   help="fidelities (default all three)")
+    p.add_argument("--fidelity", nargs="+", choices=choices(Fidelity), default=list(FIDELITIES),
+                   help=f"fidelities (default {', '.join(FIDELITIES)})")
     p.add_argument("--positions", type=int, default=2048, help="loaded-TE positions per output revolution (default 2048)")
     p.add_argument("--steps", type=int, default=200, help="lost-motion torque steps (default 200)")
     p.add_argument("--coarse", action="store_true",
@@ -246,7 +265,7 @@ def _cmd_units(args) -> int:
 
     cells = run_matrix(args.units, tuple(args.fidelity), positions=args.positions, steps=args.steps,
                        coarse=args.coarse, moment_fraction=args.moment_fraction, progress=lambda c: print(f"{c.unit} {c.fidelity}: "
-                                                                    f"{c.error or 'done'}", file=sys.stderr, flush=True))
+                                                                    f"{c.error or c.not_built or 'done'}", file=sys.stderr, flush=True))
     words = ["rvflex units"]
     if args.units:
         words.append("--units " + " ".join(args.units))

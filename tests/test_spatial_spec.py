@@ -173,9 +173,10 @@ def test_build_reducer_refuses_beam_cranks_in_one_line(rv40e):
                                "crank = 'rigid'")
 
 
-def test_the_planar_commands_and_the_unit_matrix_offer_no_spatial_fidelity():
+def test_the_unit_matrix_offers_the_spatial_fidelity_and_names_the_choices():
     from rvflex.scenarios.unit_matrix import options_for
 
-    with pytest.raises(SpecError, match=r"^fidelity = 'spatial': must be one of 'rigid', 'flexible', "
-                                        r"'flexible-carrier', 'flexible-all'$"):
-        options_for("spatial")
+    assert options_for("spatial") == ModelOptions.spatial_rigid()
+    with pytest.raises(SpecError, match=r"^fidelity = 'spatail': must be one of 'rigid', 'flexible', "
+                                        r"'flexible-carrier', 'flexible-all', 'spatial'.*did you mean 'spatial'"):
+        options_for("spatail")
