@@ -10,7 +10,8 @@ Exudyn system once per run (bodies, markers, connectors, loads and the contact a
 data) and solves each step in compiled code with the same force laws:
 
 - ``ConnectorRigidBodySpringDamper`` with rvflex's clearance-bearing law (:mod:`rvflex.contact.bearing`):
-  the central radial force k·r_w(d − ε)·d/|d| between the two marker points, applied at each marker;
+  the central radial force k·r_w(d − ε)·d/|d| (or the bearing's power law in r_w) between the two marker
+  points, applied at each marker;
   its axial and tilt springs act only where a marker on an FE body moves out of the plane with the modes;
 - ``ConnectorCartesianSpringDamper``: k_x, k_y springs on the markers' relative position;
 - ``ConnectorCoordinateSpringDamper`` (the output regulariser) and ``LoadCoordinate`` (the output torque);
@@ -176,15 +177,21 @@ def _point_connectors(qa, pc, f, kt, jidx, jv):
         dy = p[1, 1] - p[0, 1]
         # F: force on marker 1 (marker 0 gets −F); A = ∂F/∂d
         if kind[c] == LAW_CLEARANCE:
-            k, eps, w = par[c, 0], par[c, 1], par[c, 2]
-            if eps == 0.0:
+            k, eps, w, e = par[c, 0], par[c, 1], par[c, 2], par[c, 3]
+            if eps == 0.0 and e == 1.0:
                 fx, fy = -k * dx, -k * dy
                 a00, a01, a10, a11 = -k, 0.0, 0.0, -k
             else:
                 d = math.sqrt(dx * dx + dy * dy)
+                if d == 0.0:
+                    continue  # a power law without clearance: no force and no stiffness at zero approach
                 rw, drw = _ramp(d - eps, w)
                 if rw == 0.0 and drw == 0.0:
                     continue
+                if e != 1.0:  # the power law F = k·x_r^(1−e)·r_w^e (par[c, 4] = k·x_r^(1−e))
+                    fr = par[c, 4] * rw**e
+                    drw = par[c, 4] * e * rw ** (e - 1.0) * drw / k
+                    rw = fr / k
                 g = k * rw / d  # force per unit displacement, central
                 gp = (k * drw - g) / d  # dg/dd
                 ux, uy = dx / d, dy / d
@@ -920,11 +927,12 @@ def compiled_step(model) -> CompiledStep | None:
         return None  # the spatial model (3D bodies, the main bearing pair element): Exudyn solves it
     mbs = model.mbs
     sd = mbs.systemData
-    bearing_law = {}  # connector → (ε, w) of rvflex's clearance law
+    bearing_law = {}  # connector → (ε, w, e, x_r) of rvflex's clearance law
     pairs = [model.carrier.main, *model.cranks.supports, *model.input_seat_supports]
     pairs += [p for row in model.discs.eccentric_bearings for p in row]
     for p in pairs:
-        bearing_law[p.bearing.connector] = (p.bearing.clearance_m, p.bearing.smoothing_m)
+        b = p.bearing
+        bearing_law[b.connector] = (b.clearance_m, b.smoothing_m, b.load_exponent, b.reference_approach_m)
     contacts = {c.object_index: c for c in model.discs.contacts}
     meshes = {h.mesh_object: h for h in model.cranks.meshes}
     objects = [mbs.GetObject(i) for i in range(sd.NumberOfObjects())]  # read once: an FE body's are megabytes
@@ -979,15 +987,15 @@ def compiled_step(model) -> CompiledStep | None:
                 k = np.asarray(o["stiffness"], float)
                 if k[3, 3] != k[4, 4] or not out_of_plane(pts, k[2, 2], k[3, 3]):
                     return None
-                eps, w = bearing_law[i]
+                eps, w, e, x_r = bearing_law[i]
                 pc_kind.append(LAW_CLEARANCE)
-                pc_par.append([k[0, 0], eps, w, 0.0])
+                pc_par.append([k[0, 0], eps, w, e, k[0, 0] * x_r ** (1.0 - e) if e != 1.0 else k[0, 0]])
             else:
                 k, off = np.asarray(o["stiffness"], float), np.asarray(o["offset"], float)
                 if off[2] != 0.0 or not out_of_plane(pts, k[2], 0.0):
                     return None
                 pc_kind.append(LAW_CARTESIAN)
-                pc_par.append([k[0], k[1], off[0], off[1]])
+                pc_par.append([k[0], k[1], off[0], off[1], 0.0])
             sides.append(pts)
         elif kind == "ConnectorCoordinate":
             c0, c1 = (coordinate(m) for m in o["markerNumbers"])
@@ -1071,7 +1079,7 @@ def compiled_step(model) -> CompiledStep | None:
         "pc_angle": np.array([[p.angle for p in pts] for pts in sides], dtype=np.int64).reshape(-1, 2),
         "pc_mcol": pc_mcol, "pc_rows": pc_rows,
         "pc_lp": np.array([[p.point for p in pts] for pts in sides], float).reshape(-1, 2, 2),
-        "pc_kind": np.array(pc_kind, dtype=np.int64), "pc_par": np.array(pc_par, float).reshape(-1, 4),
+        "pc_kind": np.array(pc_kind, dtype=np.int64), "pc_par": np.array(pc_par, float).reshape(-1, 5),
         "cs_idx": np.array(cs_idx, dtype=np.int64), "spring_objects": spring_objects,
         "cs_k": np.zeros(len(cs_idx)), "cs_off": np.zeros(len(cs_idx)),
         "ld_idx": np.array(ld_idx, dtype=np.int64), "load_items": load_items, "ld_val": np.zeros(len(ld_idx)),

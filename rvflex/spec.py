@@ -13,7 +13,8 @@ TOML mirrors the dataclasses one table per nested dataclass. :func:`loads_spec` 
 strict: an unknown (e.g. misspelled) or a missing key is refused, except the optional ones, the
 fields typed ``X | None`` whose default is None (``[bearings.main_pair]``,
 ``allowable_moment_Nm``, ``catalogue_moment_rigidity_Nm_per_arcmin``, ``catalogue_lost_motion_arcmin``,
-``cranks.support_span_m``, ``cranks.support_journal_radius_m``, ``cranks.gear_axial_position_m``): omitted, they are
+``cranks.support_span_m``, ``cranks.support_journal_radius_m``, ``cranks.gear_axial_position_m``, a bearing's
+``load_exponent`` and ``reference_load_N``): omitted, they are
 None, and a None is not written. Error files (:func:`loads_errors`) may omit keys: an omitted error
 source is zero.
 """

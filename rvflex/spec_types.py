@@ -366,7 +366,13 @@ class Cranks:
 
 @dataclass(frozen=True, slots=True)
 class Bearing:
-    """A rolling bearing as a bushing: radial stiffness beyond a radial clearance."""
+    """A rolling bearing as a bushing: radial stiffness beyond a radial clearance.
+
+    Beyond the clearance the radial force is linear, k·x (x the approach past the clearance), unless
+    ``load_exponent`` e and ``reference_load_N`` F_r are given (both or neither): then it is the rolling
+    contact's power law F = F_r·(x/x_r)^e, x_r = F_r/k, so ``radial_stiffness_N_m`` k is the secant stiffness at
+    F_r, the law softer below it and stiffer above (e = 10/9 a roller's line contact, Palmgren; 1.5 a ball's
+    point contact)."""
 
     kind: str
     radial_stiffness_N_m: float
@@ -374,6 +380,8 @@ class Bearing:
     tilt_stiffness_Nm_rad: float
     radial_damping_Ns_m: float
     clearance_m: float
+    load_exponent: float | None = None
+    reference_load_N: float | None = None
 
     def __post_init__(self) -> None:
         if self.kind not in BEARING_KINDS:
@@ -383,6 +391,20 @@ class Bearing:
         _range("tilt_stiffness_Nm_rad", self.tilt_stiffness_Nm_rad, 1e2, 1e10, "expected N·m/rad, 1e2 to 1e10")
         _range("radial_damping_Ns_m", self.radial_damping_Ns_m, 0.0, 1e7, "expected N·s/m, 0 to 1e7")
         _range("clearance_m", self.clearance_m, 0.0, 0.2 * MM, "expected metres, 0 to 0.2 mm (µm-scale)")
+        if (self.load_exponent is None) != (self.reference_load_N is None):
+            missing = "reference_load_N" if self.reference_load_N is None else "load_exponent"
+            raise SpecError(missing, None, "a power-law bearing needs both load_exponent and reference_load_N "
+                                           "(neither: the linear law)")
+        if self.load_exponent is not None:
+            _range("load_exponent", self.load_exponent, 1.0, 2.0,
+                   "expected 1 (linear) to 2; a roller's line contact is 10/9, a ball's point contact 1.5")
+            _range("reference_load_N", self.reference_load_N, 1.0, 1e7, "expected N, 1 to 1e7")
+
+    @property
+    def reference_approach_m(self) -> float:
+        """x_r = F_r/k: the approach past the clearance at which the power law carries its reference load (m);
+        0 for the linear law."""
+        return 0.0 if self.reference_load_N is None else self.reference_load_N / self.radial_stiffness_N_m
 
 
 @dataclass(frozen=True, slots=True)

@@ -15,6 +15,10 @@ relative displacement of marker 1, d = |(u_x, u_y)|, x = d − ε)::
     tilt     m_x = k_tilt · θ_x,  m_y = k_tilt · θ_y          (Tait–Bryan angles of J1 in J0)
     spin     m_z = 0                                          (a bearing turns freely)
 
+A power-law bearing (``Bearing.load_exponent`` e, ``reference_load_N`` F_r; x_r = F_r/k_n) has
+``f_r = k_n·x_r^(1−e)·r_w(x)^e · (u_x, u_y)/d``: the rolling contact's F = F_r·(x/x_r)^e past the clearance,
+of secant stiffness k_n at F_r.
+
 with the C¹ smoothed ramp r_w and its derivative, the contact indicator s_w = r_w'::
 
     r_w(x) = 0                  x ≤ −w           s_w(x) = 0
@@ -98,11 +102,17 @@ class BearingHandles:
         Radial clearance ε the law uses (bearing plus extra), m.
     smoothing_m : float
         Effective smoothing half-width w_eff = min(w, ε) the law uses, m.
+    load_exponent : float
+        Exponent e of the law past the clearance (1: linear).
+    reference_approach_m : float
+        x_r of the power law, m (0: linear).
     """
 
     connector: int
     clearance_m: float
     smoothing_m: float
+    load_exponent: float = 1.0
+    reference_approach_m: float = 0.0
 
 
 def effective_smoothing_m(clearance_m: float, smoothing_m: float) -> float:
@@ -117,8 +127,10 @@ def _ramp(x: np.ndarray, w: float) -> np.ndarray:
 
 
 def radial_force_N(d_m, *, stiffness_N_m: float, clearance_m: float,
-                   smoothing_m: float = DEFAULT_SMOOTHING_M) -> np.ndarray:
-    """Magnitude of the radial spring force k_n·r_w(d − ε) for radial displacement(s) d.
+                   smoothing_m: float = DEFAULT_SMOOTHING_M, load_exponent: float = 1.0,
+                   reference_approach_m: float = 0.0) -> np.ndarray:
+    """Magnitude of the radial spring force k_n·r_w(d − ε) (or k_n·x_r^(1−e)·r_w(d − ε)^e) for radial
+    displacement(s) d.
 
     The same law the connector evaluates (module docstring); for post-processing and tests.
 
@@ -132,6 +144,10 @@ def radial_force_N(d_m, *, stiffness_N_m: float, clearance_m: float,
         Radial clearance ε, m.
     smoothing_m : float
         Smoothing half-width w, m (``min(w, ε)`` is used).
+    load_exponent : float
+        Exponent e of the power law (1: linear).
+    reference_approach_m : float
+        Its x_r = F_r/k_n, m (read when e ≠ 1).
 
     Returns
     -------
@@ -140,7 +156,10 @@ def radial_force_N(d_m, *, stiffness_N_m: float, clearance_m: float,
     """
     d = np.asarray(d_m, dtype=float)
     w = effective_smoothing_m(clearance_m, smoothing_m)
-    return stiffness_N_m * _ramp(d - clearance_m, w)
+    r = _ramp(d - clearance_m, w)
+    if load_exponent == 1.0:
+        return stiffness_N_m * r
+    return stiffness_N_m * reference_approach_m ** (1.0 - load_exponent) * r**load_exponent
 
 
 def contact_indicator(d_m, *, clearance_m: float, smoothing_m: float = DEFAULT_SMOOTHING_M) -> np.ndarray:
@@ -152,12 +171,12 @@ def contact_indicator(d_m, *, clearance_m: float, smoothing_m: float = DEFAULT_S
     return np.where(x <= -w, 0.0, np.where(x >= w, 1.0, (x + w) / (2.0 * w)))
 
 
-def _symbolic_law(eps: float, w: float):
+def _symbolic_law(eps: float, w: float, e: float = 1.0, x_r: float = 0.0):
     """Force-torque law for ``springForceTorqueUserFunction``, to be recorded symbolically.
 
     Linear coefficients come from the connector's stiffness and damping matrices (so they
-    can be inspected and changed with ``SetObjectParameter``); ε and w are recorded as
-    constants of the expression.
+    can be inspected and changed with ``SetObjectParameter``); ε, w and the power law's e and x_r
+    are recorded as constants of the expression.
     """
     zero, one = esym.Real(0.0), esym.Real(1.0)
 
@@ -165,7 +184,20 @@ def _symbolic_law(eps: float, w: float):
                                  stiffness, damping, rotJ0, rotJ1, offset):
         ux, uy = displacement[0], displacement[1]
         k, c = stiffness[0, 0], damping[0, 0]
-        if eps == 0.0:  # linear spring and damper: no switch at all
+        if e != 1.0:  # the power law: g = k·x_r^(1−e)·r_w(x)^e / d
+            kp = k * (x_r ** (1.0 - e))
+            d = esym.sqrt(ux * ux + uy * uy)
+            x = d - eps
+            if eps == 0.0:  # r_w = d: g = kp·d^(e−1), zero at d = 0 (e > 1), no division
+                g, s = kp * esym.pow(d, e - 1.0), one
+            elif w == 0.0:
+                g = esym.IfThenElse(x <= 0.0, zero, kp * esym.pow(x, e) / d)
+                s = esym.IfThenElse(x <= 0.0, zero, one)
+            else:
+                band = kp * esym.pow((x + w) * (x + w) / (4.0 * w), e) / d
+                g = esym.IfThenElse(x <= -w, zero, esym.IfThenElse(x >= w, kp * esym.pow(x, e) / d, band))
+                s = esym.IfThenElse(x <= -w, zero, esym.IfThenElse(x >= w, one, (x + w) / (2.0 * w)))
+        elif eps == 0.0:  # linear spring and damper: no switch at all
             g, s = k, one
         else:
             d = esym.sqrt(ux * ux + uy * uy)
@@ -211,7 +243,7 @@ def add_clearance_bearing(mbs, marker0: int, marker1: int, bearing: Bearing, *,
 
     The bearing axis is the local z axis of marker 0's joint frame (give the marker a
     ``localHT`` to turn it). Radial force is zero inside the clearance ε and k_n·(d − ε)
-    beyond it, smoothed over |d − ε| < w (law and damping in the module docstring); axial
+    beyond it (or the bearing's power law), smoothed over |d − ε| < w (law and damping in the module docstring); axial
     and tilt stiffness are linear; rotation about the axis is free. Works with planar
     (``ObjectRigidBody2D``) and 3D rigid bodies alike.
 
@@ -259,7 +291,9 @@ def add_clearance_bearing(mbs, marker0: int, marker1: int, bearing: Bearing, *,
     k_ax, k_tilt = bearing.axial_stiffness_N_m, bearing.tilt_stiffness_Nm_rad
     # Recorded once into an expression tree evaluated in C++; the connector keeps a
     # reference to it, so it lives as long as the item.
-    law = CreateSymbolicUserFunction(mbs, _symbolic_law(eps, w), "springForceTorqueUserFunction",
+    e = 1.0 if bearing.load_exponent is None else float(bearing.load_exponent)
+    x_r = bearing.reference_approach_m
+    law = CreateSymbolicUserFunction(mbs, _symbolic_law(eps, w, e, x_r), "springForceTorqueUserFunction",
                                      itemTypeName="ObjectConnectorRigidBodySpringDamper")
     connector = mbs.AddObject(ObjectConnectorRigidBodySpringDamper(
         name=name,
@@ -268,4 +302,5 @@ def add_clearance_bearing(mbs, marker0: int, marker1: int, bearing: Bearing, *,
         damping=np.diag([c, c, c, 0.0, 0.0, 0.0]),
         springForceTorqueUserFunction=law,
     ))
-    return BearingHandles(connector=int(connector), clearance_m=eps, smoothing_m=w)
+    return BearingHandles(connector=int(connector), clearance_m=eps, smoothing_m=w, load_exponent=e,
+                          reference_approach_m=x_r)

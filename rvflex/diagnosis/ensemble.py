@@ -11,7 +11,9 @@ hidden effect, from the nominal spec of a built-in unit:
   pin forces of the tests, each scaled by the contact stiffness drawn; half the units with a compliance at each
   pin seat in series (0 … 1 times the line contact's own secant compliance at the most loaded pin's force at
   rated torque), and only they with a softening law (e below 1: the seat bounds its stiffness at zero approach);
-- needle (eccentric) bearings: stiffness drawn, radial clearance 0 … 4 µm;
+- needle (eccentric) bearings: stiffness drawn, radial clearance 0 … 4 µm, and half the units with a power law
+  past the clearance, F ∝ x^e with e in [1, 1.25] (a roller's line contact is 10/9, Palmgren), whose secant
+  stiffness is the drawn one at the bearing's load at rated torque (:func:`needle_reference_load`);
 - crank-support and main bearings, first-stage mesh: stiffness drawn; the mesh with or without its backlash
   and its stiffness ripple;
 - an overall stiffness scale ×0.5 … ×2 on every stiffness (a unit as far from its catalogue model as real ones
@@ -22,9 +24,9 @@ hidden effect, from the nominal spec of a built-in unit:
 - rigid or FE-reduced flexible discs, and with FE discs, half the time an FE-reduced carrier too (the nominal
   reduction: like the discs' modulus, the carrier's is not scaled, so every case shares one reduction).
 
-Not drawn, because the model has no such form yet: power-law needle bearings, anisotropic crank supports and
-crank seats that move in the carrier. The two foreign
-benches' simulators differ from the rvflex model in those ways too; the ensemble is not either of them.
+Not drawn, because the model has no such form yet: anisotropic crank supports and crank seats that move in the
+carrier (the crank supports are isotropic bushings in their seats). The two foreign benches' simulators differ
+from the rvflex model in those ways too; the ensemble is not either of them.
 """
 
 from __future__ import annotations
@@ -39,10 +41,11 @@ from rvflex.options import ModelOptions
 from rvflex.spec import ErrorSpec, ReducerSpec
 from rvflex.units import ARCSEC
 
-__all__ = ["CLEARANCE_MAX_M", "EnsembleMismatch", "RealisticMismatch", "SERIES_LINEAR_MAX_RAD", "SERIES_STIFFENING_MAX_RAD",
-           "THERMAL_MISMATCH_MAX_PER_K", "secant_compliance"]
+__all__ = ["CLEARANCE_MAX_M", "EnsembleMismatch", "NEEDLE_EXPONENT_RANGE", "RealisticMismatch", "SERIES_LINEAR_MAX_RAD",
+           "SERIES_STIFFENING_MAX_RAD", "THERMAL_MISMATCH_MAX_PER_K", "needle_reference_load", "secant_compliance"]
 
 CLEARANCE_MAX_M = 4e-6  # a healthy unit's needle-bearing radial clearance: 0 … 4 µm
+NEEDLE_EXPONENT_RANGE = (1.0, 1.25)  # a needle bearing's load exponent past its clearance (Palmgren's line: 10/9)
 SERIES_LINEAR_MAX_RAD = 25 * ARCSEC  # a carrier flange or coupling: up to 25″ of linear twist at rated torque
 SERIES_STIFFENING_MAX_RAD = 10 * ARCSEC  # and up to 10″ stiffening with load (∝ T^(2/3))
 THERMAL_MISMATCH_MAX_PER_K = 1e-6  # a steel housing around steel parts: within ±1 ppm/K
@@ -122,12 +125,13 @@ class EnsembleMismatch:
     flexible_share: float = 0.5  # share of units with FE-reduced discs
     carrier_share: float = 0.5  # share of those with an FE-reduced carrier too
     clearance_max_m: float = CLEARANCE_MAX_M  # needle-bearing clearance drawn in [0, this], scaled into the class
+    needle_power_share: float = 0.5  # share of units whose needle bearings follow a power law past the clearance
     samples_per_rev: int = 1024
     name: str = "ensemble"
 
     def draw(self, rng: np.random.Generator) -> dict:
-        """The case's drawn model form (JSON-able): stiffness scales, law, clearance, mesh form, series
-        compliance (rad at rated torque), thermal mismatch (1/K) and disc fidelity."""
+        """The case's drawn model form (JSON-able): stiffness scales, law, clearance, needle-bearing law, mesh form,
+        series compliance (rad at rated torque), thermal mismatch (1/K) and disc fidelity."""
         lo, hi = self.global_range
         g = float(math.exp(rng.uniform(math.log(lo), math.log(hi))))
         a, b = 1.0 - self.stiffness_spread, 1.0 + self.stiffness_spread
@@ -136,7 +140,7 @@ class EnsembleMismatch:
         seat = float(rng.uniform(*self.seat_range)) if rng.uniform() < self.seat_share else 0.0
         e_lo = self.exponent_range[0] if seat > 0.0 else max(self.exponent_range[0], 1.0)
         flexible = bool(rng.uniform() < self.flexible_share)
-        return {"global_scale": g, "contact_scale": g * float(rng.uniform(a, b)),
+        out = {"global_scale": g, "contact_scale": g * float(rng.uniform(a, b)),
                 "needle_bearing_scale": g * float(rng.uniform(a, b)), "mesh_scale": g * float(rng.uniform(a, b)),
                 "support_scale": g * float(rng.uniform(a, b)),
                 "contact_law": "line" if law_line else "power",
@@ -148,6 +152,12 @@ class EnsembleMismatch:
                 "series_stiffening_rad": float(rng.uniform(0, SERIES_STIFFENING_MAX_RAD)) if series != 0 else 0.0,
                 "thermal_per_K": float(rng.uniform(-THERMAL_MISMATCH_MAX_PER_K, THERMAL_MISMATCH_MAX_PER_K)),
                 "flexible_discs": flexible, "flexible_carrier": flexible and bool(rng.uniform() < self.carrier_share)}
+        # from a stream of its own (a spawned child leaves ``rng`` where it is): every case keeps the rest of its
+        # draw and its bench (origin, offset, noise)
+        own = rng.spawn(1)[0]
+        out["needle_exponent"] = (float(own.uniform(*NEEDLE_EXPONENT_RANGE)) if own.uniform() < self.needle_power_share
+                                  else None)
+        return out
 
     def model(self, spec: ReducerSpec, drawn: dict):
         """(spec, errors, law) of the generator for the drawn model form."""
@@ -161,6 +171,9 @@ class EnsembleMismatch:
                                                    radial_stiffness_N_m=b.crank_support.radial_stiffness_N_m * s_sup),
                        main=dc.replace(b.main, radial_stiffness_N_m=b.main.radial_stiffness_N_m * drawn["global_scale"]),
                        eccentric=dc.replace(b.eccentric, radial_stiffness_N_m=b.eccentric.radial_stiffness_N_m * s_ndl))
+        if drawn.get("needle_exponent") is not None:
+            b = dc.replace(b, eccentric=dc.replace(b.eccentric, load_exponent=drawn["needle_exponent"],
+                                                   reference_load_N=needle_reference_load(spec)))
         st = dc.replace(st, mesh_stiffness_mean_N_m=st.mesh_stiffness_mean_N_m * s_msh,
                         mesh_stiffness_amplitude_N_m=st.mesh_stiffness_amplitude_N_m * s_msh * drawn["mesh_ripple"],
                         backlash_m=st.backlash_m * drawn["mesh_backlash"])
@@ -193,6 +206,17 @@ class EnsembleMismatch:
         return ((EFFECTS["output_series_compliance"],
                  np.array([drawn["series_linear_rad"], drawn["series_stiffening_rad"]])),
                 (EFFECTS["thermal_expansion"], np.array([drawn["thermal_per_K"]])))
+
+
+def needle_reference_load(spec: ReducerSpec) -> float:
+    """The power law's reference load for a needle (eccentric) bearing (N): each disc's torque over e·z_c, shared
+    by the cranks, the share of the bearing's load at rated torque that the torque alone sets (the pins' radial
+    push adds to it: the nominal RV-40E's needles carry 3.2 kN on average against this 2.1 kN). At it the power
+    law's secant stiffness is the bearing's linear stiffness, so the two laws carry rated torque about alike and
+    differ in their load dependence."""
+    c = spec.cycloid
+    per_disc = spec.rated_torque_Nm / c.disc_count / (c.eccentricity_m * c.disc_teeth)
+    return per_disc / spec.cranks.count
 
 
 def secant_compliance(spec: ReducerSpec) -> float:

@@ -1,0 +1,131 @@
+"""The power-law bearing (``Bearing.load_exponent``, ``reference_load_N``): the law itself, its spec rules, the
+compiled step against Exudyn's symbolic law (two implementations of one law), its load dependence in a unit, and
+the ensemble's needle bearings drawn with it."""
+
+import dataclasses as dc
+
+import numpy as np
+import pytest
+
+from rvflex import catalog
+from rvflex.bench_te import clearance_errors
+from rvflex.contact.bearing import radial_force_N
+from rvflex.model import build_reducer
+from rvflex.spec import ErrorSpec, SpecError
+
+ARCSEC_PER_RAD = 206264.806
+
+
+def _power_needles(spec, exponent: float = 10.0 / 9.0, load_N: float | None = None):
+    """``spec`` with its needle (eccentric) bearings on a power law of secant stiffness k at ``load_N`` (default the
+    bearing's load at rated torque)."""
+    from rvflex.diagnosis.ensemble import needle_reference_load
+
+    b = spec.bearings
+    ecc = dc.replace(b.eccentric, load_exponent=exponent,
+                     reference_load_N=needle_reference_load(spec) if load_N is None else load_N)
+    return dc.replace(spec, bearings=dc.replace(b, eccentric=ecc))
+
+
+def test_the_power_law_carries_its_reference_load_at_its_secant_stiffness():
+    k, f_r, e, eps = 5.1e8, 2000.0, 10.0 / 9.0, 3e-6
+    x_r = f_r / k
+    d = eps + np.array([0.5, 1.0, 2.0]) * x_r
+    f = radial_force_N(d, stiffness_N_m=k, clearance_m=eps, load_exponent=e, reference_approach_m=x_r)
+    assert f == pytest.approx(f_r * np.array([0.5, 1.0, 2.0]) ** e, rel=1e-12)  # beyond the 0.1 µm band: exact
+    assert radial_force_N(eps - 0.2e-6, stiffness_N_m=k, clearance_m=eps, load_exponent=e,
+                          reference_approach_m=x_r) == 0.0
+    # softer than the linear law below the reference load, stiffer above
+    lin = radial_force_N(d, stiffness_N_m=k, clearance_m=eps)
+    assert f[0] < lin[0] and f[1] == pytest.approx(lin[1], rel=1e-12) and f[2] > lin[2]
+
+
+def test_a_power_law_needs_both_fields_in_range():
+    ecc = catalog.load("rv40e").bearings.eccentric
+    with pytest.raises(SpecError, match=r"^reference_load_N = None: a power-law bearing needs both"):
+        dc.replace(ecc, load_exponent=1.1)
+    with pytest.raises(SpecError, match=r"^load_exponent = None: a power-law bearing needs both"):
+        dc.replace(ecc, reference_load_N=2000.0)
+    with pytest.raises(SpecError, match=r"^load_exponent = 0.9: expected 1 \(linear\) to 2"):
+        dc.replace(ecc, load_exponent=0.9, reference_load_N=2000.0)
+    with pytest.raises(SpecError, match=r"^reference_load_N = -5.0: expected N"):
+        dc.replace(ecc, load_exponent=1.1, reference_load_N=-5.0)
+
+
+@pytest.mark.parametrize("clearance", [True, False])
+def test_the_compiled_power_law_is_exudyns(clearance):
+    """At a loaded, perturbed state of the RV-40E with power-law needles (with seed 001's 12 µm clearances, and
+    without any: the law from zero approach) the compiled force equals Exudyn's residual to rounding, as for the
+    linear law (tests/test_engine.py). Its Jacobian equals central differences of that residual to 1e-6, and
+    Exudyn's own Jacobian to 1e-4: Exudyn takes forward differences (relative step 1e-7), whose error grows with
+    the law's curvature, d^(e−2) at a few µm of approach without clearance (measured 2.4e-5 there)."""
+    from rvflex.engine import compiled_step
+    from tests.test_engine import _exudyn_residual
+
+    spec = _power_needles(catalog.load("rv40e"))
+    model = build_reducer(spec, clearance_errors(spec) if clearance else ErrorSpec(), "rigid")
+    step = compiled_step(model)
+    assert step is not None
+    mbs = model.mbs
+    theta = 0.3
+    mbs.SetObjectParameter(model.sun.drive, "offset", theta)
+    mbs.SetObjectParameter(model.carrier.regulariser, "offset", theta / model.ratio)
+    mbs.SetObjectParameter(model.carrier.regulariser, "stiffness", 1e4)
+    mbs.SetLoadParameter(model.carrier.load, "load", -0.7 * spec.rated_torque_Nm)
+    q = model.kinematic_coordinates(theta) + np.random.default_rng(1).normal(0.0, 3e-6, model.reference.shape)
+    r_exu, j_exu = _exudyn_residual(model, q)
+    f, kt = step.residual(q)
+    free = step.d["free"]
+    assert np.abs(r_exu[free]).max() > 1e2
+    assert np.abs(f[free] - r_exu[free]).max() < 1e-12 * np.abs(r_exu[free]).max()
+    jc = -kt[np.ix_(free, free)]  # the engine's kt is −∂f/∂q; Exudyn's Jacobian ∂r/∂q
+    central = np.empty_like(jc)
+    h = 1e-11  # m or rad: 1e-5 of the approach, so the central difference's error (h²) stays below 1e-9
+    for a, i in enumerate(free):
+        up, down = q.copy(), q.copy()
+        up[i] += h
+        down[i] -= h
+        central[:, a] = (step.residual(up)[0][free] - step.residual(down)[0][free]) / (2.0 * h)
+    assert np.abs(jc - central).max() < 1e-6 * np.abs(jc).max()
+    jx = j_exu[np.ix_(free, free)]
+    assert np.abs(jc - jx).max() < 1e-4 * np.abs(jx).max()
+
+
+def test_power_law_needles_reach_exudyns_equilibria_and_soften_the_unit_at_part_load():
+    """Over one crank turn (32 positions) the compiled run gives Exudyn's TE within 1e-4″. Against linear needles
+    of the same secant stiffness at the reference load (2.1 kN, about two-thirds of the 3.2 kN mean the RV-40E's
+    needles carry at rated torque), the power law (e = 10/9) is a little stiffer at rated torque, (3.2/2.1)^(1/9)
+    ≈ 1.05 in secant stiffness, and softer at a fifth of it, ≈ 0.88: the unit winds up up to 2.5 % less at rated
+    torque and more at a fifth (the needles are a fraction of the unit's compliance)."""
+    from rvflex import solve
+
+    lin = catalog.load("rv40e")
+    spec = _power_needles(lin)
+    theta = np.linspace(0.0, 2 * np.pi * lin.ratio / lin.cycloid.pin_count, 32, endpoint=False)
+    fast = solve.quasi_static(build_reducer(spec, None, "rigid"), theta, spec.rated_torque_Nm)
+    exudyn = solve.quasi_static(build_reducer(spec, None, "rigid"), theta, spec.rated_torque_Nm, chord_newton=False)
+    assert fast.compiled is not None and exudyn.compiled is None
+    assert np.abs(fast.te_rad - exudyn.te_rad).max() * ARCSEC_PER_RAD < 1e-4
+
+    def windup(s, torque):
+        return solve.quasi_static(build_reducer(s, None, "rigid"), theta, torque).te_rad.mean()
+
+    rated = windup(spec, lin.rated_torque_Nm) / windup(lin, lin.rated_torque_Nm)
+    fifth = windup(spec, 0.2 * lin.rated_torque_Nm) / windup(lin, 0.2 * lin.rated_torque_Nm)
+    assert 0.975 < rated < 1.0, rated
+    assert 1.003 < fifth < 1.05, fifth
+
+
+def test_the_ensemble_draws_power_law_needles_for_half_its_units():
+    from rvflex.diagnosis.ensemble import NEEDLE_EXPONENT_RANGE, EnsembleMismatch, needle_reference_load
+
+    gen, spec = EnsembleMismatch(), catalog.load("rv80e")
+    drawn = [gen.draw(np.random.default_rng(s)) for s in range(200)]
+    power = [d for d in drawn if d["needle_exponent"] is not None]
+    assert 70 <= len(power) <= 130  # share 0.5: ±4.2 standard deviations
+    assert all(NEEDLE_EXPONENT_RANGE[0] <= d["needle_exponent"] <= NEEDLE_EXPONENT_RANGE[1] for d in power)
+    ecc = gen.model(spec, power[0])[0].bearings.eccentric
+    assert ecc.load_exponent == power[0]["needle_exponent"]
+    assert ecc.reference_load_N == pytest.approx(needle_reference_load(spec))
+    assert gen.model(spec, next(d for d in drawn if d["needle_exponent"] is None))[0].bearings.eccentric.load_exponent \
+        is None
