@@ -30,6 +30,19 @@ def _exudyn_residual(model, q_abs):
     return r, np.asarray(solver.GetSystemJacobian())[:n2, :n2]
 
 
+def loaded_state(model, spec, theta: float = 0.3) -> np.ndarray:
+    """Absolute coordinates of ``model`` driven to input angle ``theta`` at 70 % of rated torque on a soft output
+    regulariser, 3 µm / 3e-6 rad off the kinematics (seeded): bearings and pins in and out of contact."""
+    mbs = model.mbs
+    mbs.SetObjectParameter(model.sun.drive, "offset", theta)
+    mbs.SetObjectParameter(model.carrier.regulariser, "offset", theta / model.ratio)
+    mbs.SetObjectParameter(model.carrier.regulariser, "stiffness", 1e4)
+    mbs.SetLoadParameter(model.carrier.load, "load", -0.7 * spec.rated_torque_Nm)
+    rng = np.random.default_rng(1)
+    q = model.kinematic_coordinates(theta)
+    return q + rng.normal(0.0, 3e-6, q.shape)
+
+
 @pytest.mark.parametrize("unit", ["rv40e", "rv80e", "rv160n"])
 def test_the_compiled_residual_and_jacobian_are_exudyns(unit):
     """At a loaded, perturbed state (3 µm / 3e-6 rad off the kinematics, so bearings sit inside and beyond
@@ -42,15 +55,7 @@ def test_the_compiled_residual_and_jacobian_are_exudyns(unit):
     model = build_reducer(spec, clearance_errors(spec), "rigid")
     step = compiled_step(model)
     assert step is not None
-    mbs = model.mbs
-    theta = 0.3
-    mbs.SetObjectParameter(model.sun.drive, "offset", theta)
-    mbs.SetObjectParameter(model.carrier.regulariser, "offset", theta / model.ratio)
-    mbs.SetObjectParameter(model.carrier.regulariser, "stiffness", 1e4)
-    mbs.SetLoadParameter(model.carrier.load, "load", -0.7 * spec.rated_torque_Nm)
-    rng = np.random.default_rng(1)
-    q = model.kinematic_coordinates(theta)
-    q = q + rng.normal(0.0, 3e-6, q.shape)
+    q = loaded_state(model, spec)
     r_exu, j_exu = _exudyn_residual(model, q)
     f, kt = step.residual(q)
     free = step.d["free"]

@@ -60,19 +60,13 @@ def test_the_compiled_power_law_is_exudyns(clearance):
     Exudyn's own Jacobian to 1e-4: Exudyn takes forward differences (relative step 1e-7), whose error grows with
     the law's curvature, d^(e−2) at a few µm of approach without clearance (measured 2.4e-5 there)."""
     from rvflex.engine import compiled_step
-    from tests.test_engine import _exudyn_residual
+    from tests.test_engine import _exudyn_residual, loaded_state
 
     spec = _power_needles(catalog.load("rv40e"))
     model = build_reducer(spec, clearance_errors(spec) if clearance else ErrorSpec(), "rigid")
     step = compiled_step(model)
     assert step is not None
-    mbs = model.mbs
-    theta = 0.3
-    mbs.SetObjectParameter(model.sun.drive, "offset", theta)
-    mbs.SetObjectParameter(model.carrier.regulariser, "offset", theta / model.ratio)
-    mbs.SetObjectParameter(model.carrier.regulariser, "stiffness", 1e4)
-    mbs.SetLoadParameter(model.carrier.load, "load", -0.7 * spec.rated_torque_Nm)
-    q = model.kinematic_coordinates(theta) + np.random.default_rng(1).normal(0.0, 3e-6, model.reference.shape)
+    q = loaded_state(model, spec)
     r_exu, j_exu = _exudyn_residual(model, q)
     f, kt = step.residual(q)
     free = step.d["free"]
