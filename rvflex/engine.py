@@ -93,9 +93,10 @@ _CONTACT_KEYS = ("ct_rig", "ct_ref", "ct_offset", "ct_pins", "ct_radii", "ct_par
                  "ct_pd", "ct_last")
 CT_PINS, CT_OUT, CT_F = (_CONTACT_KEYS.index(k) for k in ("ct_pins", "ct_out", "ct_f"))
 # the spatial group's arrays (rvflex.engine3d) in the order _assemble unpacks them
-_SPATIAL_KEYS = ("b3_idx", "b3_lp", "b3_kind", "b3_par", "bp_idx", "bp_seat", "bp_inner", "bp_outer", "bp_par",
+_SPATIAL_KEYS = ("b3_idx", "b3_slot", "b3_first", "b3_lp", "b3_kind", "b3_par", "bp_idx", "bp_seat", "bp_inner", "bp_outer", "bp_par",
                  "bp_f5", "bp_k5", "bp_load", "bp_unit", "bp_squeeze", "bp_q5", "ct_tilt", "ct_lever", "ms_tilt",
                  "ms_lever")
+SP_FIRST = _SPATIAL_KEYS.index("b3_first")
 
 
 
@@ -277,8 +278,8 @@ def _assemble(x, ref, pc, cs, ld, ct, ff, ms, sp, f, kt, qa, wk, wk3, skip_open)
      ct_pf, ct_pk, ct_pd, ct_last) = ct
     ff_start, ff_m, ff_k = ff
     ms_idx, ms_par = ms
-    (b3_idx, b3_lp, b3_kind, b3_par, bp_idx, bp_seat, bp_inner, bp_outer, bp_par, bp_f5, bp_k5, bp_load, bp_unit,
-     bp_squeeze, bp_q5, ct_tilt, ct_lever, ms_tilt, ms_lever) = sp
+    (b3_idx, b3_slot, b3_first, b3_lp, b3_kind, b3_par, bp_idx, bp_seat, bp_inner, bp_outer, bp_par, bp_f5, bp_k5,
+     bp_load, bp_unit, bp_squeeze, bp_q5, ct_tilt, ct_lever, ms_tilt, ms_lever) = sp
     n = x.shape[0]
     for i in range(n):
         qa[i] = ref[i] + x[i]
@@ -287,7 +288,7 @@ def _assemble(x, ref, pc, cs, ld, ct, ff, ms, sp, f, kt, qa, wk, wk3, skip_open)
             kt[i, j] = 0.0
     _point_connectors(qa, pc, f, kt, jidx, jv)
     if b3_idx.shape[0]:
-        bushings3d(qa, (b3_idx, b3_lp, b3_kind, b3_par), f, kt, wk3)
+        bushings3d(qa, (b3_idx, b3_slot, b3_first, b3_lp, b3_kind, b3_par), f, kt, wk3)
     pair_elements(x, (bp_idx, bp_seat, bp_inner, bp_outer, bp_par, bp_f5, bp_k5, bp_load, bp_unit, bp_squeeze, bp_q5),
                   f, kt)
     for c in range(cs_idx.shape[0]):  # coordinate springs to ground: −k(q − offset)
@@ -385,7 +386,7 @@ def _newton(x, free, cap, ref, pc, cs, ld, ct, ff, ms, sp, max_iterations, mode,
     kt = np.zeros((n, n))
     qa = np.zeros(n)
     wk = _workspace(pc[2].shape[2], _contact_size(ct))
-    wk3 = workspace3d()
+    wk3 = workspace3d(sp[SP_FIRST].shape[0])
     a = np.zeros((nf, nf))
     r = np.zeros(nf)
     step = np.zeros(nf)
@@ -816,7 +817,7 @@ class CompiledStep:
         f, kt = np.zeros(n), np.zeros((n, n))
         pc, cs, ld, ct, ff, ms, sp = self.packs
         _assemble(x, self.d["ref"], pc, cs, ld, ct, ff, ms, sp, f, kt, np.zeros(n),
-                  _workspace(pc[2].shape[2], _contact_size(ct)), workspace3d(), False)
+                  _workspace(pc[2].shape[2], _contact_size(ct)), workspace3d(sp[SP_FIRST].shape[0]), False)
         return f, kt
 
     def _attempt(self, guess: np.ndarray) -> tuple[int, np.ndarray, float, float]:

@@ -33,12 +33,13 @@ from rvflex.contact.gear_mesh import N_STATE as MESH_STATE
 from rvflex.contact.gear_mesh import mesh_kernel
 from rvflex.contact.tilt_map import add_curvature, map_to_body, section_pose
 
-__all__ = ["LAW_CARTESIAN", "LAW_CLEARANCE", "bushings3d", "clearance_ramp", "connector_law3d", "marker3d",
-           "mesh_tilted", "pair_elements", "rotation_set", "slice_section", "slice_to_body", "spatial_data",
-           "workspace3d"]
+__all__ = ["B3_CARTESIAN", "B3_CLEARANCE", "LAW_CARTESIAN", "LAW_CLEARANCE", "bushings3d", "clearance_ramp",
+           "connector_law3d", "marker3d", "mesh_tilted", "pair_elements", "rotation_set", "slice_section",
+           "slice_to_body", "spatial_data", "workspace3d"]
 
-# point connectors: law kinds (the planar and the spatial ones alike)
+# point connectors: law kinds of the planar ones (rvflex.engine), and the laws a 3D one carries (bits)
 LAW_CLEARANCE, LAW_CARTESIAN = 0, 1
+B3_CLEARANCE, B3_CARTESIAN = 1, 2
 
 _jit = nb.njit(cache=True, nogil=True)
 
@@ -119,44 +120,53 @@ def _vee_product(a, b, out):
 
 
 @_jit
-def workspace3d():
-    """Work arrays of :func:`bushings3d`, the tilted slices and meshes (one assembly's)."""
+def workspace3d(bodies):
+    """Work arrays of :func:`bushings3d` (for ``bodies`` spatial bodies), the tilted slices and meshes (one
+    assembly's)."""
+    nb = bodies + 1  # and ground: R = I, no derivatives
     return (np.zeros((3, 3, 3, 3)),  # fac: the axis factors of R
-            np.zeros((2, 3, 3)), np.zeros((2, 3, 3, 3)), np.zeros((2, 3, 3, 3, 3)),  # R, ∂R, ∂²R of each marker
-            np.zeros((2, 3)), np.zeros((2, 3, 6)), np.zeros((2, 3, 3)),  # p, ∂p/∂q, G of each marker
+            np.zeros((nb, 3, 3)), np.zeros((nb, 3, 3, 3)), np.zeros((nb, 3, 3, 3, 3)),  # R, ∂R, ∂²R of each body
+            np.zeros((nb, 3, 3)), np.zeros((nb, 3, 3, 3)),  # G and ∂G/∂ψ (column i by ψ_j) of each body
+            np.zeros((2, 3)), np.zeros((2, 3, 6)),  # p, ∂p/∂q of each marker
             np.zeros((2, 3, 6)), np.zeros((2, 3, 6)),  # ∂(R₀f_L)/∂q_t, ∂(R₀m_L)/∂q_t
-            np.zeros(6), np.zeros(3), np.zeros((3, 6)), np.zeros(6), np.zeros((6, 6)), np.zeros((6, 6)),  # a section
+            # from 10: a section's pose q, s, ∂s/∂q and its force, K, D on the body; from 16: a tilted mesh's buffers
+            np.zeros(6), np.zeros(3), np.zeros((3, 6)), np.zeros(6), np.zeros((6, 6)), np.zeros((6, 6)),
             np.zeros(6), np.zeros(6), np.zeros(6), np.zeros((6, 6)), np.zeros((6, 6)), np.zeros(MESH_STATE),  # mesh
-            np.zeros(3))
+            np.zeros(3),
+            # from 23: a bushing's Δ, d, f_L, m_L, R₀f_L, R₀m_L, ∂f_L/∂d, R₀ᵀR₁, ∂θ/∂q_t and its markers' body slots
+            np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3), np.zeros((3, 3)),
+            np.zeros((3, 3)), np.zeros((2, 6)), np.zeros(2, dtype=np.int64))
 
 
 @_jit
-def _marker_frame(qa, b, lp, s, fac, rot, drot, ddrot, pos, jp, gm, col):
-    """Pose of marker ``s`` at local point ``lp`` on the Rxyz body whose coordinates start at ``b`` (absolute
-    ``qa``; −1: ground, ``lp`` its global point): R, ∂R/∂ψ, ∂²R/∂ψ², its point p, ∂p/∂q (3, 6) and G (3, 3)
-    (``col`` a work vector)."""
-    if b < 0:
+def _body_frames(qa, first, fac, rot, drot, ddrot, gm, dgm):
+    """R, ∂R/∂ψ, ∂²R/∂ψ², G (ω = G·ψ̇, column i the axial vector of ∂R/∂ψᵢ·Rᵀ) and ∂G/∂ψ of each spatial body
+    (its coordinates from ``first``, absolute ``qa``), once per assembly: every marker on a body shares them; the
+    slot past the last body is ground's."""
+    nb = first.shape[0]
+    col = np.zeros(3)
+    for sl in range(nb + 1):
+        if sl == nb:
+            rot[sl, :, :] = 0.0
+            for i in range(3):
+                rot[sl, i, i] = 1.0
+            drot[sl, :, :, :] = 0.0
+            ddrot[sl, :, :, :, :] = 0.0
+            gm[sl, :, :] = 0.0
+            dgm[sl, :, :, :] = 0.0
+            continue
+        b = first[sl]
+        rotation_set(qa[b + 3:b + 6], fac, rot[sl], drot[sl], ddrot[sl], True)
         for i in range(3):
-            pos[s, i] = lp[i]
-            for j in range(3):
-                rot[s, i, j] = 1.0 if i == j else 0.0
-                gm[s, i, j] = 0.0
-            for j in range(6):
-                jp[s, i, j] = 0.0
-        drot[s, :, :, :] = 0.0
-        ddrot[s, :, :, :, :] = 0.0
-        return
-    rotation_set(qa[b + 3:b + 6], fac, rot[s], drot[s], ddrot[s], True)
-    for k in range(3):
-        pos[s, k] = qa[b + k] + rot[s, k, 0] * lp[0] + rot[s, k, 1] * lp[1] + rot[s, k, 2] * lp[2]
-        for j in range(3):
-            jp[s, k, j] = 1.0 if k == j else 0.0
-            jp[s, k, 3 + j] = drot[s, j, k, 0] * lp[0] + drot[s, j, k, 1] * lp[1] + drot[s, j, k, 2] * lp[2]
-    for i in range(3):  # G's column i: the axial vector of ∂R/∂ψᵢ·Rᵀ
-        col[:] = 0.0
-        _vee_product(drot[s, i], rot[s], col)
-        for k in range(3):
-            gm[s, k, i] = col[k]
+            col[:] = 0.0
+            _vee_product(drot[sl, i], rot[sl], col)
+            for k in range(3):
+                gm[sl, k, i] = col[k]
+            for j in range(3):  # ∂/∂ψⱼ vee(∂R/∂ψᵢ·Rᵀ) = vee(∂²R/∂ψᵢ∂ψⱼ·Rᵀ + ∂R/∂ψᵢ·∂Rᵀ/∂ψⱼ)
+                v = dgm[sl, i, j]
+                v[:] = 0.0
+                _vee_product(ddrot[sl, i, j], rot[sl], v)
+                _vee_product(drot[sl, i], drot[sl, j], v)
 
 
 @_jit
@@ -164,42 +174,39 @@ def bushings3d(qa, b3, f, kt, w):
     """Add the 3D point connectors' forces (``f``, RHS) and LHS Jacobian (``kt`` = −∂f/∂q) at absolute coordinates
     ``qa`` (module docstring).
 
-    ``b3`` = (first ODE2 index of each marker's Rxyz body or −1 for ground (c, 2), each marker's local point or,
-    on ground, global point (c, 2, 3) m, law kind (c,), law parameters (c, 6): clearance (k N/m, ε m, w m, k_ax
-    N/m, k_tx, k_ty N·m/rad), Cartesian (k_x, k_y, k_z N/m, offset x, y, z m)); ``w`` :func:`workspace3d`."""
-    idx, lps, kind, par = b3
-    fac, rot, drot, ddrot, pos, jp, gm, dfp, dfr = w[:9]
-    delta = np.zeros(3)
-    d = np.zeros(3)
-    fl = np.zeros(3)
-    ml = np.zeros(3)
-    fp = np.zeros(3)
-    fr = np.zeros(3)
-    amat = np.zeros((3, 3))
-    rel = np.zeros((3, 3))
-    theta = np.zeros((2, 6))
-    gcol = np.zeros(3)
+    ``b3`` = (first ODE2 index of each marker's Rxyz body or −1 for ground (c, 2), its body's slot among ``first``
+    or −1 (c, 2), the first ODE2 index of each such body (bodies,), each marker's local point or, on ground, global
+    point (c, 2, 3) m, the laws acting between the two points (c,) (B3_CLEARANCE, B3_CARTESIAN or both: a bearing
+    and its regulariser share their markers), their parameters (c, 12): clearance (k N/m, ε m, w m, k_ax N/m,
+    k_tx, k_ty N·m/rad), Cartesian (k_x, k_y, k_z N/m, offset x, y, z m)); ``w`` :func:`workspace3d` for those
+    bodies."""
+    idx, slot, first, lps, kind, par = b3
+    fac, brot, bdrot, bddrot, bgm, bdgm, pos, jp, dfp, dfr = w[:10]
+    _body_frames(qa, first, fac, brot, bdrot, bddrot, bgm, bdgm)
+    ground = first.shape[0]
+    delta, d, fl, ml, fp, fr, amat, rel, theta, sl = w[23], w[24], w[25], w[26], w[27], w[28], w[29], w[30], w[31], w[32]
     for c in range(idx.shape[0]):
-        for s in range(2):
-            _marker_frame(qa, idx[c, s], lps[c, s], s, fac, rot, drot, ddrot, pos, jp, gm, gcol)
+        for s in range(2):  # each marker's point and ∂p/∂q = [I | ∂R/∂ψⱼ·lp]
+            sl[s] = slot[c, s] if slot[c, s] >= 0 else ground
+            r, dr, lp, b = brot[sl[s]], bdrot[sl[s]], lps[c, s], idx[c, s]
+            for k in range(3):
+                pos[s, k] = (qa[b + k] if b >= 0 else 0.0) + r[k, 0] * lp[0] + r[k, 1] * lp[1] + r[k, 2] * lp[2]
+                for j in range(3):
+                    jp[s, k, j] = 1.0 if k == j and b >= 0 else 0.0
+                    jp[s, k, 3 + j] = dr[j, k, 0] * lp[0] + dr[j, k, 1] * lp[1] + dr[j, k, 2] * lp[2]
+        rot0, rot1, drot0 = brot[sl[0]], brot[sl[1]], bdrot[sl[0]]
         for k in range(3):
             delta[k] = pos[1, k] - pos[0, k]
         dfp[:, :, :] = 0.0
         dfr[:, :, :] = 0.0
-        if kind[c] == LAW_CARTESIAN:
-            for k in range(3):
-                fp[k] = par[c, k] * (delta[k] - par[c, 3 + k])
-                fr[k] = 0.0
-                for t in range(2):
-                    sg = 1.0 if t == 1 else -1.0
-                    for j in range(6):
-                        dfp[t, k, j] = sg * par[c, k] * jp[t, k, j]
-        else:
-            r0 = rot[0]
+        fp[:] = 0.0
+        fr[:] = 0.0
+        if kind[c] & B3_CLEARANCE:
+            r0 = rot0
             for k in range(3):
                 d[k] = r0[0, k] * delta[0] + r0[1, k] * delta[1] + r0[2, k] * delta[2]
                 for m in range(3):
-                    rel[k, m] = r0[0, k] * rot[1, 0, m] + r0[1, k] * rot[1, 1, m] + r0[2, k] * rot[1, 2, m]
+                    rel[k, m] = r0[0, k] * rot1[0, m] + r0[1, k] * rot1[1, m] + r0[2, k] * rot1[2, m]
             thx = math.atan2(-rel[1, 2], rel[2, 2])
             thy = math.atan2(rel[0, 2], math.sqrt(abs(1.0 - rel[0, 2] * rel[0, 2])))
             k_r, eps, wid = par[c, 0], par[c, 1], par[c, 2]
@@ -232,9 +239,9 @@ def bushings3d(qa, b3, f, kt, w):
                 sg = 1.0 if t == 1 else -1.0
                 theta[:, :] = 0.0
                 for j in range(3):  # R₀ᵀG_t column j, then G(θ)⁻¹ rows
-                    v0 = r0[0, 0] * gm[t, 0, j] + r0[1, 0] * gm[t, 1, j] + r0[2, 0] * gm[t, 2, j]
-                    v1 = r0[0, 1] * gm[t, 0, j] + r0[1, 1] * gm[t, 1, j] + r0[2, 1] * gm[t, 2, j]
-                    v2 = r0[0, 2] * gm[t, 0, j] + r0[1, 2] * gm[t, 1, j] + r0[2, 2] * gm[t, 2, j]
+                    v0 = r0[0, 0] * bgm[sl[t], 0, j] + r0[1, 0] * bgm[sl[t], 1, j] + r0[2, 0] * bgm[sl[t], 2, j]
+                    v1 = r0[0, 1] * bgm[sl[t], 0, j] + r0[1, 1] * bgm[sl[t], 1, j] + r0[2, 1] * bgm[sl[t], 2, j]
+                    v2 = r0[0, 2] * bgm[sl[t], 0, j] + r0[1, 2] * bgm[sl[t], 1, j] + r0[2, 2] * bgm[sl[t], 2, j]
                     theta[0, 3 + j] = sg * (gi00 * v0 + gi01 * v1 + gi02 * v2)
                     theta[1, 3 + j] = sg * (gi10 * v0 + gi11 * v1 + gi12 * v2)
                 for j in range(6):
@@ -243,7 +250,7 @@ def bushings3d(qa, b3, f, kt, w):
                     dd1 = sg * (r0[0, 1] * jp[t, 0, j] + r0[1, 1] * jp[t, 1, j] + r0[2, 1] * jp[t, 2, j])
                     dd2 = sg * (r0[0, 2] * jp[t, 0, j] + r0[1, 2] * jp[t, 1, j] + r0[2, 2] * jp[t, 2, j])
                     if t == 0 and j >= 3:
-                        dm = drot[0, j - 3]
+                        dm = drot0[j - 3]
                         dd0 += dm[0, 0] * delta[0] + dm[1, 0] * delta[1] + dm[2, 0] * delta[2]
                         dd1 += dm[0, 1] * delta[0] + dm[1, 1] * delta[1] + dm[2, 1] * delta[2]
                         dd2 += dm[0, 2] * delta[0] + dm[1, 2] * delta[1] + dm[2, 2] * delta[2]
@@ -256,19 +263,27 @@ def bushings3d(qa, b3, f, kt, w):
                         dfp[t, k, j] = r0[k, 0] * a0 + r0[k, 1] * a1 + r0[k, 2] * a2
                         dfr[t, k, j] = r0[k, 0] * b0 + r0[k, 1] * b1
                     if t == 0 and j >= 3:  # R₀ turns with marker 0
-                        dm = drot[0, j - 3]
+                        dm = drot0[j - 3]
                         for k in range(3):
                             dfp[t, k, j] += dm[k, 0] * fl[0] + dm[k, 1] * fl[1] + dm[k, 2] * fl[2]
                             dfr[t, k, j] += dm[k, 0] * ml[0] + dm[k, 1] * ml[1]
+        if kind[c] & B3_CARTESIAN:  # global springs on the same two points
+            for k in range(3):
+                fp[k] += par[c, 6 + k] * (delta[k] - par[c, 9 + k])
+                for t in range(2):
+                    sg = 1.0 if t == 1 else -1.0
+                    for j in range(6):
+                        dfp[t, k, j] += sg * par[c, 6 + k] * jp[t, k, j]
         for s in range(2):
             b = idx[c, s]
             if b < 0:
                 continue
             sg = -1.0 if s == 1 else 1.0  # the wrench acts on marker 1 as −(R₀f_L, R₀m_L), on marker 0 as +
+            gs = bgm[sl[s]]
             for a in range(6):
                 gen = jp[s, 0, a] * fp[0] + jp[s, 1, a] * fp[1] + jp[s, 2, a] * fp[2]
                 if a >= 3:
-                    gen += gm[s, 0, a - 3] * fr[0] + gm[s, 1, a - 3] * fr[1] + gm[s, 2, a - 3] * fr[2]
+                    gen += gs[0, a - 3] * fr[0] + gs[1, a - 3] * fr[1] + gs[2, a - 3] * fr[2]
                 f[b + a] += sg * gen
             for t in range(2):
                 bt = idx[c, t]
@@ -278,22 +293,19 @@ def bushings3d(qa, b3, f, kt, w):
                     for j in range(6):
                         v = jp[s, 0, a] * dfp[t, 0, j] + jp[s, 1, a] * dfp[t, 1, j] + jp[s, 2, a] * dfp[t, 2, j]
                         if a >= 3:
-                            v += (gm[s, 0, a - 3] * dfr[t, 0, j] + gm[s, 1, a - 3] * dfr[t, 1, j]
-                                  + gm[s, 2, a - 3] * dfr[t, 2, j])
+                            v += gs[0, a - 3] * dfr[t, 0, j] + gs[1, a - 3] * dfr[t, 1, j] + gs[2, a - 3] * dfr[t, 2, j]
                         kt[b + a, bt + j] -= sg * v
             # ∂p/∂ψ and G turn with the marker's own body: ∂²p/∂ψᵢ∂ψⱼ·F + ∂Gᵢ/∂ψⱼ·M
-            lp = lps[c, s]
+            lp, ddr, dg = lps[c, s], bddrot[sl[s]], bdgm[sl[s]]
+            torque = fr[0] != 0.0 or fr[1] != 0.0 or fr[2] != 0.0
             for i in range(3):
                 for j in range(3):
-                    dij = ddrot[s, i, j]
+                    dij = ddr[i, j]
                     h = 0.0
                     for k in range(3):
                         h += (dij[k, 0] * lp[0] + dij[k, 1] * lp[1] + dij[k, 2] * lp[2]) * fp[k]
-                    if fr[0] != 0.0 or fr[1] != 0.0 or fr[2] != 0.0:
-                        gcol[:] = 0.0
-                        _vee_product(dij, rot[s], gcol)  # ∂/∂ψⱼ vee(∂R/∂ψᵢ·Rᵀ) = vee(∂²R·Rᵀ + ∂R/∂ψᵢ·∂Rᵀ/∂ψⱼ)
-                        _vee_product(drot[s, i], drot[s, j], gcol)
-                        h += gcol[0] * fr[0] + gcol[1] * fr[1] + gcol[2] * fr[2]
+                    if torque:
+                        h += dg[i, j, 0] * fr[0] + dg[i, j, 1] * fr[1] + dg[i, j, 2] * fr[2]
                     kt[b + 3 + i, b + 3 + j] -= sg * h
 
 
@@ -319,7 +331,7 @@ def pair_elements(x, bp, f, kt):
 def slice_section(qa, b, lever, w):
     """The in-plane pose (x, y, θ) of a tilting disc's section at ``lever`` (m) from its node, whose coordinates
     start at ``b`` in the absolute ``qa``: filled into the section buffers of ``w`` (:func:`workspace3d`)."""
-    q6, s, jac = w[9], w[10], w[11]
+    q6, s, jac = w[10], w[11], w[12]
     for i in range(6):
         q6[i] = qa[b + i]
     section_pose(q6, lever, s, jac)
@@ -330,7 +342,7 @@ def slice_section(qa, b, lever, w):
 def slice_to_body(b, lever, fd, kd, dd, f, kt, w):
     """Add a slice's force ``fd`` (3,) and LHS Jacobian ``kd`` (3, 3) on its section (:func:`slice_section`, same
     ``w``) to the body's six coordinates from ``b`` (:func:`rvflex.contact.tilt_map.map_to_body`)."""
-    q6, jac, f6, k6, d6 = w[9], w[11], w[12], w[13], w[14]
+    q6, jac, f6, k6, d6 = w[10], w[12], w[13], w[14], w[15]
     map_to_body(q6, lever, jac, fd, kd, dd, f6, k6, d6)
     for a in range(6):
         f[b + a] += f6[a]
@@ -344,8 +356,8 @@ def mesh_tilted(x, sun, planet, lever, par, f, kt, w):
     Rxyz coordinates from ``planet``, the gear ``lever`` m along its axis) at displacements ``x``: the mesh kernel
     on the gear's section, mapped back onto the crank (as :func:`rvflex.contact.gear_mesh.add_gear_mesh`'s
     spatial element)."""
-    q6, s, jac = w[9], w[10], w[11]
-    meshq, meshqt, meshf, meshdf, meshdft, meshst = w[15], w[16], w[17], w[18], w[19], w[20]
+    q6, s, jac = w[10], w[11], w[12]
+    meshq, meshqt, meshf, meshdf, meshdft, meshst, meshf3 = w[16], w[17], w[18], w[19], w[20], w[21], w[22]
     for i in range(6):
         q6[i] = x[planet + i]
     section_pose(q6, lever, s, jac)
@@ -375,7 +387,6 @@ def mesh_tilted(x, sun, planet, lever, par, f, kt, w):
                 for j in range(3):
                     v += jac[i, a] * meshdf[3 + i, 3 + j] * jac[j, c]
             kt[planet + a, planet + c] -= v
-    meshf3 = w[21]
     for i in range(3):
         meshf3[i] = meshf[3 + i]
     add_curvature(q6, lever, meshf3, 1.0, kt, planet)
@@ -407,20 +418,20 @@ def marker3d(mbs, marker: int, objects: list[dict], bodies: dict, nodes: dict) -
 
 
 def connector_law3d(o: dict, clearance: tuple[float, float] | None) -> tuple[int, list[float]] | None:
-    """Law kind and parameters of a 3D point connector (:func:`rvflex.engine3d.bushings3d`) from its object
-    parameters ``o`` and, for a RigidBodySpringDamper, rvflex's clearance law (ε, w) (None: not one); None for a
-    connector it does not replicate."""
+    """Law and parameters of a 3D point connector (:func:`bushings3d`: its bit and row) from its object parameters
+    ``o`` and, for a RigidBodySpringDamper, rvflex's clearance law (ε, w) (None: not one); None for a connector it
+    does not replicate."""
     if o["objectType"] == "ConnectorCartesianSpringDamper":
         if o.get("springForceUserFunction", 0) != 0:
             return None
-        return LAW_CARTESIAN, [*np.asarray(o["stiffness"], float), *np.asarray(o["offset"], float)]
+        return B3_CARTESIAN, [0.0] * 6 + [*np.asarray(o["stiffness"], float), *np.asarray(o["offset"], float)]
     if clearance is None or o.get("useIntrinsicFormulation"):
         return None
     for key in ("rotationMarker0", "rotationMarker1"):  # J0, J1 = the markers' own frames
         if not np.array_equal(np.asarray(o[key], float), np.eye(3)):
             return None
     k = np.asarray(o["stiffness"], float)
-    return LAW_CLEARANCE, [k[0, 0], clearance[0], clearance[1], k[2, 2], k[3, 3], k[4, 4]]
+    return B3_CLEARANCE, [k[0, 0], clearance[0], clearance[1], k[2, 2], k[3, 3], k[4, 4]] + [0.0] * 6
 
 
 def spatial_data(mbs, sides3: list, kinds: list, pars: list, pairs: list, levers: list, first: list,
@@ -433,10 +444,23 @@ def spatial_data(mbs, sides3: list, kinds: list, pars: list, pairs: list, levers
     bp_inner, bp_outer = np.zeros((len(pairs), nb_, 3)), np.zeros((len(pairs), nb_, 3))
     for e, p in enumerate(pairs):
         bp_inner[e], bp_outer[e] = p.model.inner_centres_m, p.model.outer_centres_m
+    merged = {}  # a bearing and its regulariser between the same two points: one row with both laws
+    for pts, kind, par in zip(sides3, kinds, pars, strict=True):
+        key = tuple((p[0], *np.asarray(p[1], float).tolist()) for p in pts)
+        old = merged.get(key)
+        if old is None or old[1] & kind:
+            merged[key if old is None else (key, len(merged))] = (pts, kind, list(par))
+        else:
+            merged[key] = (pts, old[1] | kind, [a + b for a, b in zip(old[2], par, strict=True)])
+    sides3, kinds, pars = ([m[i] for m in merged.values()] for i in range(3))
+    bodies = sorted({p[0] for pts in sides3 for p in pts if p[0] >= 0})  # the connected bodies' first coordinates
     return {
         "b3_idx": np.array([[p[0] for p in pts] for pts in sides3], dtype=np.int64).reshape(-1, 2),
+        "b3_slot": np.array([[bodies.index(p[0]) if p[0] >= 0 else -1 for p in pts] for pts in sides3],
+                            dtype=np.int64).reshape(-1, 2),
+        "b3_first": np.array(bodies, dtype=np.int64),
         "b3_lp": np.array([[p[1] for p in pts] for pts in sides3], float).reshape(-1, 2, 3),
-        "b3_kind": np.array(kinds, dtype=np.int64), "b3_par": np.array(pars, float).reshape(-1, 6),
+        "b3_kind": np.array(kinds, dtype=np.int64), "b3_par": np.array(pars, float).reshape(-1, 12),
         "bp_idx": np.array([mbs.GetNodeODE2Index(p.node) for p in pairs], dtype=np.int64),
         "bp_seat": np.array([p.seat_m for p in pairs], float).reshape(-1, 5),
         "bp_inner": bp_inner, "bp_outer": bp_outer,

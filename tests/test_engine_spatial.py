@@ -85,13 +85,13 @@ def test_the_compiled_spatial_residual_and_jacobian_are_exudyns(unit):
     # quotient), column by column
     from rvflex.engine3d import bushings3d, workspace3d
 
-    b3 = tuple(step.d[k] for k in ("b3_idx", "b3_lp", "b3_kind", "b3_par"))
-    assert len(b3[0]) == 4 * spec.cranks.count * 2  # two supports and two needle bearings per crank, each with
-    # its Cartesian regulariser
+    b3 = tuple(step.d[k] for k in ("b3_idx", "b3_slot", "b3_first", "b3_lp", "b3_kind", "b3_par"))
+    # two supports and a needle bearing per disc on each crank, each with its Cartesian regulariser on its points
+    assert len(b3[0]) == (2 + spec.cycloid.disc_count) * spec.cranks.count and np.all(b3[4] == 3)
 
     def bushings(qa):
         f3, k3 = np.zeros(len(qa)), np.zeros((len(qa), len(qa)))
-        bushings3d(qa, b3, f3, k3, workspace3d())
+        bushings3d(qa, b3, f3, k3, workspace3d(len(b3[2])))
         return f3, k3
 
     _, kb = bushings(q)
