@@ -289,8 +289,9 @@ def _assemble(x, ref, pc, cs, ld, ct, ff, ms, sp, f, kt, qa, wk, wk3, skip_open)
     _point_connectors(qa, pc, f, kt, jidx, jv)
     if b3_idx.shape[0]:
         bushings3d(qa, (b3_idx, b3_slot, b3_first, b3_lp, b3_kind, b3_par), f, kt, wk3)
-    pair_elements(x, (bp_idx, bp_seat, bp_inner, bp_outer, bp_par, bp_f5, bp_k5, bp_load, bp_unit, bp_squeeze, bp_q5),
-                  f, kt)
+    if bp_idx.shape[0]:
+        pair_elements(x, (bp_idx, bp_seat, bp_inner, bp_outer, bp_par, bp_f5, bp_k5, bp_load, bp_unit, bp_squeeze,
+                          bp_q5), f, kt)
     for c in range(cs_idx.shape[0]):  # coordinate springs to ground: −k(q − offset)
         i = cs_idx[c]
         f[i] -= cs_k[c] * (x[i] - cs_off[c])
@@ -368,7 +369,7 @@ def _assemble(x, ref, pc, cs, ld, ct, ff, ms, sp, f, kt, qa, wk, wk3, skip_open)
 
 
 @_jit
-def _newton(x, free, cap, ref, pc, cs, ld, ct, ff, ms, sp, max_iterations, mode, skip_open):
+def _newton(x, free, cap, ref, pc, cs, ld, ct, ff, ms, sp, wk3, max_iterations, mode, skip_open):
     """Newton's method on the free coordinates from x (updated in place); returns (status, evaluations,
     max penetration, residual norm).
 
@@ -386,7 +387,6 @@ def _newton(x, free, cap, ref, pc, cs, ld, ct, ff, ms, sp, max_iterations, mode,
     kt = np.zeros((n, n))
     qa = np.zeros(n)
     wk = _workspace(pc[2].shape[2], _contact_size(ct))
-    wk3 = workspace3d(sp[SP_FIRST].shape[0])
     a = np.zeros((nf, nf))
     r = np.zeros(nf)
     step = np.zeros(nf)
@@ -451,7 +451,7 @@ def _newton(x, free, cap, ref, pc, cs, ld, ct, ff, ms, sp, max_iterations, mode,
 
 
 @_jit
-def _solve_retried(x, guess, free, cap, ref, pc, cs, ld, ct, ff, ms, sp, max_iterations, skip_open):
+def _solve_retried(x, guess, free, cap, ref, pc, cs, ld, ct, ff, ms, sp, wk3, max_iterations, skip_open):
     """:func:`_newton` from x, and where it fails again from there, damped and then with a kept Jacobian (x is
     the solution, ``guess`` a work copy of the start); returns (status, evaluations, retries, max penetration,
     residual norm)."""
@@ -459,14 +459,14 @@ def _solve_retried(x, guess, free, cap, ref, pc, cs, ld, ct, ff, ms, sp, max_ite
         guess[i] = x[i]
     evaluations = 0
     retries = 0
-    status, ev, pen, norm = _newton(x, free, cap, ref, pc, cs, ld, ct, ff, ms, sp, max_iterations, PLAIN, skip_open)
+    status, ev, pen, norm = _newton(x, free, cap, ref, pc, cs, ld, ct, ff, ms, sp, wk3, max_iterations, PLAIN, skip_open)
     evaluations += ev
     for mode in (DAMPED, CHORD):
         if status == CONVERGED:
             break
         for i in range(x.shape[0]):
             x[i] = guess[i]
-        status, ev, pen, norm = _newton(x, free, cap, ref, pc, cs, ld, ct, ff, ms, sp,
+        status, ev, pen, norm = _newton(x, free, cap, ref, pc, cs, ld, ct, ff, ms, sp, wk3,
                                         max_iterations if mode == DAMPED else CHORD_ITERATIONS, mode, skip_open)
         evaluations += ev
         retries += 1
@@ -560,6 +560,7 @@ def _steps(theta, ratio, kin, hist_th, hist_e, nh, last_te, max_jump, max_pen, c
     n = theta.shape[0]
     ct_out, ct_pins = ct[CT_OUT], ct[CT_PINS]  # the contacts' per-pin outputs of their last evaluation, pins
     guess = np.zeros(x.shape[0])
+    wk3 = workspace3d(sp[SP_FIRST].shape[0])  # the spatial elements' work arrays, once per run
     evaluations = 0
     retried = 0
     for s in range(n):
@@ -581,7 +582,7 @@ def _steps(theta, ratio, kin, hist_th, hist_e, nh, last_te, max_jump, max_pen, c
         cs[2][regulariser] = th / ratio
         for i in range(fixed_idx.shape[0]):
             x[fixed_idx[i]] = fixed_value[i]
-        status, ev, tries, pen, norm = _solve_retried(x, guess, free, cap, ref, pc, cs, ld, ct, ff, ms, sp,
+        status, ev, tries, pen, norm = _solve_retried(x, guess, free, cap, ref, pc, cs, ld, ct, ff, ms, sp, wk3,
                                                       max_iterations, not states)
         evaluations += ev
         retried += tries
@@ -782,6 +783,7 @@ class CompiledStep:
                       tuple(d[k] for k in _CONTACT_KEYS), (d["ff_start"], d["ff_m"], d["ff_k"]),
                       (d["ms_idx"], d["ms_par"]), tuple(d[k] for k in _SPATIAL_KEYS))
         self.records = np.zeros((0, 0))  # the absolute coordinates of the last run's steps (spatial model)
+        self.wk3 = workspace3d(len(d["b3_first"]))  # the spatial elements' work arrays of single solves
 
     def reset(self) -> None:
         """Forget the last solve (interface of rvflex.solve's Newtons: Exudyn's solver takes the step)."""
@@ -825,8 +827,8 @@ class CompiledStep:
         max penetration, residual norm)."""
         d = self.d
         x = guess.copy()
-        status, ev, tries, pen, norm = _solve_retried(x, np.empty_like(x), d["free"], d["cap"], d["ref"],
-                                                      *self.packs, MAX_ITERATIONS, self.skip_open)
+        status, ev, tries, pen, norm = _solve_retried(x, np.empty_like(x), d["free"], d["cap"], d["ref"], *self.packs,
+                                                      self.wk3, MAX_ITERATIONS, self.skip_open)
         self.evaluations += ev
         self.iterations += ev  # each evaluation is followed by one linear solve (or a halving)
         self.retried += tries
