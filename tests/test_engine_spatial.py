@@ -113,17 +113,19 @@ def test_the_compiled_spatial_residual_and_jacobian_are_exudyns(unit):
 
 
 @pytest.mark.parametrize("unit", UNITS)
-@pytest.mark.parametrize("loaded", [False, True], ids=["torque", "moment-and-axial"])
+@pytest.mark.parametrize("loaded", ["torque", "moment", "axial", "moment-and-axial"])
 def test_compiled_spatial_steps_reach_exudyns_equilibria(unit, loaded):
-    """Seed 001's errors at rated torque over two crank turns relative to the carrier (32 positions), with and
-    without half the allowable moment and a 2 kN axial force on the output: the default run (compiled steps) gives
-    Exudyn's static solver's TE at every step within 1e-4″, the carrier's and every disc's tilt within 1e-3 of the
-    largest, the carrier's shift within 1e-9 m and the pin forces of every slice within 1 N."""
+    """Seed 001's errors at rated torque over two crank turns relative to the carrier (32 positions), the output
+    carrying the torque alone, half the allowable moment, a 2 kN axial force, or both: the default run (compiled
+    steps) gives Exudyn's static solver's TE at every step within 1e-4″, the carrier's and every disc's tilt within
+    1e-3 of the largest, the carrier's shift within 1e-9 m and the pin forces of every slice within 1 N."""
     from rvflex import solve
 
     spec = load_reducer(unit)
     theta = _theta(spec, 32)
-    load = _load(spec) if loaded else None
+    full = _load(spec)
+    load = {"torque": None, "moment": OutputLoad(moment_Nm=full.moment_Nm, moment_angle_rad=full.moment_angle_rad),
+            "axial": OutputLoad(axial_force_N=full.axial_force_N), "moment-and-axial": full}[loaded]
     opts = ModelOptions.spatial_rigid()
     fast = solve.quasi_static(build_reducer(spec, clearance_errors(spec), opts), theta, spec.rated_torque_Nm,
                               output_load=load)
@@ -139,8 +141,10 @@ def test_compiled_spatial_steps_reach_exudyns_equilibria(unit, loaded):
         assert np.all(np.isfinite(a)) and np.abs(b).max() > 1e-6
         assert np.abs(a - b).max() < 1e-3 * np.abs(b).max()
     assert np.abs(fast.carrier_shift_m - exudyn.carrier_shift_m).max() < 1e-9
-    if loaded:  # the moment tilts the carrier by a hundred µrad
+    if load is not None and load.moment_Nm:  # the moment tilts the carrier by a hundred µrad
         assert np.abs(fast.carrier_tilt_rad).max() > 1e-4
+    if loaded == "axial":  # the pair alone carries an axial force: the carrier moves along +z
+        assert fast.carrier_shift_m[:, 2].min() > 0.0
     assert np.abs(fast.pin_slice_force_N - exudyn.pin_slice_force_N).max() < 1.0
 
 
