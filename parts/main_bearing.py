@@ -111,6 +111,12 @@ class PairElement:
     model: PairModel
     _work: _PairWork = field(repr=False)
 
+    @property
+    def seat_m(self) -> np.ndarray:
+        """(x, y, 0, 0, 0): the outer rings' seat off the node's reference point (m, rad); the balls see the node's
+        (x, y, z, ψx, ψy) less it."""
+        return self._work.seat.copy()
+
     def evaluate(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Force (6,) on the node's coordinates (N, N·m; zero on ψz), its stiffness −∂f/∂q (6, 6), and each
         ball's load (N), at the node's displacement coordinates ``q`` (6,) (m, rad; the balls see them less the

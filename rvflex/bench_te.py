@@ -3,7 +3,9 @@ kernel's own evaluation measured in the same run.
 
 For each built-in unit and each case (rigid; rigid with seed 001's errors and their 12 µm crank-bearing
 clearances; rigid under half its allowable tilting moment with the pin contact in :data:`~rvflex.tilt.MOMENT_SLICES`
-slices along the face width; FE discs; FE discs and carrier; FE discs, carrier and housing) one loaded TE run over
+slices along the face width; the spatial rigid model (:meth:`~rvflex.options.ModelOptions.spatial_rigid`, its
+slices on the tilting discs), without and with half the allowable moment on the output; FE discs; FE discs and
+carrier; FE discs, carrier and housing) one loaded TE run over
 one output revolution is timed after a warm-up (compiled kernels, FE reductions from the cache). Its wall time per
 step is divided by the unit's contact evaluation: every disc's cycloid–pin kernel (every slice of it), force and
 Jacobian, at a loaded state (the median of many calls); a sliced case's budget is thus per slice. A second, profiled run of the same case splits the step into
@@ -26,7 +28,8 @@ import numpy as np
 
 __all__ = ["CASES", "bench_te", "clearance_errors", "contact_evaluation_us", "table_md"]
 
-CASES = ("rigid", "rigid-clearance", "rigid-moment", "flexible", "flexible-carrier", "flexible-all")
+CASES = ("rigid", "rigid-clearance", "rigid-moment", "spatial", "spatial-moment", "flexible", "flexible-carrier",
+         "flexible-all")
 UNITS = ("rv40e", "rv80e", "rv160n")
 CONTACT_CALLS = 400  # calls timed for the contact unit (median of 8 blocks)
 
@@ -57,7 +60,8 @@ def _options(case: str):
     from rvflex.tilt import MOMENT_SLICES
 
     return {"rigid": ModelOptions.rigid, "rigid-clearance": ModelOptions.rigid,
-            "rigid-moment": lambda: ModelOptions(face_slices=MOMENT_SLICES), "flexible": ModelOptions.flexible_discs,
+            "rigid-moment": lambda: ModelOptions(face_slices=MOMENT_SLICES), "spatial": ModelOptions.spatial_rigid,
+            "spatial-moment": ModelOptions.spatial_rigid, "flexible": ModelOptions.flexible_discs,
             "flexible-carrier": ModelOptions.flexible_discs_and_carrier,
             "flexible-all": ModelOptions.flexible_all}[case]()
 
@@ -72,6 +76,15 @@ def _errors(spec, case: str):
 
         return tilted_errors(None, carrier_tilt(spec, 0.5 * spec.allowable_moment_Nm))
     return None
+
+
+def _output_load(spec, case: str):
+    """The output load of a ``spatial-moment`` case: half the allowable moment (two-way, on the spatial carrier)."""
+    if case != "spatial-moment":
+        return None
+    from rvflex.tilt import OutputLoad
+
+    return OutputLoad(moment_Nm=0.5 * spec.allowable_moment_Nm)
 
 
 def contact_evaluation_us(model, q_abs: np.ndarray) -> float:
@@ -166,16 +179,17 @@ def bench_case(unit: str, case: str, positions: int, progress=None) -> dict:
     build_s = time.perf_counter() - t
     theta = np.linspace(0.0, 2.0 * np.pi * model.ratio, positions, endpoint=False)
     torque = spec.rated_torque_Nm
-    solve.quasi_static(model, theta[:6], torque)  # compile, warm the caches
+    load = _output_load(spec, case)
+    solve.quasi_static(model, theta[:6], torque, output_load=load)  # compile, warm the caches
     t = time.perf_counter()
-    res = solve.quasi_static(model, theta, torque)
+    res = solve.quasi_static(model, theta, torque, output_load=load)
     wall = time.perf_counter() - t
     counts = res.compiled
     q = np.asarray(model.mbs.systemData.GetODE2Coordinates()) + model.reference
     t_contact = contact_evaluation_us(model, q)
     prof = cProfile.Profile()
     prof.enable()
-    profiled = solve.quasi_static(model, theta, torque)
+    profiled = solve.quasi_static(model, theta, torque, output_load=load)
     prof.disable()
     t_solve = _solve_us(counts["free"]) if counts is not None and counts["free"] else 0.0
     per_step_us = wall / positions * 1e6
@@ -195,7 +209,8 @@ def bench_case(unit: str, case: str, positions: int, progress=None) -> dict:
     return row
 
 
-TARGETS = {"rigid": 8, "rigid-clearance": 12, "rigid-moment": 8, "flexible": 40, "flexible-carrier": 80}
+TARGETS = {"rigid": 8, "rigid-clearance": 12, "rigid-moment": 8, "spatial": 8, "spatial-moment": 8, "flexible": 40,
+           "flexible-carrier": 80}
 
 
 def bench_te(units=UNITS, cases=CASES, positions: int = 2048, flexible_positions: int = 512, progress=None) -> dict:
@@ -204,7 +219,7 @@ def bench_te(units=UNITS, cases=CASES, positions: int = 2048, flexible_positions
     rows = []
     for unit in units:
         for case in cases:
-            n = positions if case.startswith("rigid") else flexible_positions
+            n = positions if case.startswith(("rigid", "spatial")) else flexible_positions
             rows.append(bench_case(unit, case, n, progress))
     for r in rows:
         goal = TARGETS.get(r["case"])

@@ -568,7 +568,8 @@ def build_parser() -> argparse.ArgumentParser:
     bt = bsub.add_parser("te", help="cost of one quasi-static TE step per unit and fidelity, in contact evaluations",
                          description="Each built-in unit and case (rigid; rigid with seed 001's errors and 12 µm "
                                      "crank-bearing clearances; rigid under half the allowable moment, the pin contact "
-                                     "in 4 slices; FE discs; FE discs and carrier; FE discs, carrier and "
+                                     "in 4 slices; the spatial rigid model, without and with half the allowable "
+                                     "moment on the output; FE discs; FE discs and carrier; FE discs, carrier and "
                                      "housing): one loaded TE run over one output revolution, its wall time per step "
                                      "and the same divided by one evaluation of every disc's contact kernel (every "
                                      "slice) measured in the same run, with the split of a profiled run "

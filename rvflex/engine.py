@@ -1,5 +1,5 @@
-"""Compiled quasi-static step of a planar reducer, rigid or with FE-reduced discs, carrier and housing: Newton's
-method on the whole system in one numba call.
+"""Compiled quasi-static step of a reducer, planar (rigid or with FE-reduced discs, carrier and housing) or
+spatial rigid: Newton's method on the whole system in one numba call.
 
 Exudyn's static solver takes a step of the rigid model in about 0.3 ms of its own work beside the contact
 kernels (residual and Jacobian through the item list, Python user functions per disc and mesh, the
@@ -24,12 +24,18 @@ data) and solves each step in compiled code with the same force laws:
   one sits at the frame's position + R(ψz)·(its point + P·η), P the weighted mode rows of its nodes (the
   offset does not turn with the nodes, as in Exudyn), its tilt the least-squares rotation of its nodes;
 - the flexible housing, a linear ``ObjectGenericODE2`` on its modal coordinates ξ (−K·ξ), whose seats carry
-  the pins in the contacts (``rvflex.contact.cycloid_pin.evaluate_housing_kernel``).
+  the pins in the contacts (``rvflex.contact.cycloid_pin.evaluate_housing_kernel``);
+- the spatial rigid model's elements (:mod:`rvflex.engine3d`): ``ObjectRigidBody`` on ``NodeRigidBodyRxyz``
+  (x, y, z, ψx, ψy, ψz free; no static force of its own), the clearance bushings and Cartesian springs between
+  such bodies as Exudyn's 3D connectors define them (relative displacement and Tait–Bryan rotation in marker
+  0's joint frame), the main bearing pair element, the contact slices of a tilting disc and the gear mesh of a
+  tilting crank (each planar kernel on its section's in-plane pose, mapped back onto the body).
 
 Exudyn stays the model of record: a system holding any other item (a connector law not listed, an FE body
-free out of its plane) gets no compiled step (:func:`compiled_step` returns None) and is
-solved by Exudyn; the residual at any state equals Exudyn's ``ComputeNewtonResidual`` (tests/test_engine.py)
-and the quasi-static TE equals that of Exudyn's static solver within 1e-4″. The solved state is written back
+free out of its plane, a connector between a planar and a spatial body) gets no compiled step
+(:func:`compiled_step` returns None) and is solved by Exudyn; the residual at any state equals Exudyn's
+``ComputeNewtonResidual`` (tests/test_engine.py, tests/test_engine_spatial.py) and the quasi-static TE equals
+that of Exudyn's static solver within 1e-4″. The solved state is written back
 to the Exudyn system, so whatever reads the system next sees it.
 """
 
@@ -44,11 +50,23 @@ import numpy as np
 from rvflex.contact import cycloid_pin as K
 from rvflex.contact.gear_mesh import N_STATE as MESH_STATE
 from rvflex.contact.gear_mesh import mesh_kernel
+from rvflex.engine3d import (
+    LAW_CARTESIAN,
+    LAW_CLEARANCE,
+    bushings3d,
+    clearance_ramp,
+    connector_law3d,
+    marker3d,
+    mesh_tilted,
+    pair_elements,
+    slice_section,
+    slice_to_body,
+    spatial_data,
+    workspace3d,
+)
 
 __all__ = ["CompiledStep", "compiled_step", "ideal_kinematics", "ring_torque", "solve_dense", "StepFailed"]
 
-# point connectors: law kinds
-LAW_CLEARANCE, LAW_CARTESIAN = 0, 1
 # Newton: the same caps and tolerances as the chord Newton of rvflex.solve (see there why a move is capped)
 CAP_M = 1e-5
 CAP_RADIUS_M = 0.03
@@ -75,28 +93,35 @@ _CONTACT_KEYS = ("ct_rig", "ct_ref", "ct_offset", "ct_pins", "ct_radii", "ct_par
                  "ct_k", "ct_d", "ct_eta", "ct_etad", "ct_hmod", "ct_seat", "ct_xi", "ct_xid", "ct_pf", "ct_pk",
                  "ct_pd", "ct_last")
 CT_PINS, CT_OUT, CT_F = (_CONTACT_KEYS.index(k) for k in ("ct_pins", "ct_out", "ct_f"))
+# the spatial group's arrays (rvflex.engine3d) in the order _assemble unpacks them
+_SPATIAL_KEYS = ("b3_idx", "b3_slot", "b3_first", "b3_lp", "b3_kind", "b3_par", "bp_idx", "bp_seat", "bp_inner", "bp_outer", "bp_par",
+                 "bp_f5", "bp_k5", "bp_load", "bp_unit", "bp_squeeze", "bp_q5", "ct_tilt", "ct_lever", "ms_tilt",
+                 "ms_lever")
+SP_FIRST = _SPATIAL_KEYS.index("b3_first")
 
 
 
 def _drop_stale_cache() -> None:
     """Remove this module's numba cache when a kernel it calls has changed.
 
-    numba keys a cached function on its own module's source only; the compiled step links the contact,
-    mesh and geometry kernels into its own code, so after an edit of one of them the cache would go on
-    running the old kernel. A stamp of their sources beside the cache tells; a read-only install (no
+    numba keys a cached function on its own module's source only; the compiled step (and its spatial
+    elements, :mod:`rvflex.engine3d`) links the contact, mesh, pair and geometry kernels into its own code,
+    so after an edit of one of them the cache would go on running the old kernel. A stamp of their sources beside the cache tells; a read-only install (no
     stamp written) compiles as numba decides."""
     import hashlib
     from importlib.util import find_spec
     from pathlib import Path
 
-    kernels = ("rvflex.contact._cycloid_kernel", "rvflex.contact.gear_mesh", "rvflex.geometry._kernels")
+    kernels = ("rvflex.contact._cycloid_kernel", "rvflex.contact.gear_mesh", "rvflex.geometry._kernels",
+               "rvflex.contact.tilt_map", "rvflex.contact.angular_contact", "rvflex.engine3d")
     try:
         digest = hashlib.sha1(b"".join(Path(find_spec(m).origin).read_bytes() for m in kernels)).hexdigest()
         cache = Path(__file__).parent / "__pycache__"
         stamp = cache / f"engine.kernels-{digest[:16]}.stamp"
         if stamp.exists() or not cache.is_dir():
             return
-        for f in [*cache.glob("engine.*.nbi"), *cache.glob("engine.*.nbc"), *cache.glob("engine.kernels-*.stamp")]:
+        for f in [*cache.glob("engine.*.nbi"), *cache.glob("engine.*.nbc"), *cache.glob("engine3d.*.nbi"),
+                  *cache.glob("engine3d.*.nbc"), *cache.glob("engine.kernels-*.stamp")]:
             f.unlink(missing_ok=True)
         stamp.touch()
     except OSError:
@@ -109,18 +134,6 @@ _jit = nb.njit(cache=True, nogil=True)
 
 class StepFailed(RuntimeError):
     """A compiled step did not converge (the caller solves it again with Exudyn)."""
-
-
-@_jit
-def _ramp(x, w):
-    """r_w(x) and its derivative (rvflex.contact.bearing's smoothed clearance ramp)."""
-    if w == 0.0:
-        return (x, 1.0) if x > 0.0 else (0.0, 0.0)
-    if x <= -w:
-        return 0.0, 0.0
-    if x >= w:
-        return x, 1.0
-    return (x + w) * (x + w) / (4.0 * w), (x + w) / (2.0 * w)
 
 
 @_jit
@@ -185,7 +198,7 @@ def _point_connectors(qa, pc, f, kt, jidx, jv):
                 d = math.sqrt(dx * dx + dy * dy)
                 if d == 0.0:
                     continue  # a power law without clearance: no force and no stiffness at zero approach
-                rw, drw = _ramp(d - eps, w)
+                rw, drw = clearance_ramp(d - eps, w)
                 if rw == 0.0 and drw == 0.0:
                     continue
                 if e != 1.0:  # the power law F = k·x_r^(1−e)·r_w^e (par[c, 4] = k·x_r^(1−e))
@@ -252,7 +265,7 @@ def _contact_size(ct):
 
 
 @_jit
-def _assemble(x, ref, pc, cs, ld, ct, ff, ms, f, kt, qa, wk, skip_open):
+def _assemble(x, ref, pc, cs, ld, ct, ff, ms, sp, f, kt, qa, wk, wk3, skip_open):
     """Force (RHS) and LHS Jacobian of the whole system at displacement x; returns (max penetration, bad pins).
     With ``skip_open`` a rigid disc's pins that surely stand open are not evaluated again (their gaps in the
     contacts' outputs are then those of their last evaluation; ``evaluate_tracked`` of the contact kernel).
@@ -260,7 +273,10 @@ def _assemble(x, ref, pc, cs, ld, ct, ff, ms, f, kt, qa, wk, skip_open):
     ``pc``: point connectors (:func:`_point_connectors`); ``cs``: coordinate springs to ground (index, k,
     offset); ``ld``: coordinate loads (index, value); ``ct``: cycloid–pin contacts (their kernel's data, the
     ODE2 indices of each disc's (x, y, θ) and first modal coordinate, its flank mode rows and buffers);
-    ``ff``: FE bodies' modal stiffness (first modal coordinate, count, matrix); ``ms``: involute meshes."""
+    ``ff``: FE bodies' modal stiffness (first modal coordinate, count, matrix); ``ms``: involute meshes;
+    ``sp``: the spatial elements (:mod:`rvflex.engine3d`): 3D point connectors, main bearing pair elements, and
+    per contact and mesh the first coordinate of its tilting (Rxyz) body (−1: planar) and its section's lever;
+    ``wk3``: their work arrays."""
     work3, qd, meshq, meshqt, meshf, meshdf, meshdft, meshst, jidx, jv, idx_a = wk
     cs_idx, cs_k, cs_off = cs
     ld_idx, ld_val = ld
@@ -269,6 +285,8 @@ def _assemble(x, ref, pc, cs, ld, ct, ff, ms, f, kt, qa, wk, skip_open):
      ct_pf, ct_pk, ct_pd, ct_last) = ct
     ff_start, ff_m, ff_k = ff
     ms_idx, ms_par = ms
+    (b3_idx, b3_slot, b3_first, b3_lp, b3_kind, b3_par, bp_idx, bp_seat, bp_inner, bp_outer, bp_par, bp_f5, bp_k5,
+     bp_load, bp_unit, bp_squeeze, bp_q5, ct_tilt, ct_lever, ms_tilt, ms_lever) = sp
     n = x.shape[0]
     for i in range(n):
         qa[i] = ref[i] + x[i]
@@ -276,6 +294,11 @@ def _assemble(x, ref, pc, cs, ld, ct, ff, ms, f, kt, qa, wk, skip_open):
         for j in range(n):
             kt[i, j] = 0.0
     _point_connectors(qa, pc, f, kt, jidx, jv)
+    if b3_idx.shape[0]:
+        bushings3d(qa, (b3_idx, b3_slot, b3_first, b3_lp, b3_kind, b3_par), f, kt, wk3)
+    if bp_idx.shape[0]:
+        pair_elements(x, (bp_idx, bp_seat, bp_inner, bp_outer, bp_par, bp_f5, bp_k5, bp_load, bp_unit, bp_squeeze,
+                          bp_q5), f, kt)
     for c in range(cs_idx.shape[0]):  # coordinate springs to ground: −k(q − offset)
         i = cs_idx[c]
         f[i] -= cs_k[c] * (x[i] - cs_off[c])
@@ -295,8 +318,14 @@ def _assemble(x, ref, pc, cs, ld, ct, ff, ms, f, kt, qa, wk, skip_open):
     for d in range(ct_rig.shape[0]):
         eta, xi = ct_eta[d], ct_xi[d]
         m, h = eta.shape[0], xi.shape[0]
-        for i in range(3):
-            work3[i] = ct_ref[d, i] + x[ct_rig[d, i]]
+        tilt = ct_tilt[d]
+        if tilt >= 0:  # a slice of a tilting disc: its section's in-plane pose
+            sec = slice_section(qa, tilt, ct_lever[d], wk3)
+            for i in range(3):
+                work3[i] = sec[i]
+        else:
+            for i in range(3):
+                work3[i] = ct_ref[d, i] + x[ct_rig[d, i]]
         for j in range(m):
             eta[j] = x[ct_mod[d] + j]
         for j in range(h):
@@ -316,6 +345,9 @@ def _assemble(x, ref, pc, cs, ld, ct, ff, ms, f, kt, qa, wk, skip_open):
         if p > pen:
             pen = p
         bad += nbad
+        if tilt >= 0:
+            slice_to_body(tilt, ct_lever[d], fd, kd, ct_d[d], f, kt, wk3)
+            continue
         # the element's coordinates (x, y, θ, η…, ξ…) in the system's
         for a in range(3 + m + h):
             idx_a[a] = ct_rig[d, a] if a < 3 else (ct_mod[d] + a - 3 if a < 3 + m else ct_hmod[d] + a - 3 - m)
@@ -324,6 +356,9 @@ def _assemble(x, ref, pc, cs, ld, ct, ff, ms, f, kt, qa, wk, skip_open):
             for bb in range(3 + m + h):
                 kt[idx_a[a], idx_a[bb]] += kd[a, bb]
     for m in range(ms_idx.shape[0]):
+        if ms_tilt[m]:  # the planet gear on a tilting crank
+            mesh_tilted(x, ms_idx[m, 0], ms_idx[m, 1], ms_lever[m], ms_par[m], f, kt, wk3)
+            continue
         for s in range(2):
             for i in range(3):
                 meshq[3 * s + i] = x[ms_idx[m, s] + i]
@@ -341,7 +376,7 @@ def _assemble(x, ref, pc, cs, ld, ct, ff, ms, f, kt, qa, wk, skip_open):
 
 
 @_jit
-def _newton(x, free, cap, ref, pc, cs, ld, ct, ff, ms, max_iterations, mode, skip_open):
+def _newton(x, free, cap, ref, pc, cs, ld, ct, ff, ms, sp, wk3, max_iterations, mode, skip_open):
     """Newton's method on the free coordinates from x (updated in place); returns (status, evaluations,
     max penetration, residual norm).
 
@@ -370,7 +405,7 @@ def _newton(x, free, cap, ref, pc, cs, ld, ct, ff, ms, max_iterations, mode, ski
     last = np.inf  # the residual norm at the last accepted state
     halvings = 0
     for it in range(max_iterations + 1):
-        pen, bad = _assemble(x, ref, pc, cs, ld, ct, ff, ms, f, kt, qa, wk, skip_open)
+        pen, bad = _assemble(x, ref, pc, cs, ld, ct, ff, ms, sp, f, kt, qa, wk, wk3, skip_open)
         evaluations += 1
         norm = 0.0
         if not bad:
@@ -423,7 +458,7 @@ def _newton(x, free, cap, ref, pc, cs, ld, ct, ff, ms, max_iterations, mode, ski
 
 
 @_jit
-def _solve_retried(x, guess, free, cap, ref, pc, cs, ld, ct, ff, ms, max_iterations, skip_open):
+def _solve_retried(x, guess, free, cap, ref, pc, cs, ld, ct, ff, ms, sp, wk3, max_iterations, skip_open):
     """:func:`_newton` from x, and where it fails again from there, damped and then with a kept Jacobian (x is
     the solution, ``guess`` a work copy of the start); returns (status, evaluations, retries, max penetration,
     residual norm)."""
@@ -431,14 +466,14 @@ def _solve_retried(x, guess, free, cap, ref, pc, cs, ld, ct, ff, ms, max_iterati
         guess[i] = x[i]
     evaluations = 0
     retries = 0
-    status, ev, pen, norm = _newton(x, free, cap, ref, pc, cs, ld, ct, ff, ms, max_iterations, PLAIN, skip_open)
+    status, ev, pen, norm = _newton(x, free, cap, ref, pc, cs, ld, ct, ff, ms, sp, wk3, max_iterations, PLAIN, skip_open)
     evaluations += ev
     for mode in (DAMPED, CHORD):
         if status == CONVERGED:
             break
         for i in range(x.shape[0]):
             x[i] = guess[i]
-        status, ev, pen, norm = _newton(x, free, cap, ref, pc, cs, ld, ct, ff, ms,
+        status, ev, pen, norm = _newton(x, free, cap, ref, pc, cs, ld, ct, ff, ms, sp, wk3,
                                         max_iterations if mode == DAMPED else CHORD_ITERATIONS, mode, skip_open)
         evaluations += ev
         retries += 1
@@ -516,8 +551,8 @@ PENETRATED, JUMPED = 10, 11
 
 @_jit
 def _steps(theta, ratio, kin, hist_th, hist_e, nh, last_te, max_jump, max_pen, car, drive, regulariser, x_out,
-           out, forces, gaps, torques, resultants, states, x, free, cap, ref, fixed_idx, fixed_value, pc, cs, ld, ct,
-           ff, ms, max_iterations, sun, carrier, crank_axes, crank_x, crank_y, crank_th, disc_base, eccentricity, disc_phase,
+           out, forces, gaps, torques, resultants, states, records, x, free, cap, ref, fixed_idx, fixed_value, pc, cs,
+           ld, ct, ff, ms, sp, max_iterations, sun, carrier, crank_axes, crank_x, crank_y, crank_th, disc_base, eccentricity, disc_phase,
            disc_x, disc_y, disc_th, modal, pin_count):
     """The recorded steps at input angles ``theta`` in one call, each as :meth:`CompiledStep.solve` and the
     caller's loop take it: the guess is the ideal kinematics plus the elastic part extrapolated from the last
@@ -526,11 +561,13 @@ def _steps(theta, ratio, kin, hist_th, hist_e, nh, last_te, max_jump, max_pen, c
     A step the plain Newton cannot take is tried again from its guess, damped and then with a kept
     Jacobian. Records the output angle (``out``), and with ``states`` the pins' forces and gaps and the discs'
     ring torques and pin-force resultants; without, the pins of a rigid disc that surely stand open are not
-    evaluated again (``skip_open`` of :func:`_assemble`). ``x_out`` holds the last converged state (absolute). Returns (steps
+    evaluated again (``skip_open`` of :func:`_assemble`). ``records`` (steps, n or 0) takes each step's absolute
+    coordinates where it has columns (the spatial model's tilts are read from them). ``x_out`` holds the last converged state (absolute). Returns (steps
     done, status of the step that stopped the run or CONVERGED, evaluations, retries, the last TE, nh)."""
     n = theta.shape[0]
     ct_out, ct_pins = ct[CT_OUT], ct[CT_PINS]  # the contacts' per-pin outputs of their last evaluation, pins
     guess = np.zeros(x.shape[0])
+    wk3 = workspace3d(sp[SP_FIRST].shape[0])  # the spatial elements' work arrays, once per run
     evaluations = 0
     retried = 0
     for s in range(n):
@@ -552,8 +589,8 @@ def _steps(theta, ratio, kin, hist_th, hist_e, nh, last_te, max_jump, max_pen, c
         cs[2][regulariser] = th / ratio
         for i in range(fixed_idx.shape[0]):
             x[fixed_idx[i]] = fixed_value[i]
-        status, ev, tries, pen, norm = _solve_retried(x, guess, free, cap, ref, pc, cs, ld, ct, ff, ms, max_iterations,
-                                                      not states)
+        status, ev, tries, pen, norm = _solve_retried(x, guess, free, cap, ref, pc, cs, ld, ct, ff, ms, sp, wk3,
+                                                      max_iterations, not states)
         evaluations += ev
         retried += tries
         if status != CONVERGED:
@@ -565,6 +602,9 @@ def _steps(theta, ratio, kin, hist_th, hist_e, nh, last_te, max_jump, max_pen, c
             return s, JUMPED, evaluations, retried, last_te, nh
         last_te = te
         out[s] = x[car] + ref[car]
+        if records.shape[1]:
+            for i in range(x.shape[0]):
+                records[s, i] = x[i] + ref[i]
         if states:
             for d in range(forces.shape[1]):
                 for p in range(forces.shape[2]):
@@ -646,13 +686,15 @@ def solve_dense(a, b, perm):
 @dataclass(frozen=True)
 class _Body:
     """Where a body's coordinates sit in the ODE2 vector: its frame's x (y follows) and angle, and for an FE body
-    (ObjectFFRFreducedOrder) its first modal coordinate with the mesh's reference positions and mode basis."""
+    (ObjectFFRFreducedOrder) its first modal coordinate with the mesh's reference positions and mode basis;
+    ``spatial``: a rigid body free in space (ObjectRigidBody on a NodeRigidBodyRxyz: x, y, z, ψx, ψy, ψz from x)."""
 
     x: int
     angle: int
     modal: int = -1
     positions: np.ndarray | None = None  # (nodes, 3), m
     modes: np.ndarray | None = None  # (3·nodes, m)
+    spatial: bool = False
 
 
 @dataclass(frozen=True)
@@ -695,12 +737,12 @@ def _marker(mbs, marker: int, objects: list[dict], bodies: dict, nodes: dict) ->
         if objects[b]["objectType"] == "Ground":
             return _Marker(-1, -1, np.asarray(objects[b]["referencePosition"], float)[:2] + lp[:2])
         body = bodies.get(b)
-        if body is None or body.modal >= 0:
+        if body is None or body.modal >= 0 or body.spatial:
             return None
         return _Marker(body.x, body.angle, lp[:2].copy())
     if kind == "NodeRigid":  # the frame of a planar or FE body
         body = nodes.get(int(m["nodeNumber"]))
-        return None if body is None else _Marker(body.x, body.angle, np.zeros(2))
+        return None if body is None or body.spatial else _Marker(body.x, body.angle, np.zeros(2))
     if kind == "SuperElementRigid":
         body = bodies.get(int(m["bodyNumber"]))
         if body is None or body.modal < 0 or m.get("rotationsExponentialMap", 2) != 2:
@@ -746,7 +788,9 @@ class CompiledStep:
         self.packs = ((d["pc_idx"], d["pc_angle"], d["pc_mcol"], d["pc_rows"], d["pc_lp"], d["pc_kind"], d["pc_par"]),
                       (d["cs_idx"], d["cs_k"], d["cs_off"]), (d["ld_idx"], d["ld_val"]),
                       tuple(d[k] for k in _CONTACT_KEYS), (d["ff_start"], d["ff_m"], d["ff_k"]),
-                      (d["ms_idx"], d["ms_par"]))
+                      (d["ms_idx"], d["ms_par"]), tuple(d[k] for k in _SPATIAL_KEYS))
+        self.records = np.zeros((0, 0))  # the absolute coordinates of the last run's steps (spatial model)
+        self.wk3 = workspace3d(len(d["b3_first"]))  # the spatial elements' work arrays of single solves
 
     def reset(self) -> None:
         """Forget the last solve (interface of rvflex.solve's Newtons: Exudyn's solver takes the step)."""
@@ -780,9 +824,9 @@ class CompiledStep:
         n = len(q_abs)
         x = np.asarray(q_abs, float) - self.model.reference
         f, kt = np.zeros(n), np.zeros((n, n))
-        pc, cs, ld, ct, ff, ms = self.packs
-        _assemble(x, self.d["ref"], pc, cs, ld, ct, ff, ms, f, kt, np.zeros(n), _workspace(pc[2].shape[2], _contact_size(ct)),
-                  False)
+        pc, cs, ld, ct, ff, ms, sp = self.packs
+        _assemble(x, self.d["ref"], pc, cs, ld, ct, ff, ms, sp, f, kt, np.zeros(n),
+                  _workspace(pc[2].shape[2], _contact_size(ct)), workspace3d(sp[SP_FIRST].shape[0]), False)
         return f, kt
 
     def _attempt(self, guess: np.ndarray) -> tuple[int, np.ndarray, float, float]:
@@ -790,8 +834,8 @@ class CompiledStep:
         max penetration, residual norm)."""
         d = self.d
         x = guess.copy()
-        status, ev, tries, pen, norm = _solve_retried(x, np.empty_like(x), d["free"], d["cap"], d["ref"],
-                                                      *self.packs, MAX_ITERATIONS, self.skip_open)
+        status, ev, tries, pen, norm = _solve_retried(x, np.empty_like(x), d["free"], d["cap"], d["ref"], *self.packs,
+                                                      self.wk3, MAX_ITERATIONS, self.skip_open)
         self.evaluations += ev
         self.iterations += ev  # each evaluation is followed by one linear solve (or a halving)
         self.retried += tries
@@ -862,18 +906,20 @@ class CompiledStep:
         for j, (tj, ej) in enumerate(history[-3:]):
             hist_th[j], hist_e[j] = tj, ej
         x, x_out, kin = np.zeros(n2), np.zeros(n2), np.zeros(n2)
+        records = np.zeros((len(theta), n2 if model.spatial else 0))
         contacts = model.discs.contacts
         done, status, ev, retried, last_te, nh = _steps(
             np.ascontiguousarray(theta, float), float(model.ratio), kin, hist_th, hist_e, min(nh, 3), float(last_te),
             float(max_jump), float(min(c.max_penetration_m for c in contacts)), int(model.output_index),
-            d["drive_slot"], d["regulariser_slot"], x_out, out, forces, gaps, torques, resultants, bool(states), x,
-            d["free"],
+            d["drive_slot"], d["regulariser_slot"], x_out, out, forces, gaps, torques, resultants, bool(states), records,
+            x, d["free"],
             d["cap"],
             d["ref"], d["fixed_idx"], d["fixed_value"], *self.packs, MAX_ITERATIONS, *model._kinematics,
             float(model.spec.cycloid.pin_count))
         self.evaluations += ev
         self.iterations += ev
         self.retried += retried
+        self.records = records[:done]
         if done == 0:
             return 0, history, last_te, None
         th = float(theta[done - 1])
@@ -916,23 +962,31 @@ def _bodies(mbs, objects: list[dict]) -> tuple[dict, dict] | None:
             body = _Body(x, x + 5, int(mbs.GetNodeODE2Index(modal)),
                          np.asarray(o["referencePositions"], float).reshape(-1, 3), np.asarray(o["modeBasis"], float))
             bodies[i] = nodes[frame] = body
+        elif o["objectType"] == "RigidBody":  # static: no force of its own (no velocity, no gravity load)
+            node = int(o["nodeNumber"])
+            if mbs.GetNode(node)["nodeType"] != "RigidBodyRxyz":
+                return None
+            x = int(mbs.GetNodeODE2Index(node))
+            bodies[i] = nodes[node] = _Body(x, x + 5, spatial=True)
     return bodies, nodes
 
 
 def compiled_step(model) -> CompiledStep | None:
     """The compiled step of ``model``, or None when its system holds an item the compiled step does not
-    replicate (other connector laws, an FE body free out of its plane, user functions on an FE body): that model is
-    solved by Exudyn."""
-    if model.carrier.main is None:
-        return None  # the spatial model (3D bodies, the main bearing pair element): Exudyn solves it
+    replicate (other connector laws, an FE body free out of its plane, user functions on an FE body, a connector
+    between a planar and a spatial body): that model is solved by Exudyn. The spatial rigid model (rigid bodies
+    on NodeRigidBodyRxyz, the main bearing pair element, tilting contact slices and gear meshes) is replicated by
+    :mod:`rvflex.engine3d`'s elements."""
     mbs = model.mbs
     sd = mbs.systemData
     bearing_law = {}  # connector → (ε, w, e, x_r) of rvflex's clearance law
     pairs = [model.carrier.main, *model.cranks.supports, *model.input_seat_supports]
     pairs += [p for row in model.discs.eccentric_bearings for p in row]
     for p in pairs:
-        b = p.bearing
-        bearing_law[b.connector] = (b.clearance_m, b.smoothing_m, b.load_exponent, b.reference_approach_m)
+        if p is not None:  # the spatial carrier has the pair element instead of a main bearing
+            b = p.bearing
+            bearing_law[b.connector] = (b.clearance_m, b.smoothing_m, b.load_exponent, b.reference_approach_m)
+    pair = getattr(model.carrier, "pair", None)
     contacts = {c.object_index: c for c in model.discs.contacts}
     meshes = {h.mesh_object: h for h in model.cranks.meshes}
     objects = [mbs.GetObject(i) for i in range(sd.NumberOfObjects())]  # read once: an FE body's are megabytes
@@ -942,8 +996,9 @@ def compiled_step(model) -> CompiledStep | None:
     bodies, nodes = found
     stiffness = {b.modal: None for b in bodies.values() if b.modal >= 0}  # FE bodies' modal stiffness
     sides, pc_kind, pc_par = [], [], []
+    sides3, b3_kind, b3_par = [], [], []  # 3D point connectors (rvflex.engine3d.bushings3d)
     fixed_idx, fixed_objects, cs_idx, spring_objects = [], [], [], []
-    ct, ms_idx, ms_par = [], [], []
+    ct, ms_idx, ms_par, ms_lever, ms_tilt, bp = [], [], [], [], [], []
 
     def coordinate(marker: int) -> int | None:
         m = mbs.GetMarker(marker)
@@ -967,7 +1022,7 @@ def compiled_step(model) -> CompiledStep | None:
 
     for i, o in enumerate(objects):
         kind = o["objectType"]
-        if kind in ("Ground", "RigidBody2D"):
+        if kind in ("Ground", "RigidBody2D", "RigidBody"):
             continue
         if kind == "FFRFreducedOrder":
             b = bodies[i]
@@ -978,6 +1033,15 @@ def compiled_step(model) -> CompiledStep | None:
         if not o.get("activeConnector", True):
             continue
         if kind in ("ConnectorRigidBodySpringDamper", "ConnectorCartesianSpringDamper"):
+            pts3 = [marker3d(mbs, m, objects, bodies, nodes) for m in o["markerNumbers"]]
+            if None not in pts3 and max(p[0] for p in pts3) >= 0:  # between spatial bodies (or one and ground)
+                law = connector_law3d(o, bearing_law.get(i))
+                if law is None:
+                    return None
+                sides3.append(pts3)
+                b3_kind.append(law[0])
+                b3_par.append(law[1])
+                continue
             pts = [_marker(mbs, m, objects, bodies, nodes) for m in o["markerNumbers"]]
             if None in pts or np.any(np.asarray(o["offset"], float)[:2] != 0.0) and kind != "ConnectorCartesianSpringDamper":
                 return None
@@ -1013,6 +1077,8 @@ def compiled_step(model) -> CompiledStep | None:
             c = contacts[i]
             if int(c.node) not in nodes or (c.housing_node >= 0 and c.housing_node != model.pins.modal_node):
                 return None
+            if c.tilted != nodes[int(c.node)].spatial or c.tilted and (c.n_modes or c.n_housing_modes):
+                return None
             ct.append(c)
         elif kind == "GenericODE2" and i == model.pins.body and model.pins.modal_node >= 0:
             # the flexible housing: a linear body on its modal coordinates, clamped (no frame, no FFRF terms)
@@ -1023,8 +1089,17 @@ def compiled_step(model) -> CompiledStep | None:
             stiffness[int(mbs.GetNodeODE2Index(model.pins.modal_node))] = k
         elif kind == "GenericODE2" and i in meshes:
             h = meshes[i]
+            planet = nodes.get(int(h.planet_node))
+            if (h.planet_lever_m is not None) != (planet is not None and planet.spatial):
+                return None
             ms_idx.append([mbs.GetNodeODE2Index(h.sun_node), mbs.GetNodeODE2Index(h.planet_node)])
             ms_par.append(h.parameters)
+            ms_lever.append(-1.0 if h.planet_lever_m is None else h.planet_lever_m)
+            ms_tilt.append(h.planet_lever_m is not None)
+        elif kind == "GenericODE2" and pair is not None and i == pair.object:
+            if not (int(pair.node) in nodes and nodes[int(pair.node)].spatial):
+                return None
+            bp.append(pair)
         else:
             return None
     load_items, ld_idx = [], []
@@ -1049,6 +1124,9 @@ def compiled_step(model) -> CompiledStep | None:
     for name, idx in model.planar_index().items():
         cap[idx[:2]] = CAP_M
         cap[idx[2]] = CAP_M / (CRANK_CAP_RADIUS_M if name.startswith("crank") else CAP_RADIUS_M)
+    for idx in model.spatial_index().values():  # a spatial body's z and tilts (an FE frame's are held)
+        cap[idx[2]] = CAP_M
+        cap[idx[3:5]] = CAP_M / CAP_RADIUS_M
     # point connectors: per marker, the modal coordinates that move it (only those with a nonzero row)
     moved = [[np.flatnonzero(np.any(p.position_rows[:2] != 0.0, axis=0)) if p.modal >= 0 else np.zeros(0, int)
               for p in pts] for pts in sides]
@@ -1095,6 +1173,8 @@ def compiled_step(model) -> CompiledStep | None:
         "ct_window": np.array([c.zone_window_rad for c in ct], float),
         "ms_idx": np.array(ms_idx, dtype=np.int64).reshape(-1, 2),
         "ms_par": np.array(ms_par, float).reshape(-1, len(ms_par[0]) if ms_par else 0),
+        **spatial_data(mbs, sides3, b3_kind, b3_par, bp, [c.lever_m for c in ct],
+                        [nodes[int(c.node)].x for c in ct], ms_tilt, ms_lever),
     }
     for key, get in (("ct_pins", lambda c: np.ascontiguousarray(c.pins_m, float)),
                      ("ct_radii", lambda c: np.ascontiguousarray(c.radii_m, float)),

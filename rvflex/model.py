@@ -281,8 +281,8 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None,
     (:mod:`rvflex.parts.pin_ring`; mount face clamped to ground).
 
     Spatial options (``options.spatial``, rigid cranks) build the spatial rigid model (module docstring;
-    ``spec.check_spatial`` first); Exudyn's solvers solve it (:func:`rvflex.solve.quasi_static` falls back to
-    them: the compiled step declines it).
+    ``spec.check_spatial`` first); the compiled step of :mod:`rvflex.engine` solves it, with Exudyn's solvers
+    behind it as for the planar model.
 
     Every layout takes FE discs: a disc that is disc 0 turned by a symmetry of the crank and
     pillar layout (to a whole number of teeth) shares disc 0's reduction; any other disc (three

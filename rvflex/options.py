@@ -20,8 +20,8 @@ preset                                             discs            carrier     
 The spatial preset (``"spatial"``) keeps every part rigid but lets each body move out of its plane
 (:class:`SpatialSettings`): the carrier on its main bearing pair, the cranks on their support pairs, the discs
 tilting against the pins, whose contact is then sliced along the face width. :func:`rvflex.model.build_reducer`
-builds it with rigid cranks (beam cranks are refused: not built yet), and Exudyn's solvers solve it (the
-compiled step of :mod:`rvflex.engine` does not take 3D bodies yet).
+builds it with rigid cranks (beam cranks are refused: not built yet); the compiled step of :mod:`rvflex.engine`
+solves it (:mod:`rvflex.engine3d`), Exudyn's solvers behind it.
 
 Variants by :func:`dataclasses.replace` (e.g. more disc modes:
 ``replace(opts, discs=replace(opts.discs, n_modes=24))``) or :meth:`ModelOptions.with_fe`.

@@ -548,7 +548,7 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
     the motion. With ``chord_newton`` the steps are solved by :class:`_ChordNewton` from an
     extrapolated guess, else by Exudyn's static solver from the kinematic guess. The default
     (None) takes the compiled step (:func:`rvflex.engine.compiled_step`, the first pose's
-    continuation included) for a model it replicates (rigid, FE discs, carrier and housing), Exudyn's
+    continuation included) for a model it replicates (rigid, FE discs, carrier and housing, spatial rigid), Exudyn's
     static solver for a step it cannot take; for a model it declines, or with ``RVFLEX_SOLVER=exudyn``, the
     chord Newton for FE parts, whose Exudyn Jacobian is dear (2.3× faster than Exudyn's solver), and for
     rigid ones Exudyn's Newton (:class:`_KeptNewton`, from the extrapolated guess, until
@@ -675,6 +675,8 @@ def quasi_static(model: ReducerModel, theta_in: np.ndarray, torque_out_Nm: float
                                                              contact_states)
                 if k:
                     q, prev_th = q_last, float(theta_in[done + k - 1])
+                    for j in range(k if spatial.on else 0):  # the run's steps' tilts and shifts
+                        spatial.record(done + j, compiled.records[j])
                     done += k
                     if progress is not None:
                         progress(done, n)

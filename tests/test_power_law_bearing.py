@@ -128,3 +128,14 @@ def test_the_ensemble_draws_power_law_needles_for_the_share_asked():
     assert ecc.reference_load_N == pytest.approx(needle_reference_load(spec))
     assert gen.model(spec, next(d for d in drawn if d["needle_exponent"] is None))[0].bearings.eccentric.load_exponent \
         is None
+
+
+def test_a_spatial_model_with_power_law_needles_is_solved_by_exudyn():
+    """The compiled step's 3D bushings carry the linear clearance law only: it declines the spatial model with
+    power-law needles (Exudyn solves it), and takes the same model with linear ones."""
+    from rvflex.engine import compiled_step
+    from rvflex.options import ModelOptions
+
+    spec = catalog.load("rv40e")
+    assert compiled_step(build_reducer(spec, options=ModelOptions.spatial_rigid())) is not None
+    assert compiled_step(build_reducer(_power_needles(spec), options=ModelOptions.spatial_rigid())) is None

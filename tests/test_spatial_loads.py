@@ -1,7 +1,7 @@
 """Output loads on the spatial model (``output_load=`` of rvflex.solve, ``--spatial``): the carrier's tilt and shift
 solved with the gear train (two-way), against the pair alone (rvflex.tilt.carrier_tilt) and the planar model's
-one-way tilt (rvflex.tilt.tilted_errors). Solved by Exudyn (the compiled step declines the spatial model); RV-40E,
-four slices, 64 positions over a third of an output revolution (13 periods of the disc-tooth order z_c = 39)."""
+one-way tilt (rvflex.tilt.tilted_errors). Solved by the compiled step (its equilibria are Exudyn's:
+tests/test_engine_spatial.py); RV-40E, four slices, 64 positions over a third of an output revolution (13 periods of the disc-tooth order z_c = 39)."""
 
 from __future__ import annotations
 

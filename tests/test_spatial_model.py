@@ -1,8 +1,8 @@
 """The spatial rigid model (``build_reducer`` with ``options.spatial``) and the section map it rests on
 (rvflex.contact.tilt_map): the map exact against the rotation and finite differences, the tilted slice and gear
 elements against finite differences, the model reduced to the planar one when its out-of-plane coordinates are
-held, the free model against the planar one at rated torque, and its determinism. Solved by Exudyn (the compiled
-step declines it)."""
+held, the free model against the planar one at rated torque, and its determinism. Solved by the compiled step
+(its residual and equilibria are Exudyn's: tests/test_engine_spatial.py)."""
 
 from __future__ import annotations
 
@@ -183,7 +183,10 @@ def test_the_held_spatial_model_is_the_planar_one(planar_and_held):
     radial law, which differs from the planar bushing): the TE equals the planar model's to ≤ 1e-6″ (the
     solvers' tolerances; measured ~1e-9″) and each slice's pin forces agree to 1e-5 of the peak."""
     planar, held, model = planar_and_held
-    assert held.compiled is None and planar.compiled is not None  # Exudyn's solver took the spatial model
+    # the compiled step took both (tests/test_engine_spatial.py: its spatial residual and equilibria are Exudyn's),
+    # the spatial model on as many free coordinates as the planar one
+    assert held.compiled is not None and planar.compiled is not None
+    assert held.compiled["free"] == planar.compiled["free"]
     assert np.abs(held.te_rad - planar.te_rad).max() * ARCSEC_PER_RAD <= 1e-6
     assert np.abs(held.pin_slice_force_N - planar.pin_slice_force_N).max() <= 1e-5 * planar.pin_force_N.max()
     q = np.asarray(model.mbs.systemData.GetODE2Coordinates())
@@ -265,14 +268,16 @@ def test_building_and_solving_twice_gives_identical_results(rv40e):
 
 def test_the_spatial_index_and_the_compiled_step(loaded_spatial):
     """Six coordinates per spatial body (x y z ψx ψy ψz), the planar index their (x, y, ψz); the compiled step
-    declines the spatial model (its port is the engine's next step)."""
+    takes the spatial model, every spatial coordinate free."""
     model = loaded_spatial
     planar, spatial = model.planar_index(), model.spatial_index()
     assert set(spatial) == {"carrier", "crank0", "crank1", "disc0", "disc1"} and "sun" in planar
     for name, idx in spatial.items():
         assert len(idx) == 6 and np.array_equal(planar[name], idx[[0, 1, 5]])
     assert model.output_index == spatial["carrier"][5]
-    assert model.spatial and compiled_step(model) is None
+    step = compiled_step(model)
+    assert model.spatial and step is not None
+    assert set(np.concatenate(list(spatial.values()))) <= set(step.d["free"])
 
 
 def test_what_the_spatial_model_cannot_take_is_refused_in_one_line(rv40e):
