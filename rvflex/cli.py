@@ -29,7 +29,8 @@ __all__ = ["main"]
 # (``load_Nm``), the command's errors the flag (``--load``), with the flag's own spelling of
 # the value where it differs.
 _LOAD_FLAGS = {"moment_Nm": "--moment", "moment_angle_rad": "--moment-angle-deg", "axial_force_N": "--axial-force",
-               "radial_force_N": "--radial-force", "radial_angle_rad": "--radial-angle-deg", "face_slices": "--slices"}
+               "radial_force_N": "--radial-force", "radial_angle_rad": "--radial-angle-deg", "face_slices": "--slices",
+               "crank": "--crank", "crank_elements": "--crank-elements"}
 _TE_FLAGS = {"load_Nm": "--load", "revolutions": "--revs", "positions_per_rev": "--positions", "mode": "--mode",
              "speed_out_rpm": "--speed-out", "direction": "--direction", "options": "--fidelity", **_LOAD_FLAGS}
 _LOST_MOTION_FLAGS = {"torque_Nm": "--torque", "steps": "--steps", "options": "--fidelity", **_LOAD_FLAGS}
@@ -104,17 +105,26 @@ def _output_load(args: argparse.Namespace):
 
 def _loaded_options(args: argparse.Namespace, load):
     """``_options(args)`` with ``--slices`` (default :data:`~rvflex.tilt.MOMENT_SLICES` under an output load or
-    with ``--spatial``), the spatial rigid model with ``--spatial`` (refused with another ``--fidelity``)."""
-    from rvflex.options import ModelOptions
+    with ``--spatial``), the spatial rigid model with ``--spatial`` (refused with another ``--fidelity``), its
+    cranks by ``--crank`` and ``--crank-elements`` (refused without ``--spatial``)."""
+    from rvflex.options import ModelOptions, SpatialSettings
 
     spatial = getattr(args, "spatial", False)
     slices = args.slices if args.slices is not None else (MOMENT_SLICES if load is not None or spatial else 1)
+    crank, elements = getattr(args, "crank", None), getattr(args, "crank_elements", None)
     if spatial:
         if args.fidelity != "rigid":
             raise SpecError("--spatial", True, f"takes rigid parts only (--fidelity rigid), got --fidelity "
                                                f"{args.fidelity}: FE bodies free out of their plane are not built yet")
         _options(args)  # the --fe-* flags are refused as with --fidelity rigid
-        return ModelOptions.spatial_rigid(slices)
+        if elements is not None and crank != "beam":
+            raise SpecError("--crank-elements", elements, "applies to --crank beam only")
+        return ModelOptions.spatial_rigid(slices, SpatialSettings(crank=crank or "rigid",
+                                                                  crank_elements=1 if elements is None else elements))
+    for flag, value in (("--crank", crank), ("--crank-elements", elements)):
+        if value is not None:
+            raise SpecError(flag, value, "applies to the spatial model only (add --spatial): the planar model's "
+                                         "cranks are rigid")
     return dataclasses.replace(_options(args), face_slices=slices)
 
 
@@ -480,6 +490,12 @@ def _load_arguments(p: argparse.ArgumentParser) -> None:
                    help="the spatial rigid model: carrier, cranks and discs free out of their plane, the output load "
                         "on the carrier and its tilt solved with the gear train (with --fidelity rigid only; "
                         "docs/spatial.md)")
+    p.add_argument("--crank", choices=("rigid", "beam"),
+                   help="the spatial model's cranks: rigid bodies, or flexible (Timoshenko) shafts carrying the "
+                        "eccentrics and the planet gear at their planes (with --spatial only; default rigid)")
+    p.add_argument("--crank-elements", type=int,
+                   help="beam elements per crank segment, 1 to 64 (with --crank beam only; default 1, exact in "
+                        "statics for the prismatic segments; more add mass stations)")
 
 
 def _output_arguments(p: argparse.ArgumentParser, files: str) -> None:

@@ -7,11 +7,14 @@ clearance bearings, mesh with the sun and carry the discs on clearance (needle) 
 discs mesh with the pins through the exact contact element. Every ErrorSpec field reaches the
 geometry or connector it belongs to (see the part modules).
 
-Spatial rigid fidelity (``options.spatial``, rigid cranks): carrier, cranks and discs are rigid bodies free in
+Spatial rigid fidelity (``options.spatial``): carrier, cranks and discs are rigid bodies free in
 space (``NodeRigidBodyRxyz``; z the axis, z = 0 the discs' mid-plane): the carrier on the main bearing pair
 element, each crank on two support bearings at ±``support_span_m``/2, each disc on its eccentric (needle)
 bearings with their axial and tilt springs, the pin contact in face slices that see the disc's tilt, and each
-planet gear's mesh at its own plane on the tilting crank. The sun stays a planar body (held on the axis).
+planet gear's mesh at its own plane on the tilting crank. The sun stays a planar body (held on the axis). Beam
+cranks (``options.spatial.crank = "beam"``) are each a chain of rigid stations on the crank's axis joined by the
+static stiffness of the shaft's Timoshenko segments (:func:`rvflex.parts.crankshaft.build_spatial`); a crank's
+node is then the station at its planet gear.
 
 Reference configuration: input and output angles 0, every crank at relative angle 0, each
 disc where its eccentrics put it.
@@ -227,7 +230,23 @@ class ReducerModel:
         k = self._kinematics
         q = self.reference.copy()
         ideal_kinematics(q, float(theta_in), self.ratio, float(self.spec.cycloid.pin_count), *k)
+        src, dst = self._crank_stations
+        q[dst] = q[src]  # a beam crank's stations sit and turn with its node (all on the crank's axis)
         return q
+
+    @functools.cached_property
+    def _crank_stations(self) -> tuple[np.ndarray, np.ndarray]:
+        # (x, y, ψz) of each beam crank's node, repeated for each of its other stations, and those stations' (x, y,
+        # ψz): empty for rigid cranks
+        src, dst = [], []
+        for node, shaft in zip(self.cranks.nodes, self.cranks.stations):
+            i = self.mbs.GetNodeODE2Index(node)
+            for s in shaft:
+                if s != node:
+                    j = self.mbs.GetNodeODE2Index(s)
+                    src += [i, i + 1, i + 5]
+                    dst += [j, j + 1, j + 5]
+        return np.array(src, dtype=np.int64), np.array(dst, dtype=np.int64)
 
     @functools.cached_property
     def _kinematics(self) -> tuple:
@@ -280,9 +299,10 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None,
     housing (``options.housing``, or ``reduced_housing`` injected) carries the pins on its seats
     (:mod:`rvflex.parts.pin_ring`; mount face clamped to ground).
 
-    Spatial options (``options.spatial``, rigid cranks) build the spatial rigid model (module docstring;
-    ``spec.check_spatial`` first); the compiled step of :mod:`rvflex.engine` solves it, with Exudyn's solvers
-    behind it as for the planar model.
+    Spatial options (``options.spatial``) build the spatial rigid model (module docstring;
+    ``spec.check_spatial`` first), its cranks rigid or beams (``options.spatial.crank``); the compiled step of
+    :mod:`rvflex.engine` solves it with rigid cranks, Exudyn's solvers behind it as for the planar model, and
+    Exudyn's solvers alone with beam cranks (the compiled step declines their segment springs).
 
     Every layout takes FE discs: a disc that is disc 0 turned by a symmetry of the crank and
     pillar layout (to a whole number of teeth) shares disc 0's reduction; any other disc (three
@@ -324,10 +344,8 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None,
     ------
     SpecError
         Options that are not ModelOptions or a preset name; error counts that do not match the spec.
-        A spec without what the spatial model needs (``check_spatial``); a main-bearing clearance error under
-        spatial options.
-    NotImplementedError
-        Spatial options with beam (flexible) cranks: not built yet.
+        A spec without what the spatial model needs (``check_spatial``; beam cranks: the crank fields
+        :func:`rvflex.parts.crankshaft.beam_layout` names); a main-bearing clearance error under spatial options.
     ValueError
         ``hold_out_of_plane`` with planar options.
     """
@@ -337,9 +355,6 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None,
     from exudyn.itemInterface import MarkerNodeCoordinate, NodePointGround, ObjectGround
 
     options = as_options(options, "options")
-    if options.spatial is not None and options.spatial.crank == "beam":
-        raise NotImplementedError("options.spatial.crank = 'beam': flexible (beam) cranks are not built yet; use "
-                                  "crank = 'rigid'")
     if hold_out_of_plane and options.spatial is None:
         raise ValueError("hold_out_of_plane: applies to the spatial model only (options.spatial is None)")
     if reduced_disc is not None:
@@ -435,11 +450,14 @@ def _build_spatial(spec: ReducerSpec, errors: ErrorSpec, options: ModelOptions, 
     carrier = carrier_part.build_spatial(mbs, spec, errors, ground_coord)
     axes = carrier_part.crank_axis_positions(spec, errors)
     # each crank's two support bearings are the two the planar model lumps into spec.bearings.crank_support
-    cranks = crankshaft.build_spatial(mbs, carrier_part.split_support_bearing(spec), errors, carrier, sun.node, axes)
+    beam = options.spatial.crank_elements if options.spatial.crank == "beam" else None
+    cranks = crankshaft.build_spatial(mbs, carrier_part.split_support_bearing(spec), errors, carrier, sun.node, axes,
+                                      beam_elements=beam)
     discs = cycloid_disc.build_spatial(mbs, spec, errors, cranks, law, crankshaft.eccentric_offsets(spec, errors), axes,
                                        face_slices=options.face_slices)
     if hold_out_of_plane:
-        for node in (carrier.node, *cranks.nodes, *discs.nodes):
+        crank_nodes = [n for shaft in cranks.stations for n in shaft] or cranks.nodes
+        for node in (carrier.node, *crank_nodes, *discs.nodes):
             for coord in (2, 3, 4):  # z, ψx, ψy
                 m = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=node, coordinate=coord))
                 mbs.AddObject(CoordinateConstraint(markerNumbers=[ground_coord, m]))

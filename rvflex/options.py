@@ -20,8 +20,9 @@ preset                                             discs            carrier     
 The spatial preset (``"spatial"``) keeps every part rigid but lets each body move out of its plane
 (:class:`SpatialSettings`): the carrier on its main bearing pair, the cranks on their support pairs, the discs
 tilting against the pins, whose contact is then sliced along the face width. :func:`rvflex.model.build_reducer`
-builds it with rigid cranks (beam cranks are refused: not built yet); the compiled step of :mod:`rvflex.engine`
-solves it (:mod:`rvflex.engine3d`), Exudyn's solvers behind it.
+builds it with rigid or beam cranks (``SpatialSettings.crank``); the compiled step of :mod:`rvflex.engine`
+solves it with rigid cranks (:mod:`rvflex.engine3d`), Exudyn's solvers behind it, and Exudyn's solvers with beam
+cranks.
 
 Variants by :func:`dataclasses.replace` (e.g. more disc modes:
 ``replace(opts, discs=replace(opts.discs, n_modes=24))``) or :meth:`ModelOptions.with_fe`.
@@ -87,9 +88,10 @@ class SpatialSettings:
     ----------
     crank : {"rigid", "beam"}
         The crankshafts: rigid bodies, or flexible (Timoshenko) shafts between their support bearings
-        carrying the eccentrics and the gear at their axial positions.
+        carrying the eccentrics and the gear at their axial positions (:func:`rvflex.parts.crankshaft.beam_layout`).
     crank_elements : int
-        Beam elements per crank segment (1 to 64; read with ``crank="beam"`` only).
+        Beam elements per crank segment (1 to 64; read with ``crank="beam"`` only). The segments are prismatic,
+        so one element is exact in statics; more add mass stations along the shaft.
     pin_bending : bool
         Let each pin bend between its housing seats where the spec gives their span (no span: the pins
         stay rigid whatever this says).
@@ -138,7 +140,7 @@ class ModelOptions:
         1, the default: one contact at each disc's mid-plane. At least 2 with ``spatial``.
     spatial : SpatialSettings or None
         None (the default): the planar model. Settings: the spatial model, every part a rigid body free out of
-        its plane (FE parts refused; :func:`rvflex.model.build_reducer` builds it with rigid cranks).
+        its plane (FE parts refused), the cranks rigid or beams (:attr:`SpatialSettings.crank`).
     """
 
     discs: PartSettings | PartFidelity = "rigid"
@@ -213,7 +215,7 @@ class ModelOptions:
         Returns
         -------
         ModelOptions
-            The options (:func:`rvflex.model.build_reducer` builds them with rigid cranks and refuses beam cranks).
+            The options (:func:`rvflex.model.build_reducer` builds them, beam cranks included).
         """
         return cls(face_slices=slices, spatial=SpatialSettings() if settings is None else settings)
 

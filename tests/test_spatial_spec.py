@@ -1,7 +1,7 @@
 """The spatial fidelity's inputs: the cranks' axial layout in the spec (TOML round trip, bad values refused in one
 line naming the field, the built-in units' assumed values), ``ReducerSpec.check_spatial``, and the options
-(``SpatialSettings``, the ``"spatial"`` preset, its table form); ``build_reducer`` refuses what of them it does not
-build yet (beam cranks)."""
+(``SpatialSettings``, the ``"spatial"`` preset, its table form); ``build_reducer`` builds the beam cranks they ask
+for."""
 
 from __future__ import annotations
 
@@ -164,13 +164,15 @@ def test_spatial_options_from_a_model_table():
         assert info.value.field == field and rule in msg and msg.startswith("d.toml: "), msg
 
 
-def test_build_reducer_refuses_beam_cranks_in_one_line(rv40e):
+def test_build_reducer_builds_the_beam_cranks_the_options_ask_for(rv40e):
+    """``crank="beam"`` with ``crank_elements`` reaches the part builder: each crank one station chain of that
+    many elements per segment (the beam itself: tests/test_spatial_beam.py); rigid cranks have none."""
     from rvflex.model import build_reducer
 
-    with pytest.raises(NotImplementedError) as info:
-        build_reducer(rv40e, options=ModelOptions.spatial_rigid(4, SpatialSettings(crank="beam")))
-    assert _one_line(info) == ("options.spatial.crank = 'beam': flexible (beam) cranks are not built yet; use "
-                               "crank = 'rigid'")
+    beam = build_reducer(rv40e, options=ModelOptions.spatial_rigid(4, SpatialSettings(crank="beam", crank_elements=3)))
+    assert beam.cranks.beam.elements == 3 and [len(s) for s in beam.cranks.stations] == [19, 19]
+    rigid = build_reducer(rv40e, options=ModelOptions.spatial_rigid(4))
+    assert rigid.cranks.beam is None and rigid.cranks.stations == ()
 
 
 def test_the_unit_matrix_offers_the_spatial_fidelity_and_names_the_choices():
