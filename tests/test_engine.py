@@ -43,16 +43,12 @@ def loaded_state(model, spec, theta: float = 0.3) -> np.ndarray:
     return q + rng.normal(0.0, 3e-6, q.shape)
 
 
-@pytest.mark.parametrize("unit", ["rv40e", "rv80e", "rv160n"])
-def test_the_compiled_residual_and_jacobian_are_exudyns(unit):
-    """At a loaded, perturbed state (3 µm / 3e-6 rad off the kinematics, so bearings sit inside and beyond
-    their 12 µm clearances and pins in and out of contact) the compiled force equals Exudyn's residual to
-    rounding (1e-12 of its largest entry) and its Jacobian Exudyn's to 1e-6 (Exudyn differentiates the
-    bearing connectors numerically, relative step 1e-7)."""
+def compiled_residual_is_exudyns(model, spec):
+    """At :func:`loaded_state` the compiled force equals Exudyn's residual to rounding (1e-12 of its largest entry,
+    asserted, and the state loaded); returns (the compiled step, the state, its free coordinates' indices, the
+    compiled Jacobian ∂f/∂q and Exudyn's ∂r/∂q over them)."""
     from rvflex.engine import compiled_step
 
-    spec = load_reducer(unit)
-    model = build_reducer(spec, clearance_errors(spec), "rigid")
     step = compiled_step(model)
     assert step is not None
     q = loaded_state(model, spec)
@@ -61,7 +57,17 @@ def test_the_compiled_residual_and_jacobian_are_exudyns(unit):
     free = step.d["free"]
     assert np.abs(r_exu[free]).max() > 1e2  # a loaded state, not an empty one
     assert np.abs(f[free] - r_exu[free]).max() < 1e-12 * np.abs(r_exu[free]).max()
-    jx, jc = j_exu[np.ix_(free, free)], -kt[np.ix_(free, free)]  # Exudyn's is ∂r/∂q, the engine's −∂f/∂q
+    return step, q, free, -kt[np.ix_(free, free)], j_exu[np.ix_(free, free)]  # the engine's kt is −∂f/∂q
+
+
+@pytest.mark.parametrize("unit", ["rv40e", "rv80e", "rv160n"])
+def test_the_compiled_residual_and_jacobian_are_exudyns(unit):
+    """At a loaded, perturbed state (3 µm / 3e-6 rad off the kinematics, so bearings sit inside and beyond
+    their 12 µm clearances and pins in and out of contact) the compiled force equals Exudyn's residual to
+    rounding (1e-12 of its largest entry) and its Jacobian Exudyn's to 1e-6 (Exudyn differentiates the
+    bearing connectors numerically, relative step 1e-7)."""
+    spec = load_reducer(unit)
+    _, _, _, jc, jx = compiled_residual_is_exudyns(build_reducer(spec, clearance_errors(spec), "rigid"), spec)
     assert np.abs(jc - jx).max() < 1e-6 * np.abs(jx).max()
 
 

@@ -11,28 +11,10 @@ from rvflex.bench_te import clearance_errors
 from rvflex.model import build_reducer
 from rvflex.options import ModelOptions
 from rvflex.tilt import OutputLoad
+from tests.test_engine import _exudyn_residual
 
 ARCSEC_PER_RAD = 206264.806
 UNITS = ["rv40e", "rv80e", "rv160n"]
-
-
-def _exudyn_residual(model, q_abs):
-    """Exudyn's static residual (RHS − LHS of the ODE2 equations) and its Jacobian at ``q_abs`` (as
-    tests/test_engine.py takes them)."""
-    import exudyn as exu
-
-    from rvflex.solve import _static_solver, static_settings
-
-    ss = static_settings()
-    ss.staticSolver.useLoadFactor = False
-    solver = _static_solver(model, ss, q_abs)
-    sd = model.mbs.systemData
-    n2 = sd.ODE2Size()
-    sd.SetODE2Coordinates(q_abs - model.reference, configuration=exu.ConfigurationType.Current)
-    solver.ComputeNewtonResidual(model.mbs, ss)
-    r = np.asarray(solver.GetSystemResidual())[:n2]
-    solver.ComputeNewtonJacobian(model.mbs, ss)
-    return r, np.asarray(solver.GetSystemJacobian())[:n2, :n2]
 
 
 def _load(spec) -> OutputLoad:

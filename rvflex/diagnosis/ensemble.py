@@ -142,17 +142,17 @@ class EnsembleMismatch:
         e_lo = self.exponent_range[0] if seat > 0.0 else max(self.exponent_range[0], 1.0)
         flexible = bool(rng.uniform() < self.flexible_share)
         out = {"global_scale": g, "contact_scale": g * float(rng.uniform(a, b)),
-                "needle_bearing_scale": g * float(rng.uniform(a, b)), "mesh_scale": g * float(rng.uniform(a, b)),
-                "support_scale": g * float(rng.uniform(a, b)),
-                "contact_law": "line" if law_line else "power",
-                "contact_exponent": None if law_line else float(rng.uniform(e_lo, self.exponent_range[1])),
-                "seat_share": seat,
-                "clearance_m": float(rng.uniform(0.0, self.clearance_max_m)),
-                "mesh_backlash": bool(rng.uniform() < 0.5), "mesh_ripple": bool(rng.uniform() < 0.5),
-                "series_linear_rad": float(rng.uniform(0, SERIES_LINEAR_MAX_RAD)) if series != 1 else 0.0,
-                "series_stiffening_rad": float(rng.uniform(0, SERIES_STIFFENING_MAX_RAD)) if series != 0 else 0.0,
-                "thermal_per_K": float(rng.uniform(-THERMAL_MISMATCH_MAX_PER_K, THERMAL_MISMATCH_MAX_PER_K)),
-                "flexible_discs": flexible, "flexible_carrier": flexible and bool(rng.uniform() < self.carrier_share)}
+               "needle_bearing_scale": g * float(rng.uniform(a, b)), "mesh_scale": g * float(rng.uniform(a, b)),
+               "support_scale": g * float(rng.uniform(a, b)),
+               "contact_law": "line" if law_line else "power",
+               "contact_exponent": None if law_line else float(rng.uniform(e_lo, self.exponent_range[1])),
+               "seat_share": seat,
+               "clearance_m": float(rng.uniform(0.0, self.clearance_max_m)),
+               "mesh_backlash": bool(rng.uniform() < 0.5), "mesh_ripple": bool(rng.uniform() < 0.5),
+               "series_linear_rad": float(rng.uniform(0, SERIES_LINEAR_MAX_RAD)) if series != 1 else 0.0,
+               "series_stiffening_rad": float(rng.uniform(0, SERIES_STIFFENING_MAX_RAD)) if series != 0 else 0.0,
+               "thermal_per_K": float(rng.uniform(-THERMAL_MISMATCH_MAX_PER_K, THERMAL_MISMATCH_MAX_PER_K)),
+               "flexible_discs": flexible, "flexible_carrier": flexible and bool(rng.uniform() < self.carrier_share)}
         # from a stream of its own (a spawned child leaves ``rng`` where it is): every case keeps the rest of its
         # draw and its bench (origin, offset, noise)
         own = rng.spawn(1)[0]
