@@ -101,13 +101,14 @@ def test_power_law_needles_reach_exudyns_equilibria_and_soften_the_unit_at_part_
 
 
 def test_the_ensemble_draws_power_law_needles_for_the_share_asked():
-    """``needle_power_share`` 0.5: about half the units; the default (0, the shipped null's ensemble): none, and
+    """``needle_power_share`` 0.5 (the default, the shipped null's ensemble): about half the units; 0: none, and
     every other drawn value the same (the needle law has a stream of its own)."""
     from rvflex.diagnosis.ensemble import NEEDLE_EXPONENT_RANGE, EnsembleMismatch, needle_reference_load
 
-    gen, spec = EnsembleMismatch(needle_power_share=0.5), catalog.load("rv80e")
+    gen, spec = EnsembleMismatch(), catalog.load("rv80e")
+    assert gen.needle_power_share == 0.5
     drawn = [gen.draw(np.random.default_rng(s)) for s in range(200)]
-    plain = [EnsembleMismatch().draw(np.random.default_rng(s)) for s in range(200)]
+    plain = [EnsembleMismatch(needle_power_share=0.0).draw(np.random.default_rng(s)) for s in range(200)]
     assert all(p["needle_exponent"] is None for p in plain)
     assert [{**d, "needle_exponent": None} for d in drawn] == plain
     power = [d for d in drawn if d["needle_exponent"] is not None]

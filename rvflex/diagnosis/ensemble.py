@@ -11,10 +11,10 @@ hidden effect, from the nominal spec of a built-in unit:
   pin forces of the tests, each scaled by the contact stiffness drawn; half the units with a compliance at each
   pin seat in series (0 … 1 times the line contact's own secant compliance at the most loaded pin's force at
   rated torque), and only they with a softening law (e below 1: the seat bounds its stiffness at zero approach);
-- needle (eccentric) bearings: stiffness drawn, radial clearance 0 … 4 µm, linear past the clearance. With
-  ``needle_power_share`` above 0 that share of the units takes a power law instead, F ∝ x^e with e in [1, 1.25]
-  (a roller's line contact is 10/9, Palmgren), whose secant stiffness is the drawn one at the load the torque
-  sets at rated torque (:func:`needle_reference_load`); the null distribution rvflex ships is built with none;
+- needle (eccentric) bearings: stiffness drawn, radial clearance 0 … 4 µm; past the clearance half the units
+  (``needle_power_share``) linear, half a power law F ∝ x^e with e in [1, 1.25] (a roller's line contact is
+  10/9, Palmgren), whose secant stiffness is the drawn one at the load the torque sets at rated torque
+  (:func:`needle_reference_load`);
 - crank-support and main bearings, first-stage mesh: stiffness drawn; the mesh with or without its backlash
   and its stiffness ripple;
 - an overall stiffness scale ×0.5 … ×2 on every stiffness (a unit as far from its catalogue model as real ones
@@ -126,7 +126,7 @@ class EnsembleMismatch:
     flexible_share: float = 0.5  # share of units with FE-reduced discs
     carrier_share: float = 0.5  # share of those with an FE-reduced carrier too
     clearance_max_m: float = CLEARANCE_MAX_M  # needle-bearing clearance drawn in [0, this], scaled into the class
-    needle_power_share: float = 0.0  # share of units whose needle bearings follow a power law past the clearance
+    needle_power_share: float = 0.5  # share of units whose needle bearings follow a power law past the clearance
     samples_per_rev: int = 1024
     name: str = "ensemble"
 

@@ -119,6 +119,21 @@ def _mesh(spec: ReducerSpec, errors: ErrorSpec, x):
                                                     mesh_stiffness_amplitude_N_m=st.mesh_stiffness_amplitude_N_m * s)), errors
 
 
+def _needle_law(spec: ReducerSpec, errors: ErrorSpec, x):
+    """Needle-bearing law: past its clearance the bearing follows F = F_r·(δ/δ_r)^e (Palmgren's line contact:
+    e ≈ 10/9), e = 1 + x[0], with the same secant stiffness at the reference load F_r (the torque's share of a
+    needle's load at rated torque), so e moves the bearing's load dependence, not its stiffness at rated torque;
+    x[0] = 0 is the spec's linear law (the spec itself, so its model runs are the calibrated model's)."""
+    e = 1.0 + float(x[0])
+    if e <= 1.0 + 1e-12:
+        return spec, errors
+    from rvflex.diagnosis.ensemble import needle_reference_load
+
+    b = spec.bearings
+    ecc = dc.replace(b.eccentric, load_exponent=e, reference_load_N=needle_reference_load(spec))
+    return dc.replace(spec, bearings=dc.replace(b, eccentric=ecc)), errors
+
+
 def _clearance(spec: ReducerSpec, errors: ErrorSpec, x):
     n = spec.cranks.count * spec.cycloid.disc_count
     old = errors.eccentric_bearing_clearance_m or (0.0,) * n
@@ -198,6 +213,14 @@ def _builtin() -> tuple[Effect, ...]:
                "from the rigid one; nominal 1)", (Param("flexible_share", "1", 0.0, 2.0, 1.0),), kind="fidelity",
                options=ModelOptions.flexible_discs(), prior_sigma=(0.5,), prior_center=(1.0,),
                separating_runs="TE runs at two loads (the elastic TE at order 2·z_b grows with the load)"),
+        # the needle bearings' law: linear (the spec) or a rolling line contact's power law past the clearance, which
+        # changes how the crank orders (2·z_b on two-crank units) grow with the load
+        Effect("needle_bearing_law", "load exponent of the crank (needle) bearings' law past their clearance, "
+               "F ∝ δ^(1 + exponent_change) at the spec's stiffness at the rated torque's needle load (0 = the spec's "
+               "linear law)",
+               (Param("exponent_change", "1", 0.0, 0.5, 0.1),), apply=_needle_law, prior_sigma=(0.25,),
+               separating_runs="TE runs at three or more loads (the exponent bends the crank orders' growth with "
+                               "the load)"),
         # a nominal clearance class of a few µm: beyond its prior, clearance is an unmodelled effect
         Effect("crank_bearing_clearance", "nominal radial clearance of the crank (needle) bearings",
                (Param("clearance_m", "m", 0.0, CLEARANCE_HIGH, 2.5 * UM),), apply=_clearance, prior_sigma=(2.5 * UM,),
