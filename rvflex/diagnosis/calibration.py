@@ -47,6 +47,8 @@ def _fmt_cal(row: dict) -> str:
         return f"{row['name'].replace('_', ' ')} ×{row['stiffness_scale']:.2f}"
     if row["unit"] == "m":
         return f"{row['name'].replace('_', ' ')} {row['value'] * 1e6:.1f} µm"
+    if row["param"] == "exponent_change":  # the law's exponent itself reads better than its change
+        return f"{row['name'].replace('_', ' ')} F ∝ δ^{1.0 + row['value']:.2f}"
     return f"{row['name'].replace('_', ' ')} {row['value']:.2f}"
 
 

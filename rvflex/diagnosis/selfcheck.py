@@ -433,6 +433,9 @@ def _score_calibration(truth: dict, cand, held: dict | None = None, anchor_scale
     if "crank_bearing_clearance" in rows:
         out["crank_bearing_clearance"] = {"calibrated_m": rows["crank_bearing_clearance"]["value"],
                                           "drawn_m": drawn["clearance_m"]}
+    if "needle_bearing_law" in rows and "needle_exponent" in drawn:  # the ensemble's needle law (None: linear)
+        out["needle_bearing_law"] = {"calibrated_exponent": 1.0 + rows["needle_bearing_law"]["value"],
+                                     "drawn_exponent": drawn["needle_exponent"] or 1.0}
     scales = [v for k, v in out.items() if k in CALIBRATED_SCALES]
     ok = [v["within_tol"] for v in scales if v["determined"]]
     return {"calibration": out, "calibration_ok": bool(ok) and all(ok),
