@@ -224,12 +224,16 @@ def null_table(path: str | Path | None = None) -> str:
              (f"{src.get('controls', '?')} ensemble controls over {', '.join(src.get('reducers', []))} "
               f"({src.get('cases_per_unit', '?')} per unit, seed {src.get('seed', '?')}; "
               f"`rvflex null-distribution --cases {src.get('cases_per_unit', '?')} --seed {src.get('seed', '?')}`). "
-              "Thresholds as relative evidence / size (the largest the controls reach; for a one-parameter effect "
+              "Thresholds as relative evidence / size (the second largest relative evidence the controls reach, "
+              "and the largest size; for a one-parameter effect "
               "whose range spans both signs, the size on each side, + above zero, − below; for the modification "
               "deviation, + with its moved and equidistant parts of opposite signs, the clearance side, − of one "
               "sign, the shape side)."), "",
              "| effect | false alarms (tests alone) | " + " | ".join(units + ["pooled"]) + " |",
              "|---|---:|" + "---:|" * (len(units) + 1)]
+
+    def rel(v) -> float:
+        return v.get("relative_threshold", v["relative_max"])
 
     def cell(v, e) -> str:
         if v is None:
@@ -239,9 +243,9 @@ def null_table(path: str | Path | None = None) -> str:
             return f"{m:.3g}" if plain else fmt_mag(e, m)
 
         if "magnitude_max_positive" in v:  # kept per side (rvflex.diagnosis.null.side): + side, then − side
-            return (f"{v['relative_max']:.2f} / +{size(v['magnitude_max_positive'])}, "
+            return (f"{rel(v):.2f} / +{size(v['magnitude_max_positive'])}, "
                     f"−{size(v['magnitude_max_negative'])}")
-        return f"{v['relative_max']:.2f} / {size(v['magnitude_max'])}"
+        return f"{rel(v):.2f} / {size(v['magnitude_max'])}"
 
     for name, v in sorted(doc["effects"].items(), key=lambda kv: (-kv[1]["false_alarm_rate"], kv[0])):
         e = EFFECTS.get(name)

@@ -147,7 +147,7 @@ def _cmd_null(args: argparse.Namespace) -> int:
     out = Path(args.out)
     doc = build_null(out, reducers, args.cases, args.seed, json_path=args.json, cache_dir=out / "cache",
                      log=lambda s: print(s, file=sys.stderr, flush=True))
-    rows = {k: {"relative_max": round(v["relative_max"], 3), "false_alarm_rate": round(v["false_alarm_rate"], 3)}
+    rows = {k: {"relative_threshold": round(v["relative_threshold"], 3), "false_alarm_rate": round(v["false_alarm_rate"], 3)}
             for k, v in doc["effects"].items()}
     held = {u: {k: h[k] for k in ("controls", "named")} for u, h in doc["leave_one_out"].items()}
     print(json.dumps({"controls": doc["source"]["controls"], "wall_s": doc["wall_s"], "effects": rows,

@@ -8,8 +8,9 @@ only when, besides those tests,
 
 1. it is beyond what healthy units of other model forms make of it (:mod:`rvflex.diagnosis.null`): each of its
    effects earns a larger relative evidence (the evidence it earns on its own, all of a single's and a pair's less
-   that of its other effect alone, over what the candidate leaves unexplained) than the ensemble's controls give
-   that effect, and each effect's size exceeds the largest determined size the controls reach;
+   that of its other effect alone, over what the candidate leaves unexplained) than all but one of the ensemble's
+   controls give that effect (:data:`~rvflex.diagnosis.null.RELATIVE_RANK`), and each effect's size exceeds the
+   largest determined size the controls reach;
    an effect the controls were not diagnosed with (absent from the distribution), or one with look-alike model
    forms the ensemble cannot draw yet (``Effect.unjudged_by``), is never established while a distribution is in
    use;
