@@ -14,7 +14,7 @@ hidden effect, from the nominal spec of a built-in unit:
 - needle (eccentric) bearings: stiffness drawn, radial clearance 0 … 4 µm; past the clearance half the units
   (``needle_power_share``) linear, half a power law F ∝ x^e with e in [1, 1.25] (a roller's line contact is
   10/9, Palmgren), whose secant stiffness is the drawn one at the load the torque sets at rated torque
-  (:func:`needle_reference_load`);
+  (:func:`~rvflex.diagnosis.nominal.needle_reference_load`);
 - crank-support and main bearings, first-stage mesh: stiffness drawn; the mesh with or without its backlash
   and its stiffness ripple;
 - an overall stiffness scale ×0.5 … ×2 on every stiffness (a unit as far from its catalogue model as real ones
@@ -38,6 +38,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from rvflex.diagnosis.nominal import needle_reference_load
 from rvflex.options import ModelOptions
 from rvflex.spec import ErrorSpec, ReducerSpec
 from rvflex.units import ARCSEC
@@ -207,17 +208,6 @@ class EnsembleMismatch:
         return ((EFFECTS["output_series_compliance"],
                  np.array([drawn["series_linear_rad"], drawn["series_stiffening_rad"]])),
                 (EFFECTS["thermal_expansion"], np.array([drawn["thermal_per_K"]])))
-
-
-def needle_reference_load(spec: ReducerSpec) -> float:
-    """The power law's reference load for a needle (eccentric) bearing (N): each disc's torque over e·z_c, shared
-    by the cranks, the share of the bearing's load at rated torque that the torque alone sets (the pins' radial
-    push adds to it: the nominal RV-40E's needles carry 3.2 kN on average against this 2.1 kN). At it the power
-    law's secant stiffness is the bearing's linear stiffness, so the two laws carry rated torque about alike and
-    differ in their load dependence."""
-    c = spec.cycloid
-    per_disc = spec.rated_torque_Nm / c.disc_count / (c.eccentricity_m * c.disc_teeth)
-    return per_disc / spec.cranks.count
 
 
 def secant_compliance(spec: ReducerSpec) -> float:

@@ -32,7 +32,7 @@ the gap's amplitude and with the number of features (with the discrepancy at its
 evidence is weighted residual energy). Held against a control's evidence, a finding is judged by how far the
 unit's model form and campaign are from the controls'; the ratio to what the candidate leaves does not change
 when the gap is scaled or the campaign repeated (it still differs between model forms, as their shapes differ:
-over the two halves of the RV-80E's controls a runout reaches 0.57 and 1.07).
+over the two halves of the RV-80E's controls a thermal mismatch reaches 1.70 and 1.43).
 *Why determined sizes*: a fit the runs cannot determine is no finding and its interval's upper end is set by the
 noise (measured: the RV-80E controls' undetermined runouts reach 23 µm with evidence 12 to 15).
 :func:`leave_one_out` measures what the thresholds hold on controls they were not made from.
@@ -59,7 +59,7 @@ RELATIVE_RANK = 2
 """The relative evidence a finding must exceed is the controls' RELATIVE_RANK-th largest for its effect (the size
 it must exceed stays their largest). The largest of some fifty controls is its most volatile order statistic, set
 by whichever single model form projects best onto the candidate (the two halves of the RV-40E's controls put a
-crank eccentricity's at 2.73 and 1.27); the second largest is about their 96th percentile, and with the size
+thermal mismatch's at 1.53 and 0.39); the second largest is about their 96th percentile, and with the size
 still held at the largest, a control judged by its unit's other 55 names nothing (``leave_one_out``: 0 of 168,
 as with the largest)."""
 
@@ -78,8 +78,8 @@ class NullDistribution:
 
     def for_spec(self, spec) -> NullDistribution:
         """The distribution of the built-in unit ``spec`` is a variant of, else of all units pooled. How a model
-        form projects onto a candidate depends on the unit's geometry (the RV-80E's healthy controls reach a 17.8 µm
-        pin-ring runout, the RV-40E's 1.6 µm), so a unit is judged against the ensemble of its own nominal unit:
+        form projects onto a candidate depends on the unit's geometry (the RV-80E's healthy controls reach a 20.9 µm
+        pin-ring runout, the RV-40E's none), so a unit is judged against the ensemble of its own nominal unit:
         the built-in unit with the same pin and tooth counts and, within 1 %, the same pin-circle radius and
         eccentricity, whatever its name or its stiffnesses."""
         from rvflex import catalog
