@@ -205,12 +205,12 @@ def write_table(results: str | Path = RESULTS) -> Path:
 def null_table(path: str | Path | None = None) -> str:
     """The Markdown table of the null distribution (``rvflex null-distribution``; default: the package's): per
     candidate effect, the share of the ensemble's controls in which the tests alone accepted it (its false-alarm
-    rate before the null's thresholds), and per unit the thresholds a diagnosis of that unit uses (the largest
-    relative evidence and determined size its healthy controls reach), the pooled ones for any other unit; below
+    rate before the null's thresholds), and per unit the thresholds a diagnosis of that unit uses (the second
+    largest relative evidence and the largest determined size its healthy controls reach), the pooled ones for any other unit; below
     it, how many controls held out one at a time the thresholds of the others hold, and a second table: each
     unit's thresholds from the first and the second half of its controls."""
     from rvflex.diagnosis.effects import EFFECTS
-    from rvflex.diagnosis.null import NULL_PATH
+    from rvflex.diagnosis.null import NULL_PATH, relative_threshold_of
     from rvflex.diagnosis.verdict import fmt_mag
 
     p = Path(path) if path is not None else NULL_PATH
@@ -232,9 +232,6 @@ def null_table(path: str | Path | None = None) -> str:
              "| effect | false alarms (tests alone) | " + " | ".join(units + ["pooled"]) + " |",
              "|---|---:|" + "---:|" * (len(units) + 1)]
 
-    def rel(v) -> float:
-        return v.get("relative_threshold", v["relative_max"])
-
     def cell(v, e) -> str:
         if v is None:
             return "—"
@@ -243,9 +240,9 @@ def null_table(path: str | Path | None = None) -> str:
             return f"{m:.3g}" if plain else fmt_mag(e, m)
 
         if "magnitude_max_positive" in v:  # kept per side (rvflex.diagnosis.null.side): + side, then − side
-            return (f"{rel(v):.2f} / +{size(v['magnitude_max_positive'])}, "
+            return (f"{relative_threshold_of(v):.2f} / +{size(v['magnitude_max_positive'])}, "
                     f"−{size(v['magnitude_max_negative'])}")
-        return f"{rel(v):.2f} / {size(v['magnitude_max'])}"
+        return f"{relative_threshold_of(v):.2f} / {size(v['magnitude_max'])}"
 
     for name, v in sorted(doc["effects"].items(), key=lambda kv: (-kv[1]["false_alarm_rate"], kv[0])):
         e = EFFECTS.get(name)

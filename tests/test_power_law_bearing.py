@@ -146,7 +146,7 @@ class _PowerNeedleUnit:
         return {"needle_exponent": self.exponent, "clearance_m": 0.0}
 
     def model(self, spec, drawn):
-        return _power_needles(spec, drawn["needle_exponent"], needle_reference_load(spec)), ErrorSpec(), None
+        return _power_needles(spec, drawn["needle_exponent"]), ErrorSpec(), None
 
     def options_for(self, drawn):
         return ModelOptions.rigid()

@@ -49,7 +49,7 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["NULL_PATH", "RELATIVE_RANK", "NullDistribution", "determined", "halves", "leave_one_out", "load_null", "null_from_reports",
-           "own_evidence", "reached", "relative_evidence", "report_singles", "side", "side_text", "signed",
+           "own_evidence", "reached", "relative_evidence", "relative_threshold_of", "report_singles", "side", "side_text", "signed",
            "unrefined_setters"]
 
 NULL_PATH = Path(__file__).with_name("null_distribution.json")
@@ -100,7 +100,7 @@ class NullDistribution:
         """The relative evidence (:func:`relative_evidence`) effect ``name`` must exceed in a finding; None when
         the distribution holds no such figure for it (not diagnosed with it, or made by an older rvflex)."""
         e = self.effects.get(name)
-        return None if e is None else _relative_threshold(e)
+        return None if e is None else relative_threshold_of(e)
 
     def magnitude_threshold(self, name: str, sign: float = 0.0) -> float | None:
         """The size effect ``name`` must exceed (None: not in the distribution); for an effect kept per side
@@ -317,13 +317,13 @@ def _named(report: dict, thresholds: dict, significant: float) -> str | None:
                 n not in thresholds for n in names):
             continue
         rel = [relative_evidence(own_evidence(e["score"], names, n, singles), e["leftover"]) for n in names]
-        if all(r > _relative_threshold(thresholds[n]) for r, n in zip(rel, names)) and all(
+        if all(r > relative_threshold_of(thresholds[n]) for r, n in zip(rel, names)) and all(
                 abs(e["magnitude"].get(n, 0.0)) > _size_threshold(thresholds[n], _side(e, n)) for n in names):
             return e["name"]
     return None
 
 
-def _relative_threshold(figures: dict) -> float | None:
+def relative_threshold_of(figures: dict) -> float | None:
     """The relative evidence a finding must exceed under an effect's null ``figures`` (:data:`RELATIVE_RANK`; a
     distribution without ``relative_threshold``: its ``relative_max``; None without either)."""
     return figures.get("relative_threshold", figures.get("relative_max"))
