@@ -643,3 +643,47 @@ def test_a_finding_tied_with_a_better_fit_that_healthy_units_reach_is_not_establ
     pair = dataclasses.replace(pair, grade=grade(pair, settings, null_pair, local, {"pin_ring_runout": 100.0}))
     assert pair.grade["healthy_reach"] == ["pin_ring_runout"]
     assert _healthy_rival([pair, phase], phase, settings, names | {"input_shaft_eccentricity"}, f0, w) is None
+
+
+def test_a_bearing_clearance_is_judged_by_the_total_with_the_calibrated_clearance():
+    """The runs determine only the crank bearings' total clearance; the calibration's prior splits it between the
+    nominal crank-bearing clearance and the effect. A healthy control whose 3.7 µm was split 2.0 µm calibrated and
+    1.6 µm effect reaches a 3.6 µm total (upper ends 2.1 + 2.0 = 4.1 µm), one with nothing strong for the effect
+    what its calibration alone reaches. A unit whose 9 µm were split 6.1 µm (the class top) and 2.2 µm is beyond
+    that though its effect's share is not; one with 1.0 µm of effect on 1.0 µm calibrated is within it."""
+    from rvflex.diagnosis.grade import grade
+    from rvflex.diagnosis.linear import Candidate
+    from rvflex.diagnosis.nominal import NOMINAL
+    from rvflex.diagnosis.null import NullDistribution, null_from_reports, total_size
+
+    name, partner = "eccentric_bearing_clearance", "crank_bearing_clearance"
+    um = 1e-6
+    split = {"name": name, "score": 50.0, "refined": True, "grade_fails": [], "accepted": False, "leftover": 600.0,
+             "magnitude": {partner: 2.0 * um, name: 1.6 * um},
+             "interval": {f"{partner}.magnitude": [1.9 * um, 2.1 * um], f"{name}.magnitude": [0.8 * um, 2.0 * um]}}
+    quiet = {"effects": [dict(split, score=4.0)],
+             "calibration": [{"name": partner, "determined": True, "interval": [4.0 * um, 4.3 * um]}]}
+    figures = null_from_reports([{"effects": [split], "calibration": []}, quiet])[name]
+    assert figures["magnitude_max"] == pytest.approx(4.3 * um) and figures["magnitude_is_total_with"] == partner
+    assert null_from_reports([{"effects": [split], "calibration": []}])[name]["magnitude_max"] == pytest.approx(4.1 * um)
+    assert total_size(name, {partner: 6.1 * um, name: 2.2 * um}) == pytest.approx(8.3 * um)
+    assert total_size("pin_ring_runout", {partner: 6.1 * um, "pin_ring_runout": 2.2 * um}) == pytest.approx(2.2 * um)
+
+    null = NullDistribution({name: figures}, unit="rv80e")
+    cal, eff = NOMINAL[partner], EFFECTS[name]
+
+    def candidate(calibrated, own):
+        size = (calibrated, own)
+        return Candidate(effects=(cal, eff), x=np.array(size), interval=np.array([[0.95 * calibrated, 1.05 * calibrated],
+                                                                                 [0.8 * own, 1.2 * own]]),
+                         magnitude=size, magnitude_interval=((0.95 * calibrated, 1.05 * calibrated), (0.8 * own, 1.2 * own)),
+                         delta=0.0, nuisance=np.zeros(0), rss=10.0, k=2, bic=0.0, refined=True, at_bound=(),
+                         model_features=np.zeros(4), score=2400.0, gap_shrink_pct=55.0, withheld={"improvement_pct": 40.0})
+
+    local = {"explained_pct": 83.0, "groups": ["TE order 80"], "leftover": 500.0}
+    beyond = grade(candidate(6.1 * um, 2.2 * um), DiagnosisSettings(), null, local, {name: 2400.0})
+    assert beyond["grade"] == ESTABLISHED, beyond["fails"]
+    within = grade(candidate(1.0 * um, 1.0 * um), DiagnosisSettings(), null, local, {name: 2400.0})
+    assert within["grade"] == CONSISTENT
+    assert within["fails"] == [f"its {name}, 2.00 µm in total with the calibrated {partner}, is within the 4.30 µm in "
+                               "total healthy units of other model forms reach (rv80e ensemble)"]

@@ -10,7 +10,8 @@ only when, besides those tests,
    effects earns a larger relative evidence (the evidence it earns on its own, all of a single's and a pair's less
    that of its other effect alone, over what the candidate leaves unexplained) than all but one of the ensemble's
    controls give that effect (:data:`~rvflex.diagnosis.null.RELATIVE_RANK`), and each effect's size exceeds the
-   largest determined size the controls reach;
+   largest determined size the controls reach (for the eccentric-bearing clearance, the total with the calibrated
+   crank-bearing clearance: the runs determine only that, :func:`~rvflex.diagnosis.null.total_size`);
    an effect the controls were not diagnosed with (absent from the distribution), or one with look-alike model
    forms the ensemble cannot draw yet (``Effect.unjudged_by``), is never established while a distribution is in
    use;
@@ -33,7 +34,8 @@ import numpy as np
 
 from rvflex.diagnosis.discrepancy import Discrepancy, residual
 from rvflex.diagnosis.linear import Candidate, Problem, split_params
-from rvflex.diagnosis.null import own_evidence, relative_evidence, side, side_text
+from rvflex.diagnosis.nominal import SAME_QUANTITY
+from rvflex.diagnosis.null import own_evidence, relative_evidence, side, side_text, total_size
 from rvflex.diagnosis.verdict import fmt_mag, fmt_pct, is_significant, undetermined_effect, withheld_confirms
 
 __all__ = ["CONSISTENT", "ESTABLISHED", "MOST", "NOT_SIGNIFICANT", "SIGNATURE_SHARE", "consistent_sentence",
@@ -139,16 +141,20 @@ def grade(c: Candidate, settings, null, local: dict, singles: dict | None = None
                  "effect's alone),")
         fails.append(f"{earns} {rel[n]:.2f} times the {leftover:.0f} the candidate leaves unexplained, not beyond the "
                      f"{t:.2f} that healthy units of other model forms reach for it{whose}")
+    sizes = {e.name: m for e, m in zip(c.effects, c.magnitude)}
     for (e, x), m in zip(split_params(c.effects, c.x), c.magnitude):
         sg = side(e.name, x)
         t = null.magnitude_threshold(e.name, sg) if null is not None else None
         if t is not None:
             mag_t[e.name] = t
-        if not e.nominal and t is not None and abs(m) <= t:
+        size = total_size(e.name, sizes)
+        if not e.nominal and t is not None and size <= t:
             reached.append(e.name)
             where = side_text(e.name, sg)
-            fails.append(f"its {e.name} of {fmt_mag(e, abs(m))} is within the {fmt_mag(e, t)} healthy units of other "
-                         f"model forms reach{where}{whose}")
+            what = (f"its {e.name} of {fmt_mag(e, abs(m))}" if size == abs(m) else
+                    f"its {e.name}, {fmt_mag(e, size)} in total with the calibrated {SAME_QUANTITY[e.name]},")
+            fails.append(f"{what} is within the {fmt_mag(e, t)} {'in total ' if size != abs(m) else ''}healthy units "
+                         f"of other model forms reach{where}{whose}")
     if null is not None:  # look-alike model forms the ensemble cannot draw: its thresholds do not bound them
         fails += [f"healthy units with {e.unjudged_by}, model forms the ensemble cannot draw yet, act where {e.name} "
                   "acts: the null distribution does not bound what they make of it" for e in c.attributed

@@ -14,7 +14,9 @@ effect, over the controls, each taken at its candidate in which the effect earns
   exceed: the second largest (:data:`RELATIVE_RANK`);
 - ``magnitude_max``: the largest size the controls reach with a determined fit (:func:`reached`: the upper end of
   the size's 95 % interval, where the evidence is significant, the interval excludes zero and no parameter sits
-  at its bound; 0 elsewhere); for an effect kept per side (:func:`signed`: a one-parameter effect whose range
+  at its bound; 0 elsewhere); for an effect on the same quantity as a nominal parameter (the eccentric-bearing
+  clearance), the total of the two (:func:`total_size`), also as the calibration alone reaches it; for an effect
+  kept per side (:func:`signed`: a one-parameter effect whose range
   spans both signs, or a two-parameter one whose parameters of one sign nearly cancel), ``magnitude_max_positive``
   and ``magnitude_max_negative``, the largest on each side (:func:`side`), which a finding on that side must
   exceed;
@@ -48,9 +50,11 @@ from pathlib import Path
 
 import numpy as np
 
+from rvflex.diagnosis.nominal import SAME_QUANTITY
+
 __all__ = ["NULL_PATH", "RELATIVE_RANK", "NullDistribution", "determined", "halves", "leave_one_out", "load_null", "null_from_reports",
            "own_evidence", "reached", "relative_evidence", "relative_threshold_of", "report_singles", "side", "side_text", "signed",
-           "unrefined_setters"]
+           "total_size", "unrefined_setters"]
 
 NULL_PATH = Path(__file__).with_name("null_distribution.json")
 """The null distribution shipped with the package (made by ``rvflex null-distribution``)."""
@@ -178,7 +182,31 @@ def reached(entry: dict, name: str) -> float:
     given. A control's fitted size is an estimate as a finding's is: taken at its point value, the thresholds
     moved by a micrometre with every re-fit of the same controls (measured, RV-80E: the largest pin-ring runout
     6.8 µm or 8.2 µm as the modification deviation's secants changed, a crank phase error's 7.8 µm runout
-    stand-in on one side of it or the other); its interval's upper end (7.8 µm) covers that."""
+    stand-in on one side of it or the other); its interval's upper end (7.8 µm) covers that. For an effect on the
+    same quantity as a nominal parameter (:data:`~rvflex.diagnosis.nominal.SAME_QUANTITY`), the total the runs
+    determine: that upper end plus the calibrated parameter's (:func:`total_size`)."""
+    partner = SAME_QUANTITY.get(name)
+    if partner is not None:
+        iv = (entry.get("interval") or {}).get(f"{partner}.magnitude")
+        return _own_reached(entry, name) + abs(float(iv[1] if iv is not None else entry["magnitude"].get(partner, 0.0)))
+    return _own_reached(entry, name)
+
+
+def total_size(name: str, magnitudes: dict) -> float:
+    """The size of effect ``name`` as the null distribution judges it, from a candidate's ``magnitudes`` (effect or
+    nominal parameter → magnitude): its own, or for an effect on the same quantity as a nominal parameter
+    (:data:`~rvflex.diagnosis.nominal.SAME_QUANTITY`: the eccentric-bearing clearance and the calibrated crank-bearing
+    clearance) the total of the two. The runs determine only the total, and how they split it is the calibration's
+    prior, not the unit: a healthy RV-80E control with 3.7 µm of clearance was split 2.0 µm calibrated and 1.6 µm
+    effect, an independent simulator's unit with 9 µm 6.1 µm (the class top) and 2.2 µm. Judged by the effect's
+    share, the second is within what the first reaches; by the total, it is beyond every control."""
+    own = abs(float(magnitudes.get(name, 0.0)))
+    partner = SAME_QUANTITY.get(name)
+    return own + abs(float(magnitudes.get(partner, 0.0))) if partner is not None else own
+
+
+def _own_reached(entry: dict, name: str) -> float:
+    """:func:`reached` for the effect's own size alone."""
     size = abs(float(entry["magnitude"].get(name, 0.0)))
     iv = entry.get("interval") or {}
     if not isinstance(iv, dict):
@@ -232,19 +260,23 @@ def null_from_reports(reports: list[dict], significant: float = 10.0) -> dict:
     diagnosis documents (``rvflex diagnose --json``). Each control is taken at its candidate in which the effect
     earns the most evidence on its own (:func:`own_evidence`); where that evidence reaches ``significant`` (the
     diagnosis's ``bic_threshold``) it gives its relative evidence (:func:`relative_evidence`, the entry's
-    ``leftover``) and, where the fit is also :func:`determined`, its size (:func:`reached`); 0 otherwise. An effect
-    kept per side (:func:`signed`) also has ``magnitude_max_positive`` and ``magnitude_max_negative``, the largest
+    ``leftover``) and, where the fit is also :func:`determined`, its size (:func:`reached`); 0 otherwise. For an
+    effect on the same quantity as a nominal parameter, the size is the total (:func:`total_size`; the entry's
+    ``magnitude_is_total_with`` names the parameter), and the largest includes what each control's calibration
+    alone reaches. An effect kept per side (:func:`signed`) also has ``magnitude_max_positive`` and ``magnitude_max_negative``, the largest
     size on each side (:func:`side`)."""
     out = {}
     for name, rows in _rows(reports, significant).items():
         if rows:
-            rel, mag = [r["relative"] for r in rows], [r["size"] for r in rows]
+            rel, mag = [r["relative"] for r in rows], [max(r["size"], r["calibrated"]) for r in rows]
             ranked = sorted(rel, reverse=True)
             out[name] = {"relative_max": float(ranked[0]),
                          "relative_threshold": float(ranked[min(RELATIVE_RANK, len(ranked)) - 1]),
                          "magnitude_max": float(max(mag)),
                          "evidence_max": float(max(r["evidence"] for r in rows)),
                          "false_alarm_rate": sum(r["alarm"] for r in rows) / len(rows), "controls": len(rows)}
+            if name in SAME_QUANTITY:
+                out[name]["magnitude_is_total_with"] = SAME_QUANTITY[name]
             if signed(name):  # a control on the dividing line (side 0: a parameter held at zero) counts on both
                 out[name] |= {f"magnitude_max_{k}": float(max([r["size"] for r in rows if r["side"] * v >= 0] or [0.0]))
                               for k, v in (("positive", 1.0), ("negative", -1.0))}
@@ -256,7 +288,8 @@ def _rows(reports: list[dict], significant: float) -> dict:
     candidate in which the effect earns the most evidence on its own (``candidate``, its name; ``refined``),
     that evidence (``evidence``, ≥ 0), its relative evidence and size as :func:`null_from_reports` counts them
     (``relative``, ``size``: 0 where not counted), its ``side`` and whether any candidate with it was accepted
-    (``alarm``)."""
+    (``alarm``); for an effect on the same quantity as a nominal parameter, ``calibrated``: what the control's
+    calibration alone reaches of it (:func:`_calibrated_reach`; 0 for every other effect)."""
     names = sorted({n for d in reports for e in d["effects"] for n in e["name"].split(" + ")})
     singles_of = [report_singles(d) for d in reports]  # once per report, not once per effect name
     out = {}
@@ -276,8 +309,18 @@ def _rows(reports: list[dict], significant: float) -> dict:
                          "evidence": max(own[i], 0.0),
                          "relative": relative_evidence(own[i], best["leftover"]) if strong else 0.0,
                          "size": reached(best, name) if strong and determined(best, name) else 0.0,
+                         "calibrated": _calibrated_reach(d, SAME_QUANTITY[name]) if name in SAME_QUANTITY else 0.0,
                          "side": _side(best, name), "alarm": any(e["accepted"] for e in having)})
     return out
+
+
+def _calibrated_reach(report: dict, name: str) -> float:
+    """The upper end of nominal parameter ``name``'s 95 % interval in a diagnosis document's calibration (0 when
+    it was not calibrated or the runs did not determine it)."""
+    for row in report.get("calibration", ()):
+        if row["name"] == name and row.get("determined"):
+            return abs(float(row["interval"][1]))
+    return 0.0
 
 
 def unrefined_setters(reports: list[dict], significant: float = 10.0, tried: set | None = None) -> dict:
@@ -318,7 +361,7 @@ def _named(report: dict, thresholds: dict, significant: float) -> str | None:
             continue
         rel = [relative_evidence(own_evidence(e["score"], names, n, singles), e["leftover"]) for n in names]
         if all(r > relative_threshold_of(thresholds[n]) for r, n in zip(rel, names)) and all(
-                abs(e["magnitude"].get(n, 0.0)) > _size_threshold(thresholds[n], _side(e, n)) for n in names):
+                total_size(n, e["magnitude"]) > _size_threshold(thresholds[n], _side(e, n)) for n in names):
             return e["name"]
     return None
 
