@@ -60,7 +60,20 @@ def own_change(c: Candidate) -> np.ndarray:
     return out
 
 
-def explained_where_it_lies(prob: Problem, c: Candidate, base_residual: np.ndarray, disc: Discrepancy) -> dict:
+def off_period_rows(prob: Problem, period: int) -> np.ndarray:
+    """The TE features (cos and sin coefficients of every TE run) at the orders that are not multiples of
+    ``period`` (the unit's pin count z_b): where no healthy unit has TE (:func:`off_period_evidence`)."""
+    lay = prob.lay
+    rows = []
+    for r in lay.te_runs:
+        for sl in (lay.cos[r], lay.sin[r]):
+            k = np.arange(1, sl.stop - sl.start + 1)
+            rows.append(np.arange(sl.start, sl.stop)[k % period != 0])
+    return np.concatenate(rows) if rows else np.zeros(0, int)
+
+
+def explained_where_it_lies(prob: Problem, c: Candidate, base_residual: np.ndarray, disc: Discrepancy,
+                            period: int | None = None) -> dict:
     """Where ``c``'s signature lies and how much of the calibrated model's residual there it removes
     (``base_residual``: that model's weighted residual, :func:`~rvflex.diagnosis.discrepancy.residual`).
 
@@ -77,10 +90,14 @@ def explained_where_it_lies(prob: Problem, c: Candidate, base_residual: np.ndarr
     groups = disc.groups
     rb, rc = base_residual, residual(prob, c)
     leftover = float(rc @ rc) / disc.pooled
+    extra = {}
+    if period:
+        off = off_period_rows(prob, period)
+        extra["off_period_evidence"] = float(rb[off] @ rb[off] - rc[off] @ rc[off]) / disc.pooled
     s = own_change(c) * prob.w
     e = np.array([g.energy(s) for g in groups])
     if not e.sum() > 0:
-        return {"leftover": leftover}
+        return {"leftover": leftover} | extra
     order = np.argsort(-e)
     cum = np.cumsum(e[order]) / e.sum()
     where = [groups[i] for i in order[:int(np.searchsorted(cum, SIGNATURE_SHARE)) + 1]]
@@ -88,10 +105,11 @@ def explained_where_it_lies(prob: Problem, c: Candidate, base_residual: np.ndarr
     left = sum(g.energy(rc / prob.w) for g in where) / sum(g.size for g in where)
     return {"leftover": leftover, "groups": [g.label for g in where],
             "explained_pct": 100.0 * (before - after) / before if before > 0 else 0.0,
-            "left_rms_arcsec": float(np.sqrt(left))}
+            "left_rms_arcsec": float(np.sqrt(left))} | extra
 
 
-def grade(c: Candidate, settings, null, local: dict, singles: dict | None = None) -> dict:
+def grade(c: Candidate, settings, null, local: dict, singles: dict | None = None,
+          singles_off: dict | None = None) -> dict:
     """The grade of candidate ``c`` (see the module docstring).
 
     Parameters
@@ -106,6 +124,9 @@ def grade(c: Candidate, settings, null, local: dict, singles: dict | None = None
     singles : dict, optional
         Effect → evidence of the single-effect candidates of the same diagnosis: what each effect of a pair earns
         on its own (:func:`~rvflex.diagnosis.null.own_evidence`).
+    singles_off : dict, optional
+        Effect → off-period evidence (``local["off_period_evidence"]``) of the single-effect candidates: what each
+        effect of a pair earns on its own there.
 
     Returns
     -------
@@ -114,8 +135,12 @@ def grade(c: Candidate, settings, null, local: dict, singles: dict | None = None
         test it fails), ``own_evidence`` and ``relative_evidence`` (effect → the evidence it earns on its own here,
         and that over ``leftover``, what the candidate leaves unexplained), ``relative_thresholds`` (effect → the
         relative evidence the ensemble's controls reach, None where the null has none), ``magnitude_thresholds``
-        (effect → size they reach), ``explained_where_pct``, ``signature_groups`` and ``healthy_reach`` (its effects
-        that do not exceed a threshold of the null distribution: healthy units of other model forms reach them).
+        (effect → size they reach), ``explained_where_pct``, ``signature_groups``, ``healthy_reach`` (its effects
+        that do not exceed a threshold of the null distribution: healthy units of other model forms reach them),
+        ``off_period_evidence`` (the candidate's), ``own_off_period_evidence`` (effect → its own share),
+        ``off_period_thresholds`` (effect → the most the controls give it, None where the null has none) and
+        ``off_period_beyond`` (its effects whose size is within the controls' but whose off-period evidence is
+        beyond theirs).
     """
     names = [e.name for e in c.attributed]
     own = {n: own_evidence(c.score, names, n, singles or {}) for n in names}
@@ -126,7 +151,13 @@ def grade(c: Candidate, settings, null, local: dict, singles: dict | None = None
     whose = f" ({null.unit} ensemble)" if null is not None and null.unit else ""
     out = {"own_evidence": own, "leftover": leftover, "relative_evidence": rel, "relative_thresholds": rel_ts,
            "magnitude_thresholds": mag_t, "null_unit": (null.unit or "all units") if null is not None else None,
-           "explained_where_pct": local.get("explained_pct"), "signature_groups": local.get("groups", [])}
+           "explained_where_pct": local.get("explained_pct"), "signature_groups": local.get("groups", []),
+           "off_period_evidence": local.get("off_period_evidence")}
+    off = local.get("off_period_evidence")
+    own_off = {n: own_evidence(off, names, n, singles_off or {}) for n in names} if off is not None else {}
+    off_t = {n: null.off_period_threshold(n) for n in names} if null is not None else {}
+    out |= {"own_off_period_evidence": own_off, "off_period_thresholds": off_t}
+    beyond = []  # its effects beyond the controls at the orders no healthy unit has, whatever their size
     if not is_significant(c, settings):
         return out | {"grade": NOT_SIGNIFICANT, "fails": [f"its evidence {c.score:.0f} is below {settings.bic_threshold:g}"]}
     fails = _failed_tests(c, settings)
@@ -149,6 +180,10 @@ def grade(c: Candidate, settings, null, local: dict, singles: dict | None = None
             mag_t[e.name] = t
         size = total_size(e.name, sizes)
         if not e.nominal and t is not None and size <= t:
+            o, ot = own_off.get(e.name), off_t.get(e.name)
+            if o is not None and ot is not None and o >= settings.bic_threshold and o > ot:
+                beyond.append(e.name)
+                continue
             reached.append(e.name)
             where = side_text(e.name, sg)
             what = (f"its {e.name} of {fmt_mag(e, abs(m))}" if size == abs(m) else
@@ -169,7 +204,7 @@ def grade(c: Candidate, settings, null, local: dict, singles: dict | None = None
                      f"lies ({where})")
     note = "" if null is not None else "not judged against healthy units of other model forms (no null distribution)"
     return out | {"grade": CONSISTENT if fails else ESTABLISHED, "fails": fails, "note": note,
-                  "healthy_reach": sorted(set(reached))}
+                  "healthy_reach": sorted(set(reached)), "off_period_beyond": beyond}
 
 
 def _failed_tests(c: Candidate, settings) -> list[str]:

@@ -106,6 +106,13 @@ class NullDistribution:
         e = self.effects.get(name)
         return None if e is None else relative_threshold_of(e)
 
+    def off_period_threshold(self, name: str) -> float | None:
+        """The off-period evidence (:func:`rvflex.diagnosis.grade.off_period_rows`) effect ``name`` must exceed for
+        its size not to be held against the controls' (None: no such figure, a distribution made by an older
+        rvflex)."""
+        e = self.effects.get(name)
+        return None if e is None else e.get("off_period_max")
+
     def magnitude_threshold(self, name: str, sign: float = 0.0) -> float | None:
         """The size effect ``name`` must exceed (None: not in the distribution); for an effect kept per side
         (:func:`signed`), the threshold of the side ``sign`` (> 0 or < 0, :func:`side`) when one is given."""
@@ -232,9 +239,10 @@ def own_evidence(score: float, names: list[str], name: str, singles: dict) -> fl
     return float(score) - max(others + [0.0])
 
 
-def report_singles(report: dict) -> dict:
-    """Effect → evidence of the single-effect candidates of a diagnosis document."""
-    return {e["name"]: float(e["score"]) for e in report["effects"] if " + " not in e["name"]}
+def report_singles(report: dict, key: str = "score") -> dict:
+    """Effect → evidence (or another figure ``key``, where given) of the single-effect candidates of a diagnosis
+    document."""
+    return {e["name"]: float(e[key]) for e in report["effects"] if " + " not in e["name"] and e.get(key) is not None}
 
 
 def determined(entry: dict, name: str) -> bool:
@@ -277,6 +285,9 @@ def null_from_reports(reports: list[dict], significant: float = 10.0) -> dict:
                          "false_alarm_rate": sum(r["alarm"] for r in rows) / len(rows), "controls": len(rows)}
             if name in SAME_QUANTITY:
                 out[name]["magnitude_is_total_with"] = SAME_QUANTITY[name]
+            offs = [r["off_period"] for r in rows if r["off_period"] is not None]
+            if offs:
+                out[name]["off_period_max"] = float(max(offs))
             if signed(name):  # a control on the dividing line (side 0: a parameter held at zero) counts on both
                 out[name] |= {f"magnitude_max_{k}": float(max([r["size"] for r in rows if r["side"] * v >= 0] or [0.0]))
                               for k, v in (("positive", 1.0), ("negative", -1.0))}
@@ -292,10 +303,11 @@ def _rows(reports: list[dict], significant: float) -> dict:
     calibration alone reaches of it (:func:`_calibrated_reach`; 0 for every other effect)."""
     names = sorted({n for d in reports for e in d["effects"] for n in e["name"].split(" + ")})
     singles_of = [report_singles(d) for d in reports]  # once per report, not once per effect name
+    singles_off_of = [report_singles(d, "off_period_evidence") for d in reports]
     out = {}
     for name in names:
         rows = out[name] = []
-        for k, (d, singles) in enumerate(zip(reports, singles_of)):
+        for k, (d, singles, singles_off) in enumerate(zip(reports, singles_of, singles_off_of)):
             having = [e for e in d["effects"] if name in e["name"].split(" + ")]
             if not having:
                 continue
@@ -305,7 +317,10 @@ def _rows(reports: list[dict], significant: float) -> dict:
             if strong and "leftover" not in best:
                 raise ValueError(f"a control's candidate {best['name']!r} has no 'leftover': its report was made by an "
                                  "older rvflex (rebuild the null distribution: rvflex null-distribution)")
+            offs = [own_evidence(e["off_period_evidence"], e["name"].split(" + "), name, singles_off)
+                    for e in having if e.get("off_period_evidence") is not None]
             rows.append({"control": k, "candidate": best["name"], "refined": bool(best.get("refined")),
+                         "off_period": max(offs) if offs else None,
                          "evidence": max(own[i], 0.0),
                          "relative": relative_evidence(own[i], best["leftover"]) if strong else 0.0,
                          "size": reached(best, name) if strong and determined(best, name) else 0.0,
@@ -353,7 +368,7 @@ def _named(report: dict, thresholds: dict, significant: float) -> str | None:
     ``thresholds`` (effect → :func:`null_from_reports` figures): the first refined one by score that passed every
     other test and lies beyond the thresholds of its effects, each by its own relative evidence (an effect without
     figures: never)."""
-    singles = report_singles(report)
+    singles, singles_off = report_singles(report), report_singles(report, "off_period_evidence")
     for e in report["effects"]:
         names = e["name"].split(" + ")
         if not e.get("refined") or e["score"] < significant or e.get("grade_fails") or any(
@@ -361,9 +376,21 @@ def _named(report: dict, thresholds: dict, significant: float) -> str | None:
             continue
         rel = [relative_evidence(own_evidence(e["score"], names, n, singles), e["leftover"]) for n in names]
         if all(r > relative_threshold_of(thresholds[n]) for r, n in zip(rel, names)) and all(
-                total_size(n, e["magnitude"]) > _size_threshold(thresholds[n], _side(e, n)) for n in names):
+                total_size(n, e["magnitude"]) > _size_threshold(thresholds[n], _side(e, n))
+                or _off_period_beyond(e, n, thresholds[n], singles_off, significant) for n in names):
             return e["name"]
     return None
+
+
+def _off_period_beyond(entry: dict, name: str, figures: dict, singles_off: dict, significant: float) -> bool:
+    """Whether effect ``name`` of a report's effect ``entry`` earns an off-period evidence of its own beyond
+    ``significant`` and the controls' ``off_period_max`` in ``figures`` (the grade's rule,
+    :func:`rvflex.diagnosis.grade.grade`)."""
+    off, top = entry.get("off_period_evidence"), figures.get("off_period_max")
+    if off is None or top is None:
+        return False
+    own = own_evidence(off, entry["name"].split(" + "), name, singles_off)
+    return own >= significant and own > top
 
 
 def relative_threshold_of(figures: dict) -> float | None:

@@ -337,9 +337,13 @@ def json_document(diag) -> dict:
             "signature_groups": list(c.grade.get("signature_groups", [])),
             "own_evidence": c.grade.get("own_evidence") or {},
             "leftover": c.grade.get("leftover"),
+            "off_period_evidence": c.grade.get("off_period_evidence"),
             "relative_evidence": c.grade.get("relative_evidence") or {},
             "null_relative_thresholds": c.grade.get("relative_thresholds") or {},
             "null_magnitude_thresholds": c.grade.get("magnitude_thresholds") or {},
+            "own_off_period_evidence": c.grade.get("own_off_period_evidence") or {},
+            "null_off_period_thresholds": c.grade.get("off_period_thresholds") or {},
+            "off_period_beyond": list(c.grade.get("off_period_beyond", [])),
             "null_unit": c.grade.get("null_unit"),
         })
     ref = chosen or (diag.candidates[0] if diag.candidates else None)

@@ -96,8 +96,10 @@ def run(cands: Candidates) -> Evidence:
     null = _null_of(settings, feat.runner.spec)
     r_cal = residual(prob, none)  # what calibration left, once for every candidate
     singles = {c.attributed[0].name: c.score for c in out if len(c.attributed) == 1}
-    out = [dc.replace(c, grade=grade(c, settings, null, explained_where_it_lies(prob, c, r_cal, disc), singles))
-           for c in out]
+    period = feat.runner.spec.cycloid.pin_count  # a healthy unit repeats itself every pin pitch of the output
+    local = [explained_where_it_lies(prob, c, r_cal, disc, period) for c in out]
+    singles_off = {c.attributed[0].name: lo["off_period_evidence"] for c, lo in zip(out, local) if len(c.attributed) == 1}
+    out = [dc.replace(c, grade=grade(c, settings, null, lo, singles, singles_off)) for c, lo in zip(out, local)]
     return Evidence(cands, tuple(out), failed)
 
 
