@@ -419,3 +419,45 @@ def test_an_order_beside_the_pin_passing_is_named_a_sideband():
         assert row["note"].startswith("no part turns at this order itself: a sideband")
         assert f"{harmonic}× pin passing {sign} 2: output flange" in row["note"]
     assert k37["sidebands"] == [] and k37["note"] == NO_PART_NOTE
+
+
+def test_a_runout_in_a_unit_with_needle_clearance_shows_off_the_pin_period_at_part_load():
+    """RV-80E (z_b = 40, z_c = 39) with 2 µm of clearance in every eccentric (needle) bearing: an 8 µm pin-ring
+    runout lets the discs float against the ring the carrier carries them past once per output revolution, so
+    besides 2·z_c = 78 it shows at 2 (twice the carrier against the housing), at 2·z_b ± 2 = 78, 82 and at
+    2·z_c + 2·z_b = 158 (the sidebands of the bearings' order), orders no healthy unit has (not multiples of z_b).
+    The free play is what makes them: without clearance the runout gives ≤ 0.02″ there; rated torque closes it
+    (≤ 15 % of the part-load amplitudes). The table names the runout at those orders."""
+    from rvflex.model import build_reducer
+    from rvflex.solve import quasi_static
+
+    spec = catalog.load("rv80e")
+    n = 576  # > 2·158 samples per output revolution; every order below 288 resolved
+
+    def amplitudes(clearance: float, runout: float, load: float) -> np.ndarray:
+        errors = ErrorSpec(pin_ring_runout_m=runout, pin_ring_runout_phase_rad=0.8,
+                           eccentric_bearing_clearance_m=(clearance,) * 4)
+        model = build_reducer(spec, errors)
+        theta = np.linspace(0.0, 2 * np.pi * model.ratio, n, endpoint=False)
+        return order_spectrum(quasi_static(model, theta, load).te_rad, 1.0)[1]
+
+    orders = [2, 78, 82, 158]
+    part = amplitudes(2 * UM, 8 * UM, 240.0)
+    assert all(part[k] > 0.1 for k in orders), part[orders]
+    assert all(amplitudes(0.0, 8 * UM, 240.0)[k] < 0.02 for k in orders)
+    assert all(k % spec.cycloid.pin_count for k in orders)
+    rated = amplitudes(2 * UM, 8 * UM, spec.rated_torque_Nm)
+    assert all(rated[k] < 0.15 * part[k] for k in orders), rated[orders] / part[orders]
+    assert part[80] == pytest.approx(amplitudes(2 * UM, 0.0, 240.0)[80], rel=0.25)  # the clearance's own order
+    assert all("pin_ring_runout" in row["candidates"] for row in name_orders(spec, orders))
+
+    # three cranks hold the discs: on the RV-160N the same runout and clearance give nothing at 2 (the runout's
+    # 2·z_c grows instead), and the table does not name the runout there
+    s3 = catalog.load("rv160n")
+    errors = ErrorSpec(pin_ring_runout_m=8 * UM, pin_ring_runout_phase_rad=0.8,
+                       eccentric_bearing_clearance_m=(2 * UM,) * (s3.cranks.count * len(s3.cycloid.disc_phase_rad)))
+    model = build_reducer(s3, errors)
+    theta = np.linspace(0.0, 2 * np.pi * model.ratio, n, endpoint=False)
+    three = order_spectrum(quasi_static(model, theta, 0.3 * s3.rated_torque_Nm).te_rad, 1.0)[1]
+    assert three[2] < 0.01 and three[78] > 0.1
+    assert "pin_ring_runout" not in name_orders(s3, [2])[0]["candidates"]

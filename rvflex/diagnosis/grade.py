@@ -11,7 +11,11 @@ only when, besides those tests,
    that of its other effect alone, over what the candidate leaves unexplained) than all but one of the ensemble's
    controls give that effect (:data:`~rvflex.diagnosis.null.RELATIVE_RANK`), and each effect's size exceeds the
    largest determined size the controls reach (for the eccentric-bearing clearance, the total with the calibrated
-   crank-bearing clearance: the runs determine only that, :func:`~rvflex.diagnosis.null.total_size`);
+   crank-bearing clearance: the runs determine only that, :func:`~rvflex.diagnosis.null.total_size`), or its own
+   evidence at the orders no healthy unit has (:func:`off_period_rows`: not multiples of z_b; a unit without part
+   errors repeats itself every pin pitch of the output whatever its model form) is significant and exceeds
+   :data:`~rvflex.diagnosis.null.OFF_PERIOD_MARGIN` times the most any control's candidate gives it
+   (``off_period_max``);
    an effect the controls were not diagnosed with (absent from the distribution), or one with look-alike model
    forms the ensemble cannot draw yet (``Effect.unjudged_by``), is never established while a distribution is in
    use;
@@ -35,7 +39,7 @@ import numpy as np
 from rvflex.diagnosis.discrepancy import Discrepancy, residual
 from rvflex.diagnosis.linear import Candidate, Problem, split_params
 from rvflex.diagnosis.nominal import SAME_QUANTITY
-from rvflex.diagnosis.null import own_evidence, relative_evidence, side, side_text, total_size
+from rvflex.diagnosis.null import OFF_PERIOD_MARGIN, own_evidence, relative_evidence, side, side_text, total_size
 from rvflex.diagnosis.verdict import fmt_mag, fmt_pct, is_significant, undetermined_effect, withheld_confirms
 
 __all__ = ["CONSISTENT", "ESTABLISHED", "MOST", "NOT_SIGNIFICANT", "SIGNATURE_SHARE", "consistent_sentence",
@@ -181,7 +185,7 @@ def grade(c: Candidate, settings, null, local: dict, singles: dict | None = None
         size = total_size(e.name, sizes)
         if not e.nominal and t is not None and size <= t:
             o, ot = own_off.get(e.name), off_t.get(e.name)
-            if o is not None and ot is not None and o >= settings.bic_threshold and o > ot:
+            if o is not None and ot is not None and o >= settings.bic_threshold and o > OFF_PERIOD_MARGIN * ot:
                 beyond.append(e.name)
                 continue
             reached.append(e.name)

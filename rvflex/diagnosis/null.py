@@ -52,12 +52,19 @@ import numpy as np
 
 from rvflex.diagnosis.nominal import SAME_QUANTITY
 
-__all__ = ["NULL_PATH", "RELATIVE_RANK", "NullDistribution", "determined", "halves", "leave_one_out", "load_null", "null_from_reports",
+__all__ = ["NULL_PATH", "OFF_PERIOD_MARGIN", "RELATIVE_RANK", "NullDistribution", "determined", "halves", "leave_one_out", "load_null", "null_from_reports",
            "own_evidence", "reached", "relative_evidence", "relative_threshold_of", "report_singles", "side", "side_text", "signed",
            "total_size", "unrefined_setters"]
 
 NULL_PATH = Path(__file__).with_name("null_distribution.json")
 """The null distribution shipped with the package (made by ``rvflex null-distribution``)."""
+
+OFF_PERIOD_MARGIN = 2.0
+"""An effect's own off-period evidence must exceed OFF_PERIOD_MARGIN times the most any control gives it for its
+size not to be held against the controls' (:func:`rvflex.diagnosis.grade.grade`). The rule loosens the acceptance,
+so its threshold stands clear of the controls' top, where their figures sit close together (RV-80E, a
+modification deviation: 63.5, 61.9, 59.6, 59.2): at the largest alone, the control that sets it is named when
+held out (1 of 168, ``leave_one_out``)."""
 
 RELATIVE_RANK = 2
 """The relative evidence a finding must exceed is the controls' RELATIVE_RANK-th largest for its effect (the size
@@ -384,13 +391,13 @@ def _named(report: dict, thresholds: dict, significant: float) -> str | None:
 
 def _off_period_beyond(entry: dict, name: str, figures: dict, singles_off: dict, significant: float) -> bool:
     """Whether effect ``name`` of a report's effect ``entry`` earns an off-period evidence of its own beyond
-    ``significant`` and the controls' ``off_period_max`` in ``figures`` (the grade's rule,
+    ``significant`` and :data:`OFF_PERIOD_MARGIN` times the controls' ``off_period_max`` in ``figures`` (the grade's rule,
     :func:`rvflex.diagnosis.grade.grade`)."""
     off, top = entry.get("off_period_evidence"), figures.get("off_period_max")
     if off is None or top is None:
         return False
     own = own_evidence(off, entry["name"].split(" + "), name, singles_off)
-    return own >= significant and own > top
+    return own >= significant and own > OFF_PERIOD_MARGIN * top
 
 
 def relative_threshold_of(figures: dict) -> float | None:

@@ -42,6 +42,11 @@ positions per output revolution; amplitudes per typical step of the effect):
   0.059″ RV-160N), nothing at 39; 2-lobed pins 5 µm → 78 (9.9″), 156, 234; 3-lobed → 234 = 6·z_c
   (1.44″), nothing at 117; 4-lobed (``pin_position_h4``) → 156 = 4·z_c (2.54″ for 4 µm RV-40E, 0.47″ for
   2 µm RV-160N), 312;
+- where the needle bearings' clearance is open (part load) a pin-ring runout on a two-crank unit also shows off
+  the pin period: the discs float against the ring the carrier carries them past once per output revolution, an
+  even response at 2 and at the crank harmonics' sidebands 2·z_b ± 2, 4·z_b − 2 (RV-80E, 2 µm clearance, 8 µm at
+  240 N·m: 2 0.32″, 82 0.15″, 158 0.23″, beside 78 0.53″; ≤ 15 % of it at rated torque; nothing without
+  clearance, nothing on the three-crank RV-160N): ``PartError.condition``, left out of :func:`lacking_lookalikes`;
 - a pin ring tilted against the crank axis (``ErrorSpec.pin_ring_tilt_rad``: the discs see the ring offset
   oppositely) shows at z_c, where the runout's phases cancel: 2 µm at each disc plane → 39 (8.2″ RV-40E,
   5.1″ RV-160N; at 100, 800 and 1800 N·m alike on the RV-160N), 78 (0.15″, 0.08″), nothing at 117
@@ -102,11 +107,12 @@ from rvflex.spec import ReducerSpec
 __all__ = ["MEAN_ONLY", "PART_ERRORS", "NO_PART_NOTE", "HarmonicRule", "PartError", "PartRotation", "effects_at",
            "lacking_lookalikes", "name_orders", "parts_at", "rotations"]
 
-HarmonicRule = Literal["any", "first", "discs_housing", "discs_housing_tilt", "discs_carrier", "cranks_carrier",
-                       "planets"]
+HarmonicRule = Literal["any", "first", "two_cranks_even", "discs_housing", "discs_housing_tilt", "discs_carrier",
+                       "cranks_carrier", "planets"]
 """At which harmonics of its part an error shows in the TE:
 
-``"any"``: every harmonic m; ``"first"``: m = 1 only; ``"discs_housing"``: an error fixed in the housing
+``"any"``: every harmonic m; ``"first"``: m = 1 only; ``"two_cranks_even"``: even m on a two-crank unit, none on others (the
+discs floating in their bearings' free play against a runout: an even response; three cranks hold them); ``"discs_housing"``: an error fixed in the housing
 and swept by the load zone, at TE order n·z_c where the discs' eccentric phases φ_d do not cancel
 (Σ_d exp(i·n·φ_d) ≠ 0); ``"discs_housing_tilt"``: a once-round error that the discs see with opposite signs
 (a tilted pin ring: disc d at axial position z_d sees it ∝ z_d), at z_c itself where Σ_d z_d·exp(i·φ_d) ≠ 0 (two
@@ -134,12 +140,16 @@ class PartError:
         Names of the effects in :data:`rvflex.diagnosis.effects.EFFECTS` that model it (empty: none).
     rule : HarmonicRule
         Which harmonics of its part's order it shows at in the TE (measured on the rigid model).
+    condition : str
+        When it shows only under a condition (the needle bearings' clearance open): the condition in words; ""
+        always. :func:`lacking_lookalikes` leaves such signatures out.
     """
 
     key: str
     description: str
     effects: tuple[str, ...]
     rule: HarmonicRule = "any"
+    condition: str = ""
 
     def __post_init__(self) -> None:
         if self.rule not in get_args(HarmonicRule):
@@ -214,6 +224,14 @@ PART_ERRORS: dict[str, PartError] = {e.key: e for e in (
               "discs_housing"),
     PartError("pin_ring_runout", "pin-ring runout (1 lobe) or a main-bearing seat offset in the housing",
               ("pin_ring_runout",), "discs_housing"),
+    # measured (tests/test_orders.py): the rigid RV-80E with 2 µm of needle clearance, an 8 µm runout at 240 N·m →
+    # 2 (0.32″), 82 (0.15″), 158 (0.23″) beside 78 (0.53″); ≤ 0.02″ there without clearance, ≤ 15 % at rated
+    # torque; the RV-40E alike (0.25″ at 2, 0.21″ at 158 at 30 % load); the three-crank RV-160N nothing (< 0.005″)
+    PartError("pin_ring_runout_free_play", "pin-ring runout the discs float against in their bearings' free play",
+              ("pin_ring_runout",), "two_cranks_even", "with the needle bearings' clearance open (part load)"),
+    PartError("pin_ring_runout_free_play_carrier", "pin-ring runout modulating the bearings' free play at the crank "
+              "harmonics", ("pin_ring_runout",), "two_cranks_even",
+              "with the needle bearings' clearance open (part load)"),
     PartError("pin_ring_tilt", "pin-ring tilt against the crank axis (pin bores not parallel to it, or a ring offset "
               "that differs between the disc planes): the discs see the ring offset oppositely", ("pin_ring_tilt",),
               "discs_housing_tilt"),
@@ -263,7 +281,7 @@ def rotations(spec: ReducerSpec) -> tuple[PartRotation, ...]:
     rj, rb = spec.cranks.eccentric_journal_radius_m, spec.cranks.disc_bore_radius_m
     out = [
         PartRotation("output", "output flange, carrier and output encoder", Fraction(1), "housing",
-                     ("output_encoder_eccentricity", "output_runout", "main_bearing_race")),
+                     ("output_encoder_eccentricity", "output_runout", "main_bearing_race", "pin_ring_runout_free_play")),
         PartRotation("discs", "cycloid discs (their own rotation)", Fraction(1), "housing"),
         PartRotation("crank_pattern", f"crank-count pattern ({nc} cranks on the carrier)", Fraction(nc), "housing",
                      ("crank_pattern",)),
@@ -283,7 +301,7 @@ def rotations(spec: ReducerSpec) -> tuple[PartRotation, ...]:
         PartRotation("eccentric_bearing_cages", "eccentric (needle) bearing cages (rolling without slip)",
                      crank_carrier * _fraction(rj / (rj + rb)), "discs", ("eccentric_bearing_cage",)),
         PartRotation("pin_passing", "pin passing (the pins past a point of the carrier and discs)",
-                     Fraction(zb), "carrier"),
+                     Fraction(zb), "carrier", ("pin_ring_runout_free_play_carrier",)),
         PartRotation("crank_housing", "cranks against the pin ring (the load zone sweeping the pins)", crank_housing,
                      "housing", ("pin_errors", "pin_ring_runout", "pin_ring_tilt")),
     ]
@@ -363,6 +381,8 @@ def _shows(err: PartError, spec: ReducerSpec, order: Fraction, m: int) -> tuple[
         return True, False
     if rule == "first":
         return m == 1, False
+    if rule == "two_cranks_even":
+        return nc == 2 and m % 2 == 0, False
     if rule == "planets":
         return m % nc == 0, False
     n = order / (zc if rule in ("discs_housing", "discs_housing_tilt") else zb)
@@ -398,7 +418,7 @@ def _at(spec: ReducerSpec, order: Fraction, max_harmonic: int):
         yield rot, m, shown, cancelled
 
 
-def effects_at(spec: ReducerSpec, order, max_harmonic: int = 8, candidates=None) -> list[str]:
+def effects_at(spec: ReducerSpec, order, max_harmonic: int = 8, candidates=None, conditional: bool = True) -> list[str]:
     """The registered effects that act at TE ``order`` in the model.
 
     Parameters
@@ -411,6 +431,8 @@ def effects_at(spec: ReducerSpec, order, max_harmonic: int = 8, candidates=None)
         Largest harmonic of a part's order considered.
     candidates : sequence of str, optional
         Restrict to these effect names (None: every registered effect).
+    conditional : bool, optional
+        Count signatures that show only under a condition (:attr:`PartError.condition`; default True).
 
     Returns
     -------
@@ -424,7 +446,8 @@ def effects_at(spec: ReducerSpec, order, max_harmonic: int = 8, candidates=None)
     """
     allowed = _known(candidates)
     k = _as_order(order)
-    found = {name for _rot, _m, shown, _c in _at(spec, k, max_harmonic) for err in shown for name in err.effects}
+    found = {name for _rot, _m, shown, _c in _at(spec, k, max_harmonic) for err in shown for name in err.effects
+             if conditional or not err.condition}
     return [name for name in allowed if name in found]
 
 
@@ -568,7 +591,8 @@ def lacking_lookalikes(spec: ReducerSpec, effect: str, max_order: int | None = N
     """
     top = max_order or 2 * spec.cycloid.pin_count
     for k in range(1, top + 1):
-        if effect not in effects_at(spec, k, candidates=(effect,)):  # the parts alone: cheaper than name_orders
+        # the parts alone (cheaper than name_orders), where the effect always shows (not only under a condition)
+        if effect not in effects_at(spec, k, candidates=(effect,), conditional=False):
             continue
         row = name_orders(spec, [k], candidates=(effect,))[0]
         return {"order": k, "lacking": row["lacking"]} if row["lacking"] else {}
