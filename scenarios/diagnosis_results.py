@@ -206,7 +206,8 @@ def null_table(path: str | Path | None = None) -> str:
     """The Markdown table of the null distribution (``rvflex null-distribution``; default: the package's): per
     candidate effect, the share of the ensemble's controls in which the tests alone accepted it (its false-alarm
     rate before the null's thresholds), and per unit the thresholds a diagnosis of that unit uses (the second
-    largest relative evidence and the largest determined size its healthy controls reach), the pooled ones for any other unit; below
+    largest relative evidence, the largest determined size and the largest off-period evidence its healthy controls
+    reach), the pooled ones for any other unit; below
     it, how many controls held out one at a time the thresholds of the others hold, and a second table: each
     unit's thresholds from the first and the second half of its controls."""
     from rvflex.diagnosis.effects import EFFECTS
@@ -224,8 +225,10 @@ def null_table(path: str | Path | None = None) -> str:
              (f"{src.get('controls', '?')} ensemble controls over {', '.join(src.get('reducers', []))} "
               f"({src.get('cases_per_unit', '?')} per unit, seed {src.get('seed', '?')}; "
               f"`rvflex null-distribution --cases {src.get('cases_per_unit', '?')} --seed {src.get('seed', '?')}`). "
-              "Thresholds as relative evidence / size (the second largest relative evidence the controls reach, "
-              "and the largest size; for a one-parameter effect "
+              "Thresholds as relative evidence / size / off-period evidence (the second largest relative evidence "
+              "the controls reach, the largest size, and the largest own evidence any control's candidate earns at "
+              "the orders that are not multiples of z_b, twice which frees a finding from the size; "
+              "the eccentric-bearing clearance's size is its total with the calibrated clearance; for a one-parameter effect "
               "whose range spans both signs, the size on each side, + above zero, − below; for the modification "
               "deviation, + with its moved and equidistant parts of opposite signs, the clearance side, − of one "
               "sign, the shape side)."), "",
@@ -239,10 +242,11 @@ def null_table(path: str | Path | None = None) -> str:
         def size(m):
             return f"{m:.3g}" if plain else fmt_mag(e, m)
 
+        off = f" / {v['off_period_max']:.0f}" if "off_period_max" in v else ""
         if "magnitude_max_positive" in v:  # kept per side (rvflex.diagnosis.null.side): + side, then − side
             return (f"{relative_threshold_of(v):.2f} / +{size(v['magnitude_max_positive'])}, "
-                    f"−{size(v['magnitude_max_negative'])}")
-        return f"{relative_threshold_of(v):.2f} / {size(v['magnitude_max'])}"
+                    f"−{size(v['magnitude_max_negative'])}{off}")
+        return f"{relative_threshold_of(v):.2f} / {size(v['magnitude_max'])}{off}"
 
     for name, v in sorted(doc["effects"].items(), key=lambda kv: (-kv[1]["false_alarm_rate"], kv[0])):
         e = EFFECTS.get(name)

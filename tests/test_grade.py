@@ -687,3 +687,73 @@ def test_a_bearing_clearance_is_judged_by_the_total_with_the_calibrated_clearanc
     assert within["grade"] == CONSISTENT
     assert within["fails"] == [f"its {name}, 2.00 µm in total with the calibrated {partner}, is within the 4.30 µm in "
                                "total healthy units of other model forms reach (rv80e ensemble)"]
+
+
+def test_the_off_period_rows_are_the_te_orders_no_healthy_unit_has():
+    """A unit without part errors repeats itself every pin pitch of the output: its TE holds only multiples of z_b.
+    The off-period rows are every TE run's cos and sin coefficients at the other orders, none of a torque cycle's."""
+    from rvflex.diagnosis.grade import off_period_rows
+    from rvflex.diagnosis.linear import Problem
+    from rvflex.diagnosis.plan import Layout
+
+    k = 100  # orders 1 … 100 per TE run
+    lay = Layout(n=2 * (1 + 2 * k) + 8, dc={0: 0, 1: 1 + 2 * k}, cos={0: slice(1, 1 + k), 1: slice(2 + 2 * k, 2 + 3 * k)},
+                 sin={0: slice(1 + k, 1 + 2 * k), 1: slice(2 + 3 * k, 2 + 4 * k)}, hyst={2: slice(2 + 4 * k, 10 + 4 * k)},
+                 max_order=k)
+    prob = Problem(np.zeros(lay.n), lay, np.ones(lay.n), np.zeros((lay.n, 0)), True)
+    rows = off_period_rows(prob, 40)
+    assert len(rows) == 4 * (k - 2)  # orders 40 and 80 left out of each of four blocks
+    orders = np.concatenate([np.arange(1, k + 1)] * 4)
+    blocks = np.r_[np.arange(1, 1 + 2 * k), np.arange(2 + 2 * k, 2 + 4 * k)]
+    assert set(rows) == set(blocks[orders % 40 != 0])
+
+
+def test_an_effect_beyond_the_controls_off_the_pin_period_is_not_held_to_their_size():
+    """A pin-ring runout of 11.9 µm, within the 20.9 µm healthy RV-80E units reach with a runout standing in for
+    a model-form gap at 2·z_b, is established when its own evidence at the orders no healthy unit has exceeds
+    twice the most any control gives it (the runout with needle clearance shows at 2, 78, 82, 158); at or below
+    that it is held to the size. A pair's effect earns there what it adds to the other effect alone. The null keeps
+    the most any control's candidate gives the effect, and a held-out control is named by it only beyond the margin."""
+    from rvflex.diagnosis.grade import grade
+    from rvflex.diagnosis.linear import Candidate
+    from rvflex.diagnosis.null import OFF_PERIOD_MARGIN, NullDistribution, leave_one_out, null_from_reports
+
+    name = "pin_ring_runout"
+    e = EFFECTS[name]
+    x = np.array([8.4e-6, 8.4e-6])
+    m = float(e.magnitude(x))
+    runout = Candidate(effects=(e,), x=x, interval=np.column_stack([0.7 * x, 1.3 * x]), magnitude=(m,),
+                       magnitude_interval=((0.7 * m, 1.3 * m),), delta=0.0, nuisance=np.zeros(0), rss=10.0, k=2,
+                       bic=0.0, refined=True, at_bound=(), model_features=np.zeros(4), score=1090.0,
+                       gap_shrink_pct=30.0, withheld={"improvement_pct": 18.0})
+    figures = {"relative_max": 1.0, "relative_threshold": 0.96, "magnitude_max": 20.9e-6, "off_period_max": 61.9,
+               "false_alarm_rate": 0.0, "controls": 56}
+    null = NullDistribution({name: figures}, unit="rv80e")
+    local = {"explained_pct": 60.0, "groups": ["TE order 80"], "leftover": 1000.0}
+    beyond = grade(runout, DiagnosisSettings(), null, local | {"off_period_evidence": 299.0})
+    assert beyond["grade"] == ESTABLISHED and beyond["off_period_beyond"] == [name], beyond["fails"]
+    assert beyond["own_off_period_evidence"] == {name: 299.0} and beyond["off_period_thresholds"] == {name: 61.9}
+    near = grade(runout, DiagnosisSettings(), null, local | {"off_period_evidence": OFF_PERIOD_MARGIN * 61.9})
+    assert near["grade"] == CONSISTENT and near["off_period_beyond"] == []
+    assert near["fails"] == [f"its {name} of {m * 1e6:.2f} µm is within the 20.90 µm healthy units of other model "
+                             "forms reach (rv80e ensemble)"]
+    old = grade(runout, DiagnosisSettings(), NullDistribution({name: {k: v for k, v in figures.items()
+                                                                      if k != "off_period_max"}}, unit="rv80e"),
+                local | {"off_period_evidence": 299.0})
+    assert old["grade"] == CONSISTENT  # a distribution without the figure: the size holds
+
+    def control(off_single, off_pair):
+        return {"effects": [
+            {"name": name, "score": 40.0, "magnitude": {name: 5e-6}, "refined": True, "grade_fails": [],
+             "accepted": False, "leftover": 400.0, "off_period_evidence": off_single},
+            {"name": f"{name} + thermal_expansion", "score": 60.0, "magnitude": {name: 6e-6, "thermal_expansion": 1e-6},
+             "refined": False, "grade_fails": [], "accepted": False, "leftover": 380.0, "off_period_evidence": off_pair},
+            {"name": "thermal_expansion", "score": 20.0, "magnitude": {"thermal_expansion": 1e-6}, "refined": True,
+             "grade_fails": [], "accepted": False, "leftover": 420.0, "off_period_evidence": 30.0}]}
+
+    # the pair's runout earns 70 − 30 = 40 of its own there, more than the single's 25
+    assert null_from_reports([control(25.0, 70.0)])[name]["off_period_max"] == 40.0
+    assert null_from_reports([control(25.0, 70.0), control(50.0, 20.0)])[name]["off_period_max"] == 50.0
+    # held out, a control whose runout earns 50 there, against others' 40 at most, is not named (≤ twice 40)
+    quiet = [control(25.0, 70.0)] * 3
+    assert leave_one_out(quiet + [control(50.0, 20.0)])["named"] == 0
