@@ -16,7 +16,8 @@ from rvflex.diagnosis.ensemble import EnsembleMismatch
 from rvflex.diagnosis.grade import CONSISTENT, ESTABLISHED
 from rvflex.diagnosis.null import NULL_PATH, load_null
 from rvflex.diagnosis.orders import effects_at as effects_at_order
-from rvflex.diagnosis.report import PLOTS, json_document
+from rvflex.diagnosis.plots import PLOTS
+from rvflex.diagnosis.report import json_document
 from rvflex.diagnosis.selfcheck import GeneratorModel, generate_case
 from rvflex.diagnosis.settings import DiagnosisSettings
 from rvflex.units import ARCSEC

@@ -1,5 +1,5 @@
 """The diagnosis report: where the gap lies, the effect ranking, the gap before/after, the
-JSON document of ``rvflex diagnose`` and the Markdown report with its plots."""
+JSON document of ``rvflex diagnose`` and the Markdown report (its plots: :mod:`rvflex.diagnosis.plots`)."""
 
 from __future__ import annotations
 
@@ -9,12 +9,12 @@ from pathlib import Path
 import numpy as np
 
 from rvflex.diagnosis.features import shift_measured
-from rvflex.diagnosis.linear import Candidate, nuisance_columns
+from rvflex.diagnosis.linear import Candidate
 from rvflex.diagnosis.nominal import describe_calibration
 from rvflex.diagnosis.plan import BRANCH_FRACTIONS, part_label
-from rvflex.geometry.formulas import ARCSEC_PER_RAD
+from rvflex.diagnosis.plots import draw_plots, mag_text, offset_columns, te_on_grid
 
-__all__ = ["dependence", "draw_run", "gap_table", "json_document", "repeatability", "residual_orders", "verdict_grade", "where_list", "write_report"]
+__all__ = ["dependence", "gap_table", "json_document", "repeatability", "residual_orders", "verdict_grade", "where_list", "write_report"]
 
 
 def _run_meta(diag, r: int) -> tuple[str, float]:
@@ -42,13 +42,8 @@ def _run_text(row: dict) -> str:
 def _residual(diag, c: Candidate) -> np.ndarray:
     """Measured − model features (arcsec) with the candidate's origin and offsets applied."""
     y = shift_measured(diag.measured, diag.layout, c.delta)[:, 0]
-    cols = diag.layout and _nuis(diag)
+    cols = diag.layout and offset_columns(diag)
     return y - c.model_features - cols @ c.nuisance
-
-
-def _nuis(diag) -> np.ndarray:
-    cols = nuisance_columns(diag.layout)
-    return cols[:, np.abs(cols).sum(0) > 0]
 
 
 def where_list(diag, min_share: float = 0.01) -> list[dict]:
@@ -81,13 +76,6 @@ def where_list(diag, min_share: float = 0.01) -> list[dict]:
     return sorted((w for w in out if w["share"] > 0), key=lambda w: -w["share"])
 
 
-def _te_grid(diag, feats: np.ndarray, run: int, n: int = 512) -> np.ndarray:
-    lay = diag.layout
-    p = 2 * np.pi * np.arange(n) / n
-    k = np.arange(1, lay.max_order + 1)
-    return feats[lay.dc[run]] + np.cos(np.outer(p, k)) @ feats[lay.cos[run]] + np.sin(np.outer(p, k)) @ feats[lay.sin[run]]
-
-
 def _hyst_metrics(torque, theta_rad, tmax):
     from rvflex.metrics import hysteresis_metrics
 
@@ -104,13 +92,13 @@ def gap_table(diag, c: Candidate, n_orders: int = 8) -> dict:
     and per order (the ``n_orders`` largest residual orders of each TE run)."""
     lay = diag.layout
     y = shift_measured(diag.measured, lay, c.delta)[:, 0]
-    nu = _nuis(diag) @ c.nuisance
+    nu = offset_columns(diag) @ c.nuisance
     metrics, orders = [], []
     for run, p in enumerate(diag.plan):
         keys = _run_keys(diag, run)
         if p.kind == "te":
-            meas = _te_grid(diag, y - nu, run)
-            mod = _te_grid(diag, c.model_features, run)
+            meas = te_on_grid(diag, y - nu, run)
+            mod = te_on_grid(diag, c.model_features, run)
             for name, fm in (("TE peak-to-peak", np.ptp), ("mean wind-up", np.mean)):
                 a, b = float(fm(meas)), float(fm(mod))
                 metrics.append({"metric": name, **keys, "unit": "arcsec",
@@ -393,191 +381,6 @@ def verdict_grade(diag) -> str:
 
 # ----------------------------------------------------------------------------- plots and Markdown
 
-def _fig_te(diag):
-    """Measured, model and corrected TE of every TE run (None without TE runs)."""
-    from matplotlib.figure import Figure  # no pyplot: the caller's backend and figures stay untouched
-
-    te_runs = diag.layout.te_runs
-    if not te_runs:
-        return None
-    fig = Figure(figsize=(11, 3.0 * len(te_runs)), layout="constrained")
-    axes = fig.subplots(len(te_runs), 1, squeeze=False)
-    for ax, r in zip(axes[:, 0], te_runs):
-        draw_run(ax, diag, r)
-        if r != te_runs[-1]:
-            ax.set_xlabel("")
-    axes[0, 0].legend(fontsize=8, loc="best")
-    return fig
-
-
-def _fig_orders(diag):
-    """The residual order spectrum of every TE run before and after the accepted effect."""
-    from matplotlib.figure import Figure
-
-    lay = diag.layout
-    base, ch = diag.baseline, diag.chosen
-    te_runs = lay.te_runs
-    if not te_runs:
-        return None
-    fig = Figure(figsize=(11, 2.6 * len(te_runs)), layout="constrained")
-    axes = fig.subplots(len(te_runs), 1, squeeze=False)
-    k = np.arange(1, lay.max_order + 1)
-    for ax, r in zip(axes[:, 0], te_runs):
-        for c, col, lab in ((base, "C0", "before (model)"), (ch, "C3", "after (corrected)")):
-            if c is None:
-                continue
-            y = shift_measured(diag.measured, lay, c.delta)[:, 0]
-            amp = np.hypot(y[lay.cos[r]] - c.model_features[lay.cos[r]], y[lay.sin[r]] - c.model_features[lay.sin[r]])
-            # one line collection per run, not 255 bar patches (a third of the report's plotting time)
-            ax.vlines(k + (0.2 if c is ch else -0.2), 1e-3, np.maximum(amp, 1e-3), color=col, lw=1.0, label=lab)
-        ax.set_yscale("log")
-        ax.set_ylim(bottom=1e-3)
-        ax.set_title(f"residual order spectrum — {diag.plan[r].label}", fontsize=9)
-        ax.set_ylabel("|residual| (arcsec)")
-        ax.grid(alpha=0.3)
-    axes[-1, 0].set_xlabel("order (per output revolution)")
-    axes[0, 0].legend(fontsize=8)
-    return fig
-
-
-def _fig_hysteresis(diag):
-    """Measured, model and corrected torque cycles (None without torque cycles)."""
-    from matplotlib.figure import Figure
-
-    hyst = sorted(diag.layout.hyst)
-    if not hyst:
-        return None
-    fig = Figure(figsize=(7 * len(hyst), 4.8), layout="constrained")
-    axes = fig.subplots(1, len(hyst), squeeze=False)
-    for ax, r in zip(axes[0], hyst):
-        draw_run(ax, diag, r)
-    return fig
-
-
-def _fig_ranking(diag):
-    """The first ten candidates' scores and fitted magnitudes against their bounds."""
-    from matplotlib.figure import Figure
-
-    cands = list(diag.candidates[:10])
-    if not cands:
-        return None
-    fig = Figure(figsize=(13, 0.45 * len(cands) + 1.6), layout="constrained")
-    a0, a1 = fig.subplots(1, 2, width_ratios=(1, 1.2))
-    yy = np.arange(len(cands))[::-1]
-    a0.barh(yy, [max(c.score, 0.0) for c in cands],
-            color=["C3" if c.accepted else ("C0" if c.refined else "0.7") for c in cands])
-    a0.set_yticks(yy, [c.name for c in cands], fontsize=8)
-    a0.set_xlabel("score = BIC(calibrated model) − BIC(candidate)")
-    a0.set_xscale("symlog")
-    a0.grid(alpha=0.3)
-    for y_, c in zip(yy, cands):
-        if not c.attributed:
-            continue
-        e = c.attributed[0]
-        i = list(c.effects).index(e)
-        m, (lo, hi) = c.magnitude[i], c.magnitude_interval[i]
-        hi_b = float(np.linalg.norm(np.maximum(np.abs(e.lower), np.abs(e.upper))))
-        a1.errorbar([m / hi_b], [y_], xerr=[[max(m - lo, 0) / hi_b], [max(hi - m, 0) / hi_b]], fmt="o",
-                    color="C3" if c.accepted else "C0", capsize=3)
-        a1.text(1.02, y_, f"{e.name}: {_mag_text(e, m, lo, hi)}", fontsize=7, va="center",
-                transform=a1.get_yaxis_transform())
-    a1.set_yticks(yy, [""] * len(yy))
-    a1.set_xlim(0, 1)
-    a1.set_xlabel("fitted magnitude / bound (first effect), 95 % interval")
-    a1.grid(alpha=0.3)
-    return fig
-
-
-PLOTS = {"te_measured_model_corrected.png": _fig_te, "residual_orders.png": _fig_orders,
-         "hysteresis_loops.png": _fig_hysteresis, "effect_ranking.png": _fig_ranking}
-"""The report's plots: file name → the function drawing its figure from a diagnosis (None: nothing to show)."""
-PLOT_DPI = 110
-
-
-def _png(item) -> bytes | None:
-    """The PNG of plot ``name`` of ``diag`` (item = (diag, name)), None when it shows nothing."""
-    import io
-
-    diag, name = item
-    fig = PLOTS[name](diag)
-    if fig is None:
-        return None
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=PLOT_DPI)
-    return buf.getvalue()
-
-
-def _plots(diag, out: Path) -> list[Path]:
-    """Draw the report's plots into ``out``; returns the files written. With more than one worker
-    (``diag.settings.workers``) they are drawn side by side, forked from this process once it has drawn a
-    line of text (the backend and the fonts then loaded here once, not in each worker: measured, four plots
-    of a four-run diagnosis 0.36 + 0.9 s against 1.6 s one after the other); a plot whose worker fails is
-    drawn here."""
-    import io
-
-    from matplotlib.figure import Figure
-
-    from rvflex.parallel import map_warm
-
-    names = list(PLOTS)
-    workers = min(diag.settings.workers, len(names)) if diag.settings.workers > 1 else 0
-    if workers:
-        warm = Figure(figsize=(1, 1))
-        warm.text(0.5, 0.5, "0″")
-        warm.savefig(io.BytesIO(), format="png")
-    done = map_warm(_png, [(diag, n) for n in names], workers)
-    paths = []
-    for name, o in zip(names, done):
-        png = o.value if o.ok else _png((diag, name))
-        if png is not None:
-            p = out / name
-            p.write_bytes(png)
-            paths.append(p)
-    return paths
-
-
-def draw_run(ax, diag, run: int) -> None:
-    """Draw bench run ``run`` (its index in ``diag.plan``) on ``ax`` as the report's plots do: a TE
-    run's TE over one output revolution (arcsec against degrees; measured with the fitted offset and
-    origin removed, the calibrated model, the model with the accepted effect), a torque cycle's
-    torque against the output angle (N·m against arcmin)."""
-    lay = diag.layout
-    base, ch = diag.baseline, diag.chosen
-    ref = ch or base
-    if run in lay.hyst:
-        data = diag.dataset.runs[run]
-        nu = (_nuis(diag) @ ref.nuisance)[lay.hyst[run]][0]
-        ax.plot(data.theta_out_rad * ARCSEC_PER_RAD / 60 - nu / 60, data.torque_Nm, ".", ms=2, color="k",
-                label="measured")
-        for c, col, lab in ((base, "C0", "model"), (ch, "C3", "corrected")):
-            if c is None or c.response is None:
-                continue
-            off = (_nuis(diag) @ c.nuisance)[lay.hyst[run]][0] - nu
-            ax.plot(c.response.theta[run] * ARCSEC_PER_RAD / 60 + off / 60, c.response.torque[run], "-", color=col,
-                    lw=1.0, label=lab)
-        ax.set_xlabel("output angle (arcmin)")
-        ax.set_ylabel("output torque (N·m)")
-    else:
-        deg = np.arange(512) * 360 / 512
-        y = shift_measured(diag.measured, lay, ref.delta)[:, 0] - _nuis(diag) @ ref.nuisance
-        ax.plot(deg, _te_grid(diag, y, run), color="k", lw=1.0, label="measured (offset, origin removed)")
-        ax.plot(deg, _te_grid(diag, base.model_features, run), color="C0", lw=1.0, ls="--", label="model")
-        if ch is not None:
-            ax.plot(deg, _te_grid(diag, ch.model_features, run), color="C3", lw=1.0, label=f"corrected: {ch.name}")
-        ax.set_xlabel("output position (°)")
-        ax.set_ylabel("TE (arcsec)")
-    ax.set_title(diag.plan[run].label, fontsize=9)
-    ax.grid(alpha=0.3)
-    if run in lay.hyst:
-        ax.legend(fontsize=8)
-
-
-def _mag_text(e, m, lo, hi) -> str:
-    u = e.params[0].unit
-    f, unit = {"m": (1e6, "µm"), "rad": (ARCSEC_PER_RAD, "″"), "1/K": (1e6, "ppm/K")}.get(u, (1.0, u))
-    return f"{m * f:.3g} [{lo * f:.3g}, {hi * f:.3g}] {unit}"
-
-
 def write_report(diag, out: str | Path, doc: dict | None = None) -> list[Path]:
     """Write report.md with its plots (PNG) and diagnosis.json to ``out``; every file is
     computed first and written through a temporary name."""
@@ -590,7 +393,7 @@ def write_report(diag, out: str | Path, doc: dict | None = None) -> list[Path]:
     tmpdir = out / f".report_{id(diag)}"
     tmpdir.mkdir(parents=True, exist_ok=True)
     try:
-        pngs = _plots(diag, tmpdir)
+        pngs = draw_plots(diag, tmpdir)
         md = markdown(diag, doc, [p.name for p in pngs])
         final = []
         for p in pngs:
@@ -656,7 +459,7 @@ def markdown(diag, doc: dict, pngs: list[str]) -> str:
               "| rank | effect | magnitude [95 %] | score | gap shrink | withheld | explained where it lies | grade | note |",
               "|---:|---|---|---:|---:|---:|---:|---|---|"]
     for i, c in enumerate(diag.candidates[:12], start=1):
-        mags = "; ".join(_mag_text(e, m, lo, hi) for e, m, (lo, hi) in zip(c.effects, c.magnitude,
+        mags = "; ".join(mag_text(e, m, lo, hi) for e, m, (lo, hi) in zip(c.effects, c.magnitude,
                                                                              c.magnitude_interval) if not e.nominal)
         wh = c.withheld.get("improvement_pct")
         note = ("bound hit: " + ", ".join(c.at_bound) + "; " if c.at_bound else "") + c.note

@@ -160,7 +160,7 @@ class Diagnosis:
         matplotlib.axes.Axes
             The axes drawn on.
         """
-        from rvflex.diagnosis.report import draw_run
+        from rvflex.diagnosis.plots import draw_run
 
         if run is None:
             run = self.layout.te_runs[0] if self.layout.te_runs else min(self.layout.hyst)
