@@ -734,6 +734,12 @@ def test_an_effect_beyond_the_controls_off_the_pin_period_is_not_held_to_their_s
     beyond = grade(runout, DiagnosisSettings(), null, local | {"off_period_evidence": 299.0})
     assert beyond["grade"] == ESTABLISHED and beyond["off_period_beyond"] == [name], beyond["fails"]
     assert beyond["own_off_period_evidence"] == {name: 299.0} and beyond["off_period_thresholds"] == {name: 61.9}
+    from rvflex.diagnosis.verdict import off_period_sentence
+
+    assert off_period_sentence(dataclasses.replace(runout, grade=beyond)) == (
+        f" Its {name} is no larger than healthy units of other model forms make of one (20.90 µm), but at the TE "
+        "orders no healthy unit has (not multiples of the pin count) it earns an evidence of 299, beyond 2 times the "
+        "62 they give it.")
     near = grade(runout, DiagnosisSettings(), null, local | {"off_period_evidence": OFF_PERIOD_MARGIN * 61.9})
     assert near["grade"] == CONSISTENT and near["off_period_beyond"] == []
     assert near["fails"] == [f"its {name} of {m * 1e6:.2f} µm is within the 20.90 µm healthy units of other model "

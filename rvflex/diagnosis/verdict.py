@@ -12,6 +12,7 @@ from rvflex.diagnosis.effects import Effect
 from rvflex.diagnosis.features import shift_measured
 from rvflex.diagnosis.linear import Candidate, Problem, bounds, lin_fit, prior_of
 from rvflex.diagnosis.nominal import NOMINAL, SAME_QUANTITY
+from rvflex.diagnosis.null import OFF_PERIOD_MARGIN
 from rvflex.diagnosis.plan import part_label
 
 __all__ = ["SIGNATURE_TIE", "TIE_RSS_RATIO", "acceptable", "equivalent", "fmt_mag", "fmt_pct", "is_significant",
@@ -153,7 +154,7 @@ def verdict(cands, chosen, none, has_folds, settings, unavailable, failed, tied=
         s = (f"{c.name} explains the gap: {mag}; the weighted gap shrinks by {c.gap_shrink_pct:.0f} %, "
              f"{100 - c.gap_shrink_pct:.0f} % of it stays unexplained by any candidate; the withheld runs' "
              f"prediction improves by {c.withheld['improvement_pct']:.0f} %.")
-        s += beyond_the_class_sentence(c)
+        s += beyond_the_class_sentence(c) + off_period_sentence(c)
         # a nominal parameter at its class top is where an effect on the same quantity begins, not a limit
         shared = {SAME_QUANTITY[e.name] for e in c.effects if e.name in SAME_QUANTITY}
         bound = [b for b in c.at_bound if b.split(".")[0] not in shared]
@@ -302,6 +303,20 @@ def beyond_the_class_sentence(c: Candidate) -> str:
                     f"{fmt_mag(e, c.magnitude_of(e.name))} with the calibrated {partner} "
                     f"{fmt_mag(p, c.magnitude_of(partner))}), against a class of at most {fmt_mag(p, p.params[0].high)} "
                     "above the spec's.")
+    return out
+
+
+def off_period_sentence(c: Candidate) -> str:
+    """For an effect of ``c`` established by its evidence at the orders no healthy unit has rather than by its size
+    (the grade's ``off_period_beyond``): that evidence against the controls', and the size they reach ("" for none)."""
+    g = c.grade or {}
+    out = ""
+    for n in g.get("off_period_beyond", ()):
+        e = next(x for x in c.effects if x.name == n)
+        out += (f" Its {n} is no larger than healthy units of other model forms make of one "
+                f"({fmt_mag(e, g['magnitude_thresholds'][n])}), but at the TE orders no healthy unit has (not multiples "
+                f"of the pin count) it earns an evidence of {g['own_off_period_evidence'][n]:.0f}, beyond "
+                f"{OFF_PERIOD_MARGIN:g} times the {g['off_period_thresholds'][n]:.0f} they give it.")
     return out
 
 
