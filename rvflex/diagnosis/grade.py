@@ -66,7 +66,8 @@ def own_change(c: Candidate) -> np.ndarray:
 
 def off_period_rows(prob: Problem, period: int) -> np.ndarray:
     """The TE features (cos and sin coefficients of every TE run) at the orders that are not multiples of
-    ``period`` (the unit's pin count z_b): where no healthy unit has TE (:func:`off_period_evidence`)."""
+    ``period`` (the unit's pin count z_b): where no healthy unit has TE (a unit without part errors repeats itself
+    every pin pitch of the output whatever its model form, :func:`rvflex.diagnosis.replay.one_period`)."""
     lay = prob.lay
     rows = []
     for r in lay.te_runs:
@@ -88,8 +89,9 @@ def explained_where_it_lies(prob: Problem, c: Candidate, base_residual: np.ndarr
         discrepancy the calibrated model leaves (the units its evidence is counted in); ``groups``: labels of the
         discrepancy groups holding :data:`SIGNATURE_SHARE` of the weighted signature energy (largest first);
         ``explained_pct``: the fall of the weighted residual sum of squares over those groups (%);
-        ``left_rms_arcsec``: the residual's rms there after the candidate (arcsec). Only ``leftover`` when the
-        candidate has no signature.
+        ``left_rms_arcsec``: the residual's rms there after the candidate (arcsec); with ``period`` (the pin count
+        z_b), ``off_period_evidence``: the fall of the weighted residual energy over :func:`off_period_rows`, in the
+        units of ``leftover``. Only ``leftover`` (and ``off_period_evidence``) when the candidate has no signature.
     """
     groups = disc.groups
     rb, rc = base_residual, residual(prob, c)

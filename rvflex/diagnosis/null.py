@@ -20,6 +20,9 @@ effect, over the controls, each taken at its candidate in which the effect earns
   spans both signs, or a two-parameter one whose parameters of one sign nearly cancel), ``magnitude_max_positive``
   and ``magnitude_max_negative``, the largest on each side (:func:`side`), which a finding on that side must
   exceed;
+- ``off_period_max``: the largest own off-period evidence (what a candidate removes at the TE orders that are not
+  multiples of z_b, :func:`rvflex.diagnosis.grade.off_period_rows`) of any of the control's candidates with the
+  effect, linearised ones included: a finding beyond :data:`OFF_PERIOD_MARGIN` times it is not held to the size;
 - ``evidence_max``: the largest own evidence (reported, not a threshold);
 - ``false_alarm_rate``: the share of controls in which a candidate with the effect was accepted by the other
   tests alone (before these thresholds).
@@ -307,7 +310,8 @@ def _rows(reports: list[dict], significant: float) -> dict:
     that evidence (``evidence``, ≥ 0), its relative evidence and size as :func:`null_from_reports` counts them
     (``relative``, ``size``: 0 where not counted), its ``side`` and whether any candidate with it was accepted
     (``alarm``); for an effect on the same quantity as a nominal parameter, ``calibrated``: what the control's
-    calibration alone reaches of it (:func:`_calibrated_reach`; 0 for every other effect)."""
+    calibration alone reaches of it (:func:`_calibrated_reach`; 0 for every other effect); ``off_period``: the most
+    own off-period evidence any of its candidates with the effect earns (None when its report has none)."""
     names = sorted({n for d in reports for e in d["effects"] for n in e["name"].split(" + ")})
     singles_of = [report_singles(d) for d in reports]  # once per report, not once per effect name
     singles_off_of = [report_singles(d, "off_period_evidence") for d in reports]
