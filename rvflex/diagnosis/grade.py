@@ -39,7 +39,7 @@ import numpy as np
 from rvflex.diagnosis.discrepancy import Discrepancy, residual
 from rvflex.diagnosis.linear import Candidate, Problem, split_params
 from rvflex.diagnosis.nominal import SAME_QUANTITY
-from rvflex.diagnosis.null import OFF_PERIOD_MARGIN, own_evidence, relative_evidence, side, side_text, total_size
+from rvflex.diagnosis.null import off_period_frees, own_evidence, relative_evidence, side, side_text, total_size
 from rvflex.diagnosis.verdict import fmt_mag, fmt_pct, is_significant, undetermined_effect, withheld_confirms
 
 __all__ = ["CONSISTENT", "ESTABLISHED", "MOST", "NOT_SIGNIFICANT", "SIGNATURE_SHARE", "consistent_sentence",
@@ -78,7 +78,7 @@ def off_period_rows(prob: Problem, period: int) -> np.ndarray:
 
 
 def explained_where_it_lies(prob: Problem, c: Candidate, base_residual: np.ndarray, disc: Discrepancy,
-                            period: int | None = None) -> dict:
+                            off_rows: np.ndarray | None = None) -> dict:
     """Where ``c``'s signature lies and how much of the calibrated model's residual there it removes
     (``base_residual``: that model's weighted residual, :func:`~rvflex.diagnosis.discrepancy.residual`).
 
@@ -89,17 +89,16 @@ def explained_where_it_lies(prob: Problem, c: Candidate, base_residual: np.ndarr
         discrepancy the calibrated model leaves (the units its evidence is counted in); ``groups``: labels of the
         discrepancy groups holding :data:`SIGNATURE_SHARE` of the weighted signature energy (largest first);
         ``explained_pct``: the fall of the weighted residual sum of squares over those groups (%);
-        ``left_rms_arcsec``: the residual's rms there after the candidate (arcsec); with ``period`` (the pin count
-        z_b), ``off_period_evidence``: the fall of the weighted residual energy over :func:`off_period_rows`, in the
-        units of ``leftover``. Only ``leftover`` (and ``off_period_evidence``) when the candidate has no signature.
+        ``left_rms_arcsec``: the residual's rms there after the candidate (arcsec); with ``off_rows``
+        (:func:`off_period_rows`), ``off_period_evidence``: the fall of the weighted residual energy over those
+        features, in the units of ``leftover``. Only ``leftover`` (and ``off_period_evidence``) when the candidate has no signature.
     """
     groups = disc.groups
     rb, rc = base_residual, residual(prob, c)
     leftover = float(rc @ rc) / disc.pooled
     extra = {}
-    if period:
-        off = off_period_rows(prob, period)
-        extra["off_period_evidence"] = float(rb[off] @ rb[off] - rc[off] @ rc[off]) / disc.pooled
+    if off_rows is not None:
+        extra["off_period_evidence"] = float(rb[off_rows] @ rb[off_rows] - rc[off_rows] @ rc[off_rows]) / disc.pooled
     s = own_change(c) * prob.w
     e = np.array([g.energy(s) for g in groups])
     if not e.sum() > 0:
@@ -186,8 +185,7 @@ def grade(c: Candidate, settings, null, local: dict, singles: dict | None = None
             mag_t[e.name] = t
         size = total_size(e.name, sizes)
         if not e.nominal and t is not None and size <= t:
-            o, ot = own_off.get(e.name), off_t.get(e.name)
-            if o is not None and ot is not None and o >= settings.bic_threshold and o > OFF_PERIOD_MARGIN * ot:
+            if off_period_frees(own_off.get(e.name), off_t.get(e.name), settings.bic_threshold):
                 beyond.append(e.name)
                 continue
             reached.append(e.name)

@@ -57,7 +57,7 @@ from rvflex.diagnosis.nominal import SAME_QUANTITY
 
 __all__ = ["NULL_PATH", "OFF_PERIOD_MARGIN", "RELATIVE_RANK", "NullDistribution", "determined", "halves", "leave_one_out", "load_null", "null_from_reports",
            "own_evidence", "reached", "relative_evidence", "relative_threshold_of", "report_singles", "side", "side_text", "signed",
-           "total_size", "unrefined_setters"]
+           "off_period_frees", "total_size", "unrefined_setters"]
 
 NULL_PATH = Path(__file__).with_name("null_distribution.json")
 """The null distribution shipped with the package (made by ``rvflex null-distribution``)."""
@@ -393,15 +393,18 @@ def _named(report: dict, thresholds: dict, significant: float) -> str | None:
     return None
 
 
+def off_period_frees(own: float | None, top: float | None, significant: float) -> bool:
+    """Whether an effect's own off-period evidence ``own`` frees it from the controls' size: significant and beyond
+    :data:`OFF_PERIOD_MARGIN` times ``top``, the most the controls give it (``off_period_max``; never when either
+    is None)."""
+    return own is not None and top is not None and own >= significant and own > OFF_PERIOD_MARGIN * top
+
+
 def _off_period_beyond(entry: dict, name: str, figures: dict, singles_off: dict, significant: float) -> bool:
-    """Whether effect ``name`` of a report's effect ``entry`` earns an off-period evidence of its own beyond
-    ``significant`` and :data:`OFF_PERIOD_MARGIN` times the controls' ``off_period_max`` in ``figures`` (the grade's rule,
-    :func:`rvflex.diagnosis.grade.grade`)."""
-    off, top = entry.get("off_period_evidence"), figures.get("off_period_max")
-    if off is None or top is None:
-        return False
-    own = own_evidence(off, entry["name"].split(" + "), name, singles_off)
-    return own >= significant and own > OFF_PERIOD_MARGIN * top
+    """:func:`off_period_frees` for effect ``name`` of a report's effect ``entry`` under the null ``figures``."""
+    off = entry.get("off_period_evidence")
+    own = None if off is None else own_evidence(off, entry["name"].split(" + "), name, singles_off)
+    return off_period_frees(own, figures.get("off_period_max"), significant)
 
 
 def relative_threshold_of(figures: dict) -> float | None:

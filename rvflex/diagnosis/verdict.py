@@ -12,7 +12,7 @@ from rvflex.diagnosis.effects import Effect
 from rvflex.diagnosis.features import shift_measured
 from rvflex.diagnosis.linear import Candidate, Problem, bounds, lin_fit, prior_of
 from rvflex.diagnosis.nominal import NOMINAL, SAME_QUANTITY
-from rvflex.diagnosis.null import OFF_PERIOD_MARGIN
+from rvflex.diagnosis.null import OFF_PERIOD_MARGIN, total_size
 from rvflex.diagnosis.plan import part_label
 
 __all__ = ["SIGNATURE_TIE", "TIE_RSS_RATIO", "acceptable", "equivalent", "fmt_mag", "fmt_pct", "is_significant",
@@ -298,7 +298,7 @@ def beyond_the_class_sentence(c: Candidate) -> str:
         partner = SAME_QUANTITY.get(e.name)
         if partner in names:
             p = c.effects[names.index(partner)]
-            total = c.magnitude_of(e.name) + c.magnitude_of(partner)
+            total = total_size(e.name, {n: c.magnitude_of(n) for n in (e.name, partner)})
             out += (f" The runs determine only the total: {fmt_mag(e, total)} in all ({e.name} "
                     f"{fmt_mag(e, c.magnitude_of(e.name))} with the calibrated {partner} "
                     f"{fmt_mag(p, c.magnitude_of(partner))}), against a class of at most {fmt_mag(p, p.params[0].high)} "

@@ -13,7 +13,7 @@ import dataclasses as dc
 from dataclasses import dataclass
 
 from rvflex.diagnosis.discrepancy import residual
-from rvflex.diagnosis.grade import explained_where_it_lies, grade
+from rvflex.diagnosis.grade import explained_where_it_lies, grade, off_period_rows
 from rvflex.diagnosis.linear import Candidate
 from rvflex.diagnosis.null import load_null
 from rvflex.diagnosis.settings import DiagnosisSettings
@@ -96,8 +96,9 @@ def run(cands: Candidates) -> Evidence:
     null = _null_of(settings, feat.runner.spec)
     r_cal = residual(prob, none)  # what calibration left, once for every candidate
     singles = {c.attributed[0].name: c.score for c in out if len(c.attributed) == 1}
-    period = feat.runner.spec.cycloid.pin_count  # a healthy unit repeats itself every pin pitch of the output
-    local = [explained_where_it_lies(prob, c, r_cal, disc, period) for c in out]
+    # a healthy unit repeats itself every pin pitch of the output: the features at the other orders, once for all
+    off_rows = off_period_rows(prob, feat.runner.spec.cycloid.pin_count)
+    local = [explained_where_it_lies(prob, c, r_cal, disc, off_rows) for c in out]
     singles_off = {c.attributed[0].name: lo["off_period_evidence"] for c, lo in zip(out, local) if len(c.attributed) == 1}
     out = [dc.replace(c, grade=grade(c, settings, null, lo, singles, singles_off)) for c, lo in zip(out, local)]
     return Evidence(cands, tuple(out), failed)
