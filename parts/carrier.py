@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rvflex.choices import BodyFidelity, SeatMarker, check_choice, choices
+from rvflex.contact.tapered_roller import half_bearing, support_rows
 from rvflex.fe import ffrf as ffrf_module
 from rvflex.fe.couplings import rbe3_virtual_nodes
 from rvflex.numerics import OUTPUT_REGULARISER_NM_RAD  # re-exported: the regulariser this builder installs
@@ -90,11 +91,7 @@ def split_support_bearing(spec: ReducerSpec) -> ReducerSpec:
     seed 003's 1.6e8 N/m × 2). The flexible carrier seats each of them in its own plate."""
     import dataclasses
 
-    b = spec.bearings.crank_support
-    half = dataclasses.replace(b, radial_stiffness_N_m=0.5 * b.radial_stiffness_N_m,
-                               axial_stiffness_N_m=0.5 * b.axial_stiffness_N_m,
-                               tilt_stiffness_Nm_rad=0.5 * b.tilt_stiffness_Nm_rad,
-                               radial_damping_Ns_m=0.5 * b.radial_damping_Ns_m)
+    half = half_bearing(spec.bearings.crank_support)
     return dataclasses.replace(spec, bearings=dataclasses.replace(spec.bearings, crank_support=half))
 
 
@@ -161,8 +158,10 @@ def build_spatial(mbs, spec: ReducerSpec, errors: ErrorSpec, ground_coordinate: 
     The node (``NodeRigidBodyRxyz``) sits at the pair's centre, on the axis in the discs' mid-plane; the pair
     element (:func:`rvflex.parts.main_bearing.add_pair_element`, Hertz balls with their preload) holds its
     x, y, z, ψx, ψy, with the carrier runout as the offset of the outer rings' seat; the output torque and the
-    regulariser act on ψz. ``bore_markers`` are the output-plate crank bores at +``support_span_m``/2,
-    ``input_seat_markers`` the input-plate ones at −``support_span_m``/2 (the planet gears sit at −z).
+    regulariser act on ψz. ``bore_markers`` are the output-plate crank bores' bearing points at +h,
+    ``input_seat_markers`` the input-plate ones at −h (the planet gears sit at −z), h the support bearings'
+    :func:`rvflex.contact.tapered_roller.support_rows` half span (``support_span_m``/2, or the tapered rows'
+    pressure centres).
 
     Parameters
     ----------
@@ -201,6 +200,7 @@ def build_spatial(mbs, spec: ReducerSpec, errors: ErrorSpec, ground_coordinate: 
         raise SpecError("errors.main_bearing_clearance_m", errors.main_bearing_clearance_m,
                         "must be 0 in the spatial model: its main bearing is the preloaded ball pair, without clearance")
     ca, half = spec.carrier, 0.5 * spec.cranks.support_span_m
+    rows = support_rows(spec).half_span_m  # the crank bores' bearings at their pressure centres
     rho = spec.materials.carriers.density_kg_m3
     plate = rho * math.pi * ca.outer_radius_m**2 * ca.plate_thickness_m
     mass = 2 * plate
@@ -212,8 +212,8 @@ def build_spatial(mbs, spec: ReducerSpec, errors: ErrorSpec, ground_coordinate: 
                                                math.sin(errors.carrier_runout_phase_rad)])
     pair = add_pair_element(mbs, node, pair_model(spec.bearings.main_pair), seat_offset_m=(seat[0], seat[1]))
     axes = crank_axis_positions(spec, errors)
-    bores = tuple(int(mbs.AddMarker(MarkerBodyRigid(bodyNumber=body, localPosition=[p[0], p[1], half]))) for p in axes)
-    inputs = tuple(int(mbs.AddMarker(MarkerBodyRigid(bodyNumber=body, localPosition=[p[0], p[1], -half])))
+    bores = tuple(int(mbs.AddMarker(MarkerBodyRigid(bodyNumber=body, localPosition=[p[0], p[1], rows]))) for p in axes)
+    inputs = tuple(int(mbs.AddMarker(MarkerBodyRigid(bodyNumber=body, localPosition=[p[0], p[1], -rows])))
                    for p in axes)
     theta = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=node, coordinate=5))
     load = mbs.AddLoad(LoadCoordinate(markerNumber=theta, load=0.0))

@@ -16,6 +16,7 @@ import numpy as np
 
 from rvflex.choices import BodyFidelity, check_choice
 from rvflex.contact.gear_mesh import GearMeshHandles, add_gear_mesh
+from rvflex.contact.tapered_roller import support_rows
 from rvflex.geometry.pins import disc_planes
 from rvflex.parts import bearings
 from rvflex.spec import ErrorSpec, Material, ReducerSpec, SpecError
@@ -62,7 +63,7 @@ class CrankBeam:
     segment_radius_m : tuple of float
         Radius of the segment between stations j and j + 1 (one fewer than the stations).
     output_support, input_support : int
-        The stations at the support journals, +``support_span_m``/2 (output plate) and −``support_span_m``/2.
+        The stations at the support bearings (output plate +z, input plate −z).
     eccentrics : tuple of int
         The station at each disc's plane (its eccentric), in disc order.
     gear : int
@@ -160,7 +161,9 @@ def shaft_inertia(station_z_m, segment_radius_m, density_kg_m3: float) -> tuple[
 def beam_layout(spec: ReducerSpec, elements: int = 1, field: str = "options.spatial.crank") -> CrankBeam:
     """The stations and segments of each crank as a beam (every crank alike).
 
-    Key planes: the two support journals (±``support_span_m``/2), each eccentric (the discs' planes), the faces
+    Key planes: the two support bearings where they carry (±``support_span_m``/2, or with
+    ``bearings.crank_support_pair`` the rows' pressure centres, :func:`rvflex.contact.tapered_roller.support_rows`:
+    as shaft analysis takes a tapered roller bearing's reaction), each eccentric (the discs' planes), the faces
     of the disc stack (the outer faces of the outermost discs, ``disc_thickness_m`` wide, where they lie between
     the supports) and the planet gear (``gear_axial_position_m``); ``elements`` equal segments between each two
     neighbouring key planes. Radii: the stack (its eccentric journals, and the spacer between them) at
@@ -198,7 +201,7 @@ def beam_layout(spec: ReducerSpec, elements: int = 1, field: str = "options.spat
         if getattr(cr, name) is None:
             raise SpecError(f"cranks.{name}", None, f"{spec.name} gives no crank {what}, which {field} = 'beam' "
                                                     f"needs: add {name} to [cranks]")
-    half = 0.5 * cr.support_span_m
+    half = support_rows(spec).half_span_m
     planes = disc_planes(spec)
     t = spec.cycloid.disc_thickness_m
     lo, hi = float(planes.min()) - 0.5 * t, float(planes.max()) + 0.5 * t
@@ -327,11 +330,12 @@ def build_spatial(mbs, spec: ReducerSpec, errors: ErrorSpec, carrier, sun_node: 
     """Add the cranks as rigid bodies free in space at ``axes`` (carrier frame, = reference positions at output
     angle 0), each on two support bearings; with ``beam_elements``, as flexible shafts.
 
-    A crank's node (``NodeRigidBodyRxyz``) sits on its axis in the discs' mid-plane. Each support bearing is
-    ``spec.bearings.crank_support`` (give :func:`rvflex.parts.carrier.split_support_bearing`'s spec: one of the
-    pair the planar model lumps) between the carrier's bore at ±``support_span_m``/2 (``carrier.bore_markers``
-    +, ``carrier.input_seat_markers`` −) and the crank's journal there, both with the crank's support-clearance
-    error; so the pair's tilt stiffness is each bearing's plus its radial stiffness over the span. The eccentrics
+    A crank's node (``NodeRigidBodyRxyz``) sits on its axis in the discs' mid-plane. Each support bearing is one
+    of :func:`rvflex.contact.tapered_roller.support_rows` (half the pair the planar model lumps, at
+    ±``support_span_m``/2 or, with ``bearings.crank_support_pair``, a tapered roller row at its pressure
+    centre) between the carrier's bore there (``carrier.bore_markers`` +, ``carrier.input_seat_markers`` −)
+    and the crank's journal, both with the crank's support-clearance error; so the pair's tilt stiffness is
+    each bearing's own plus its radial stiffness over the span between them. The eccentrics
     sit at the discs' planes (:func:`rvflex.geometry.pins.disc_planes`), the planet gear at
     ``cranks.gear_axial_position_m`` (None: in the mid-plane), meshing with the planar sun through the gear's
     section (:func:`rvflex.contact.gear_mesh.add_gear_mesh` with ``planet_lever_m``).
@@ -341,7 +345,7 @@ def build_spatial(mbs, spec: ReducerSpec, errors: ErrorSpec, carrier, sun_node: 
     mbs : exudyn.MainSystem
         The system to add to.
     spec : ReducerSpec
-        The reducer, its crank support bearing one of a crank's two.
+        The reducer (its ``crank_support`` the planar model's lumped pair).
     errors : ErrorSpec
         Its errors (eccentrics, support clearances, gear errors).
     carrier : CarrierHandles
@@ -372,7 +376,7 @@ def build_spatial(mbs, spec: ReducerSpec, errors: ErrorSpec, carrier, sun_node: 
         return _build_beam_cranks(mbs, spec, errors, carrier, sun_node, axes, beam_elements)
 
     st, cr = spec.input_stage, spec.cranks
-    half = 0.5 * cr.support_span_m
+    rows = support_rows(spec)
     gear_z = 0.0 if cr.gear_axial_position_m is None else cr.gear_axial_position_m
     rp = st.module_m * st.planet_teeth / 2
     rho = spec.materials.gears_cranks_discs.density_kg_m3
@@ -388,9 +392,10 @@ def build_spatial(mbs, spec: ReducerSpec, errors: ErrorSpec, carrier, sun_node: 
         node = int(mbs.AddNode(NodeRigidBodyRxyz(referenceCoordinates=[axis[0], axis[1], 0.0, 0.0, 0.0, 0.0])))
         body = int(mbs.AddObject(ObjectRigidBody(nodeNumber=node, mass=mass, inertia=[ixx, ixx, izz, 0.0, 0.0, 0.0])))
         extra = errors.crank_support_clearance_m[k] if errors.crank_support_clearance_m else 0.0
-        for seat, z, out in ((carrier.bore_markers[k], half, supports), (carrier.input_seat_markers[k], -half, inputs)):
+        for seat, z, out in ((carrier.bore_markers[k], rows.half_span_m, supports),
+                             (carrier.input_seat_markers[k], -rows.half_span_m, inputs)):
             journal = mbs.AddMarker(MarkerBodyRigid(bodyNumber=body, localPosition=[0.0, 0.0, z]))
-            out.append(bearings.build(mbs, seat, journal, spec.bearings.crank_support, extra_clearance_m=extra))
+            out.append(bearings.build(mbs, seat, journal, rows.bearing, extra_clearance_m=extra))
         markers.append(tuple(int(mbs.AddMarker(MarkerBodyRigid(bodyNumber=body, localPosition=[o[0], o[1], z])))
                              for o, z in zip(ecc[k], planes, strict=True)))
         meshes.append(add_gear_mesh(mbs, sun_node, node, st, planet_index=k, errors=errors, planet_lever_m=gear_z))
@@ -406,6 +411,7 @@ def _build_beam_cranks(mbs, spec: ReducerSpec, errors: ErrorSpec, carrier, sun_n
     from exudyn.itemInterface import MarkerBodyRigid
 
     beam = beam_layout(spec, elements)
+    rows = support_rows(spec)
     st = spec.input_stage
     rp = st.module_m * st.planet_teeth / 2
     material = spec.materials.gears_cranks_discs
@@ -419,7 +425,7 @@ def _build_beam_cranks(mbs, spec: ReducerSpec, errors: ErrorSpec, carrier, sun_n
         for seat, j, out in ((carrier.bore_markers[k], beam.output_support, supports),
                              (carrier.input_seat_markers[k], beam.input_support, inputs)):
             journal = mbs.AddMarker(MarkerBodyRigid(bodyNumber=shaft.bodies[j], localPosition=[0.0, 0.0, 0.0]))
-            out.append(bearings.build(mbs, seat, journal, spec.bearings.crank_support, extra_clearance_m=extra))
+            out.append(bearings.build(mbs, seat, journal, rows.bearing, extra_clearance_m=extra))
         markers.append(tuple(int(mbs.AddMarker(MarkerBodyRigid(bodyNumber=shaft.bodies[j],
                                                                localPosition=[o[0], o[1], 0.0])))
                              for o, j in zip(ecc[k], beam.eccentrics, strict=True)))

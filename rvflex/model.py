@@ -451,8 +451,7 @@ def _build_spatial(spec: ReducerSpec, errors: ErrorSpec, options: ModelOptions, 
     axes = carrier_part.crank_axis_positions(spec, errors)
     # each crank's two support bearings are the two the planar model lumps into spec.bearings.crank_support
     beam = options.spatial.crank_elements if options.spatial.crank == "beam" else None
-    cranks = crankshaft.build_spatial(mbs, carrier_part.split_support_bearing(spec), errors, carrier, sun.node, axes,
-                                      beam_elements=beam)
+    cranks = crankshaft.build_spatial(mbs, spec, errors, carrier, sun.node, axes, beam_elements=beam)
     discs = cycloid_disc.build_spatial(mbs, spec, errors, cranks, law, crankshaft.eccentric_offsets(spec, errors), axes,
                                        face_slices=options.face_slices)
     if hold_out_of_plane:

@@ -11,7 +11,7 @@ runs where specs enter: :func:`loads_spec`/:func:`load_spec` (and so the catalog
 
 TOML mirrors the dataclasses one table per nested dataclass. :func:`loads_spec` is
 strict: an unknown (e.g. misspelled) or a missing key is refused, except the optional ones, the
-fields typed ``X | None`` whose default is None (``[bearings.main_pair]``,
+fields typed ``X | None`` whose default is None (``[bearings.main_pair]``, ``[bearings.crank_support_pair]``,
 ``allowable_moment_Nm``, ``catalogue_moment_rigidity_Nm_per_arcmin``, ``catalogue_lost_motion_arcmin``,
 ``cranks.support_span_m``, ``cranks.support_journal_radius_m``, ``cranks.gear_axial_position_m``, a bearing's
 ``load_exponent`` and ``reference_load_N``): omitted, they are
@@ -47,6 +47,7 @@ from rvflex.spec_types import (
     Modification,
     ReducerSpec,
     SpecError,
+    TaperedRollerPair,
 )
 
 __all__ = [
@@ -59,6 +60,7 @@ __all__ = [
     "Cranks",
     "Bearing",
     "AngularContactPair",
+    "TaperedRollerPair",
     "Bearings",
     "Carrier",
     "ReducerSpec",

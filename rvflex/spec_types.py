@@ -482,18 +482,91 @@ class AngularContactPair:
 
 
 @dataclass(frozen=True, slots=True)
+class TaperedRollerPair:
+    """Geometry of a crank's two support bearings as preloaded tapered roller rows (the spatial model).
+
+    Each row has ``rollers`` rollers of ``roller_diameter_m`` and effective length ``roller_length_m``
+    between a cone of ``bore_diameter_m`` and a cup of ``outer_diameter_m``; the cup raceway meets the
+    axis at ``cup_angle_rad`` (the bearing's contact angle). The rows sit at ±``cranks.support_span_m``/2
+    (their roller mid-planes). Where and how stiff each carries: :mod:`rvflex.contact.tapered_roller`.
+
+    Parameters
+    ----------
+    kind : str
+        ``"tapered_roller"`` (the only kind modelled).
+    arrangement : str
+        ``"back_to_back"`` (O: pressure centres outboard) or ``"face_to_face"`` (X), :data:`PAIR_ARRANGEMENTS`.
+    bore_diameter_m, outer_diameter_m : float
+        Bore (the crank's journal) and outside diameter of each bearing, m.
+    roller_diameter_m : float
+        Mean roller diameter, m.
+    roller_length_m : float
+        Effective roller length (its line contact), m.
+    rollers : int
+        Rollers in each row (count).
+    cup_angle_rad : float
+        Angle of the cup raceway to the axis, rad, in (0, π/4].
+    """
+
+    kind: str
+    arrangement: str
+    bore_diameter_m: float
+    outer_diameter_m: float
+    roller_diameter_m: float
+    roller_length_m: float
+    rollers: int
+    cup_angle_rad: float
+
+    def __post_init__(self) -> None:
+        if self.kind != "tapered_roller":
+            raise SpecError("kind", self.kind, "must be 'tapered_roller' (the only crank support pair kind modelled)")
+        if self.arrangement not in PAIR_ARRANGEMENTS:
+            raise SpecError("arrangement", self.arrangement, f"must be one of {', '.join(PAIR_ARRANGEMENTS)}")
+        _range("bore_diameter_m", self.bore_diameter_m, 2 * MM, 0.5, "expected metres, 2 mm to 500 mm")
+        _range("outer_diameter_m", self.outer_diameter_m, self.bore_diameter_m, 1.0,
+               "expected metres, above the bore, up to 1 m")
+        ring = 0.5 * (self.outer_diameter_m - self.bore_diameter_m)
+        _range("roller_diameter_m", self.roller_diameter_m, 0.2 * MM, ring,
+               f"expected metres, 0.2 mm up to the rings' radial section {ring * 1e3:g} mm")
+        _range("roller_length_m", self.roller_length_m, 0.5 * MM, 0.2, "expected metres, 0.5 mm to 200 mm")
+        _int_range("rollers", self.rollers, 3, 200)
+        pitch = 0.5 * math.pi * (self.bore_diameter_m + self.outer_diameter_m) / self.rollers
+        if not pitch > self.roller_diameter_m:
+            raise SpecError("rollers", self.rollers,
+                            f"{self.rollers} rollers of {self.roller_diameter_m * 1e3:g} mm do not fit on the "
+                            f"{0.5 * (self.bore_diameter_m + self.outer_diameter_m) * 1e3:g} mm pitch circle "
+                            f"(roller pitch {pitch * 1e3:.3f} mm)")
+        if not (isinstance(self.cup_angle_rad, (int, float)) and 0.0 < self.cup_angle_rad <= math.pi / 4):
+            raise SpecError("cup_angle_rad", self.cup_angle_rad,
+                            "must lie in (0, π/4] rad (tapered roller bearings: 10° to 30°, 15° is 0.2618)")
+
+    @property
+    def pressure_centre_offset_m(self) -> float:
+        """Axial distance of a row's pressure centre from its roller mid-plane, m: r_c·tan α, r_c the cup
+        raceway's radius at mid-roller, (d_m + D_w·cos α)/2 with the pitch diameter d_m = (d + D)/2; positive
+        outboard (back to back), negative inboard (face to face)."""
+        alpha = self.cup_angle_rad
+        r_cup = 0.25 * (self.bore_diameter_m + self.outer_diameter_m) + 0.5 * self.roller_diameter_m * math.cos(alpha)
+        a = r_cup * math.tan(alpha)
+        return a if self.arrangement == "back_to_back" else -a
+
+
+@dataclass(frozen=True, slots=True)
 class Bearings:
     """The reducer's bearings: crank supports in the carrier, eccentric (disc) bearings, main bearing.
 
     ``main`` is the main bearing lumped as one bushing (the planar model); ``main_pair``, when
     given, is its geometry as a pair of angular-contact rows (the spatial output support:
-    ``rvflex moment-rigidity``). A spec without it runs every planar command.
+    ``rvflex moment-rigidity``). A spec without it runs every planar command. ``crank_support_pair``,
+    when given, is the geometry of a crank's two support bearings as tapered roller rows (the spatial
+    model's crank supports; without it each is half of ``crank_support`` at ±``cranks.support_span_m``/2).
     """
 
     crank_support: Bearing
     eccentric: Bearing
     main: Bearing
     main_pair: AngularContactPair | None = None
+    crank_support_pair: TaperedRollerPair | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -611,6 +684,19 @@ class ReducerSpec:
         if len(self.cranks.eccentric_axial_positions_m) != self.cycloid.disc_count:
             raise SpecError("cranks.eccentric_axial_positions_m", self.cranks.eccentric_axial_positions_m,
                             f"needs one eccentric per disc ({self.cycloid.disc_count})")
+        pair, cr = self.bearings.crank_support_pair, self.cranks
+        if pair is not None:  # without a support span the spatial model is refused (check_spatial)
+            if cr.support_journal_radius_m is not None and abs(pair.bore_diameter_m
+                                                               - 2 * cr.support_journal_radius_m) > 1e-6:
+                raise SpecError("bearings.crank_support_pair.bore_diameter_m", pair.bore_diameter_m,
+                                f"must equal twice cranks.support_journal_radius_m ({2 * cr.support_journal_radius_m:g} "
+                                "m): the bearings sit on the crank's support journals")
+            inner = None if cr.support_span_m is None else 0.5 * cr.support_span_m + pair.pressure_centre_offset_m
+            outer = max(abs(z) for z in cr.eccentric_axial_positions_m)
+            if inner is not None and not inner > outer:
+                raise SpecError("bearings.crank_support_pair.arrangement", pair.arrangement,
+                                f"puts the rows' pressure centres at ±{inner * 1e3:.2f} mm, not outside the "
+                                f"eccentrics (±{outer * 1e3:g} mm): the crank would not be held in tilt")
 
     def check_torque(self, field_name: str, value: float, *, allow_zero: bool = False) -> None:
         """Refuse an output torque outside (0, momentary maximum] N·m ([0, …] with ``allow_zero``).

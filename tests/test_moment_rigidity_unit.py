@@ -22,7 +22,7 @@ def rated(request):
 
 def test_every_built_in_unit_gives_a_unit_figure_at_or_a_little_above_the_pairs(rated):
     """The gear train resists the tilt in parallel with the pair: the unit is at least as stiff, and only a little
-    (one-way measurements put the gear train's share at 1–3 %; measured 1.0025, 1.0041, 1.0037 for the RV-160N,
+    (one-way measurements put the gear train's share at 1–3 %; measured 1.0025, 1.0040, 1.0037 for the RV-160N,
     RV-40E, RV-80E at rated torque)."""
     m = rated.metrics
     assert m.model == "unit" and m.moment_rigidity_Nm_per_arcmin == m.unit_moment_rigidity_Nm_per_arcmin

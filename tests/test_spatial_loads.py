@@ -80,10 +80,10 @@ def test_the_solved_tilt_is_the_pairs_a_little_stiffened_by_the_gear_train(runs,
     """The moment's tilt (less the untilted run's, the gear train's own couple between the discs' planes) points
     along the moment whatever its direction, and is the pair-alone tilt made a little smaller: the gear train
     resists the tilt in parallel with the pair (mean ratio ≤ 1), and by the one-way measurement it carries at most
-    2 % of the moment (tests/test_tilt.py holds it below 5 %), so the mean ratio stays above 0.95 (measured 0.987
+    2 % of the moment (tests/test_tilt.py holds it below 5 %), so the mean ratio stays above 0.95 (measured 0.988
     at 250 N·m, 0.991 at 500 N·m about +x and at 2 rad). Position by position the untilted run's tilt (±1.6e-5 rad,
     the couple turning with the cranks) meets a pair the moment has stiffened, so subtracting it leaves a few per
-    cent either way (measured 0.965–1.008 along the pair's tilt, up to 0.02 across it): held within 0.9–1.05 and
+    cent either way (measured 0.966–1.008 along the pair's tilt, up to 0.02 across it): held within 0.9–1.05 and
     0.05."""
     base = runs["none"].carrier_tilt_rad
     for name, m, angle in (("m250", 250.0, 0.0), ("m500", 500.0, 0.0), ("m500_2rad", 500.0, 2.0)):
@@ -103,8 +103,8 @@ def test_the_moment_adds_the_disc_tooth_order_ripple(runs, one_way, rv40e):
     their order-z_c errors no longer cancel (the one-way model's signature, tests/test_tilt.py). Absent untilted,
     it grows in proportion to the solved tilt (±10 %), and stays below the one-way model's, which carries the discs
     rigidly with the pair's tilt while here the pins push back through the discs' needle bearings and the cranks'
-    supports (measured 4.30″ against 4.6″ at 500 N·m, 0.93×). The mean wind-up, a torsional figure, moves by
-    less than 0.5″ (measured 0.07″)."""
+    supports (measured 4.21″ against 4.62″ at 500 N·m, 0.91×). The mean wind-up, a torsional figure, moves by
+    less than 0.5″ (measured 0.06″)."""
     a = {name: _order_zc(runs[name].te_rad) for name in ("none", "m250", "m500")}
     assert a["none"] < 0.01
     assert a["m500"] > 1.0
@@ -122,7 +122,7 @@ def test_the_face_pushed_into_the_pins_carries_more(runs, one_way, rv40e):
     the other face (the sign test of tests/test_tilt.py, same direction as the one-way model), and so does what
     the moment adds to the untilted run's face difference (the spatial unit's discs already tilt a little under
     torque alone). The two-way push is smaller than the one-way one: each disc tilts back against its pins, less
-    than the carrier (measured 0.62×), and its faces share the moment's push more evenly (measured 0.49× the
+    than the carrier (measured 0.61×), and its faces share the moment's push more evenly (measured 0.48× the
     one-way face difference on average)."""
     push = np.asarray(carrier_tilt(rv40e, 500.0).disc_shift_m(1.0))  # the discs' move per metre along the axis
 
@@ -162,8 +162,8 @@ def test_an_axial_force_moves_the_carrier_along_the_axis_only(runs, rv40e):
 def test_a_moment_at_zero_torque_is_the_pairs_alone_and_takes_up_free_play(rv40e):
     """Torque stepping holds the moment over the cycle. At zero torque the unit floats in its free play, so the pair
     alone carries the moment (its tilt to 1e-3); tilted, each disc is pressed into its pins on one side and the
-    lost motion shrinks, as in the one-way model (measured 1.990′ → 1.932′ at 500 N·m; one-way 1.987′ → 1.915′),
-    the torsional stiffness beyond the play unchanged within 1 % (measured 156.2 both)."""
+    lost motion shrinks, as in the one-way model (measured 1.991′ → 1.933′ at 500 N·m; one-way 1.987′ → 1.915′),
+    the torsional stiffness beyond the play unchanged within 1 % (measured 155.3 both)."""
     res = {}
     for m in (0.0, 500.0):
         load = OutputLoad(moment_Nm=m) if m else None

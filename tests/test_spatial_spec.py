@@ -50,11 +50,16 @@ def test_built_in_units_place_their_cranks_in_space(name):
 
 
 @pytest.mark.parametrize("name", catalog.names())
-def test_each_new_field_is_an_assumption_with_its_reasoning(name):
+def test_each_new_field_has_its_source_or_is_an_assumption_with_its_reasoning(name):
     text = catalog.text(name)
-    for key in ("support_span_m", "support_journal_radius_m", "gear_axial_position_m"):
-        line = next(s for s in text.splitlines() if s.startswith(f"{key} ="))
-        assert re.search(r"#\s*assumed: \S.{20,}", line), line
+    lines = text.splitlines()
+    pair = lines[lines.index("[bearings.crank_support_pair]") + 1:]
+    pair = [s for s in pair[:next(i for i, s in enumerate(pair) if not s.strip())]]
+    assert len(pair) == 8, pair
+    crank = [next(s for s in lines if s.startswith(f"{key} =")) for key in ("support_span_m", "support_journal_radius_m",
+                                                                             "gear_axial_position_m")]
+    for line in crank + pair:
+        assert re.search(r"#\s*(assumed: \S.{20,}|seed 00\d (Table \d|§[\d.]+) \(.{10,})", line), line
 
 
 def test_spec_with_and_without_the_crank_layout_round_trips(rv40e):
