@@ -4,8 +4,8 @@ kernel's own evaluation measured in the same run.
 For each built-in unit and each case (rigid; rigid with seed 001's errors and their 12 µm crank-bearing
 clearances; rigid under half its allowable tilting moment with the pin contact in :data:`~rvflex.tilt.MOMENT_SLICES`
 slices along the face width; the spatial rigid model (:meth:`~rvflex.options.ModelOptions.spatial_rigid`, its
-slices on the tilting discs), without and with half the allowable moment on the output; FE discs; FE discs and
-carrier; FE discs, carrier and housing) one loaded TE run over
+slices on the tilting discs), without and with half the allowable moment on the output, and with beam cranks (one
+element per segment); FE discs; FE discs and carrier; FE discs, carrier and housing) one loaded TE run over
 one output revolution is timed after a warm-up (compiled kernels, FE reductions from the cache). Its wall time per
 step is divided by the unit's contact evaluation: every disc's cycloid–pin kernel (every slice of it), force and
 Jacobian, at a loaded state (the median of many calls); a sliced case's budget is thus per slice. A second, profiled run of the same case splits the step into
@@ -28,8 +28,8 @@ import numpy as np
 
 __all__ = ["CASES", "bench_te", "clearance_errors", "contact_evaluation_us", "table_md"]
 
-CASES = ("rigid", "rigid-clearance", "rigid-moment", "spatial", "spatial-moment", "flexible", "flexible-carrier",
-         "flexible-all")
+CASES = ("rigid", "rigid-clearance", "rigid-moment", "spatial", "spatial-moment", "spatial-beam", "flexible",
+         "flexible-carrier", "flexible-all")
 UNITS = ("rv40e", "rv80e", "rv160n")
 CONTACT_CALLS = 400  # calls timed for the contact unit (median of 8 blocks)
 
@@ -56,12 +56,14 @@ def clearance_errors(spec):
 
 
 def _options(case: str):
-    from rvflex.options import ModelOptions
+    from rvflex.options import ModelOptions, SpatialSettings
     from rvflex.tilt import MOMENT_SLICES
 
     return {"rigid": ModelOptions.rigid, "rigid-clearance": ModelOptions.rigid,
             "rigid-moment": lambda: ModelOptions(face_slices=MOMENT_SLICES), "spatial": ModelOptions.spatial_rigid,
-            "spatial-moment": ModelOptions.spatial_rigid, "flexible": ModelOptions.flexible_discs,
+            "spatial-moment": ModelOptions.spatial_rigid,
+            "spatial-beam": lambda: ModelOptions.spatial_rigid(MOMENT_SLICES, SpatialSettings(crank="beam")),
+            "flexible": ModelOptions.flexible_discs,
             "flexible-carrier": ModelOptions.flexible_discs_and_carrier,
             "flexible-all": ModelOptions.flexible_all}[case]()
 
@@ -209,8 +211,8 @@ def bench_case(unit: str, case: str, positions: int, progress=None) -> dict:
     return row
 
 
-TARGETS = {"rigid": 8, "rigid-clearance": 12, "rigid-moment": 8, "spatial": 8, "spatial-moment": 8, "flexible": 40,
-           "flexible-carrier": 80}
+TARGETS = {"rigid": 8, "rigid-clearance": 12, "rigid-moment": 8, "spatial": 8, "spatial-moment": 8, "spatial-beam": 8,
+           "flexible": 40, "flexible-carrier": 80}
 
 
 def bench_te(units=UNITS, cases=CASES, positions: int = 2048, flexible_positions: int = 512, progress=None) -> dict:

@@ -482,9 +482,10 @@ def _solve_retried(x, guess, free, cap, ref, pc, cs, ld, ct, ff, ms, sp, wk3, ma
 
 @_jit
 def ideal_kinematics(q, theta_in, ratio, pin_count, sun, carrier, crank_axes, crank_x, crank_y, crank_th, disc_base,
-                      eccentricity, disc_phase, disc_x, disc_y, disc_th, modal):
+                      eccentricity, disc_phase, disc_x, disc_y, disc_th, modal, station_src, station_dst):
     """:meth:`rvflex.model.ReducerModel.kinematic_coordinates` in place on ``q`` (the reference coordinates; m,
-    rad): one compiled call per quasi-static step instead of some thirty small numpy operations."""
+    rad): one compiled call per quasi-static step instead of some thirty small numpy operations. A beam crank's
+    stations (``station_dst``) sit and turn with its node (``station_src``: its x, y, ψz for each)."""
     th_c = theta_in / ratio
     alpha = -pin_count * th_c  # crank angle relative to the carrier
     c, s = math.cos(th_c), math.sin(th_c)
@@ -503,6 +504,8 @@ def ideal_kinematics(q, theta_in, ratio, pin_count, sun, carrier, crank_axes, cr
         q[disc_th[d]] += th_c  # a flexible disc may sit turned by a half turn (its reference angle)
     for j in modal:
         q[j] = 0.0
+    for i in range(station_dst.shape[0]):
+        q[station_dst[i]] = q[station_src[i]]
 
 
 @_jit
@@ -553,7 +556,7 @@ PENETRATED, JUMPED = 10, 11
 def _steps(theta, ratio, kin, hist_th, hist_e, nh, last_te, max_jump, max_pen, car, drive, regulariser, x_out,
            out, forces, gaps, torques, resultants, states, records, x, free, cap, ref, fixed_idx, fixed_value, pc, cs,
            ld, ct, ff, ms, sp, max_iterations, sun, carrier, crank_axes, crank_x, crank_y, crank_th, disc_base, eccentricity, disc_phase,
-           disc_x, disc_y, disc_th, modal, pin_count):
+           disc_x, disc_y, disc_th, modal, station_src, station_dst, pin_count):
     """The recorded steps at input angles ``theta`` in one call, each as :meth:`CompiledStep.solve` and the
     caller's loop take it: the guess is the ideal kinematics plus the elastic part extrapolated from the last
     ``nh`` (≤ 3) converged steps (``hist_th``, ``hist_e``, updated in place), the drive and the output regulariser
@@ -575,7 +578,7 @@ def _steps(theta, ratio, kin, hist_th, hist_e, nh, last_te, max_jump, max_pen, c
         for i in range(kin.shape[0]):
             kin[i] = ref[i]
         ideal_kinematics(kin, th, ratio, pin_count, sun, carrier, crank_axes, crank_x, crank_y, crank_th, disc_base,
-                         eccentricity, disc_phase, disc_x, disc_y, disc_th, modal)
+                         eccentricity, disc_phase, disc_x, disc_y, disc_th, modal, station_src, station_dst)
         for i in range(x.shape[0]):
             x[i] = kin[i] - ref[i]
         for j in range(nh):  # Lagrange weights at th
@@ -974,9 +977,9 @@ def _bodies(mbs, objects: list[dict]) -> tuple[dict, dict] | None:
 def compiled_step(model) -> CompiledStep | None:
     """The compiled step of ``model``, or None when its system holds an item the compiled step does not
     replicate (other connector laws, an FE body free out of its plane, user functions on an FE body, a connector
-    between a planar and a spatial body): that model is solved by Exudyn. The spatial rigid model (rigid bodies
-    on NodeRigidBodyRxyz, the main bearing pair element, tilting contact slices and gear meshes) is replicated by
-    :mod:`rvflex.engine3d`'s elements."""
+    between a planar and a spatial body): that model is solved by Exudyn. The spatial model (rigid bodies on
+    NodeRigidBodyRxyz, the main bearing pair element, tilting contact slices and gear meshes, a beam crank's
+    segments) is replicated by :mod:`rvflex.engine3d`'s elements."""
     mbs = model.mbs
     sd = mbs.systemData
     bearing_law = {}  # connector → (ε, w, e, x_r) of rvflex's clearance law
@@ -986,6 +989,9 @@ def compiled_step(model) -> CompiledStep | None:
         if p is not None:  # the spatial carrier has the pair element instead of a main bearing
             b = p.bearing
             bearing_law[b.connector] = (b.clearance_m, b.smoothing_m, b.load_exponent, b.reference_approach_m)
+    for row in model.cranks.segments:  # a beam crank's segments: the same law, linear, without clearance
+        for segment in row:
+            bearing_law[segment] = (0.0, 0.0, 1.0, 0.0)
     pair = getattr(model.carrier, "pair", None)
     contacts = {c.object_index: c for c in model.discs.contacts}
     meshes = {h.mesh_object: h for h in model.cranks.meshes}

@@ -135,7 +135,7 @@ def workspace3d(bodies):
             np.zeros(3),
             # from 23: a bushing's Δ, d, f_L, m_L, R₀f_L, R₀m_L, ∂f_L/∂d, R₀ᵀR₁, ∂θ/∂q_t and its markers' body slots
             np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3), np.zeros((3, 3)),
-            np.zeros((3, 3)), np.zeros((2, 6)), np.zeros(2, dtype=np.int64))
+            np.zeros((3, 3)), np.zeros((3, 6)), np.zeros(2, dtype=np.int64))
 
 
 @_jit
@@ -177,9 +177,9 @@ def bushings3d(qa, b3, f, kt, w):
     ``b3`` = (first ODE2 index of each marker's Rxyz body or −1 for ground (c, 2), its body's slot among ``first``
     or −1 (c, 2), the first ODE2 index of each such body (bodies,), each marker's local point or, on ground, global
     point (c, 2, 3) m, the laws acting between the two points (c,) (B3_CLEARANCE, B3_CARTESIAN or both: a bearing
-    and its regulariser share their markers), their parameters (c, 12): clearance (k N/m, ε m, w m, k_ax N/m,
-    k_tx, k_ty N·m/rad), Cartesian (k_x, k_y, k_z N/m, offset x, y, z m)); ``w`` :func:`workspace3d` for those
-    bodies."""
+    and its regulariser share their markers), their parameters (c, 13): clearance (k N/m, ε m, w m, k_ax N/m,
+    k_tx, k_ty N·m/rad), Cartesian (k_x, k_y, k_z N/m, offset x, y, z m), the clearance law's torsion k_tz N·m/rad
+    (0 for a bearing; a beam crank's segment twists)); ``w`` :func:`workspace3d` for those bodies."""
     idx, slot, first, lps, kind, par = b3
     fac, brot, bdrot, bddrot, bgm, bdgm, pos, jp, dfp, dfr = w[:10]
     _body_frames(qa, first, fac, brot, bdrot, bddrot, bgm, bdgm)
@@ -209,6 +209,7 @@ def bushings3d(qa, b3, f, kt, w):
                     rel[k, m] = r0[0, k] * rot1[0, m] + r0[1, k] * rot1[1, m] + r0[2, k] * rot1[2, m]
             thx = math.atan2(-rel[1, 2], rel[2, 2])
             thy = math.atan2(rel[0, 2], math.sqrt(abs(1.0 - rel[0, 2] * rel[0, 2])))
+            thz = math.atan2(-rel[0, 1], rel[0, 0])  # the xyz angles of R₀ᵀR₁, as Exudyn's connector takes them
             k_r, eps, wid = par[c, 0], par[c, 1], par[c, 2]
             amat[:, :] = 0.0
             if eps == 0.0:
@@ -222,7 +223,7 @@ def bushings3d(qa, b3, f, kt, w):
                     g = k_r * rw / dr
                     gp = (k_r * drw - g) / dr  # dg/d|d|
             fl[0], fl[1], fl[2] = g * d[0], g * d[1], par[c, 3] * d[2]
-            ml[0], ml[1], ml[2] = par[c, 4] * thx, par[c, 5] * thy, 0.0
+            ml[0], ml[1], ml[2] = par[c, 4] * thx, par[c, 5] * thy, par[c, 12] * thz
             amat[0, 0] = g + gp * d[0] * d[0] / dr
             amat[0, 1] = gp * d[0] * d[1] / dr
             amat[1, 0] = amat[0, 1]
@@ -230,11 +231,12 @@ def bushings3d(qa, b3, f, kt, w):
             amat[2, 2] = par[c, 3]
             for k in range(3):
                 fp[k] = r0[k, 0] * fl[0] + r0[k, 1] * fl[1] + r0[k, 2] * fl[2]
-                fr[k] = r0[k, 0] * ml[0] + r0[k, 1] * ml[1]
-            # ∂θ/∂ψ: δθ = G(θ)⁻¹·R₀ᵀ(G₁δψ₁ − G₀δψ₀); rows θx, θy of G(θ)⁻¹ (θz does not enter the law)
+                fr[k] = r0[k, 0] * ml[0] + r0[k, 1] * ml[1] + r0[k, 2] * ml[2]
+            # ∂θ/∂ψ: δθ = G(θ)⁻¹·R₀ᵀ(G₁δψ₁ − G₀δψ₀), G(θ)⁻¹ of the xyz angles
             sx, cx, sy, cy = math.sin(thx), math.cos(thx), math.sin(thy), math.cos(thy)
             gi00, gi01, gi02 = 1.0, sy * sx / cy, -sy * cx / cy
             gi10, gi11, gi12 = 0.0, cx, sx
+            gi21, gi22 = -sx / cy, cx / cy
             for t in range(2):
                 sg = 1.0 if t == 1 else -1.0
                 theta[:, :] = 0.0
@@ -244,6 +246,7 @@ def bushings3d(qa, b3, f, kt, w):
                     v2 = r0[0, 2] * bgm[sl[t], 0, j] + r0[1, 2] * bgm[sl[t], 1, j] + r0[2, 2] * bgm[sl[t], 2, j]
                     theta[0, 3 + j] = sg * (gi00 * v0 + gi01 * v1 + gi02 * v2)
                     theta[1, 3 + j] = sg * (gi10 * v0 + gi11 * v1 + gi12 * v2)
+                    theta[2, 3 + j] = sg * (gi21 * v1 + gi22 * v2)
                 for j in range(6):
                     # ∂d/∂q_t = ±R₀ᵀ∂p_t/∂q_t (+ ∂R₀ᵀ/∂ψ₀·Δ on marker 0's rotations)
                     dd0 = sg * (r0[0, 0] * jp[t, 0, j] + r0[1, 0] * jp[t, 1, j] + r0[2, 0] * jp[t, 2, j])
@@ -259,14 +262,15 @@ def bushings3d(qa, b3, f, kt, w):
                     a2 = amat[2, 2] * dd2
                     b0 = par[c, 4] * theta[0, j]
                     b1 = par[c, 5] * theta[1, j]
+                    b2 = par[c, 12] * theta[2, j]
                     for k in range(3):
                         dfp[t, k, j] = r0[k, 0] * a0 + r0[k, 1] * a1 + r0[k, 2] * a2
-                        dfr[t, k, j] = r0[k, 0] * b0 + r0[k, 1] * b1
+                        dfr[t, k, j] = r0[k, 0] * b0 + r0[k, 1] * b1 + r0[k, 2] * b2
                     if t == 0 and j >= 3:  # R₀ turns with marker 0
                         dm = drot0[j - 3]
                         for k in range(3):
                             dfp[t, k, j] += dm[k, 0] * fl[0] + dm[k, 1] * fl[1] + dm[k, 2] * fl[2]
-                            dfr[t, k, j] += dm[k, 0] * ml[0] + dm[k, 1] * ml[1]
+                            dfr[t, k, j] += dm[k, 0] * ml[0] + dm[k, 1] * ml[1] + dm[k, 2] * ml[2]
         if kind[c] & B3_CARTESIAN:  # global springs on the same two points
             for k in range(3):
                 fp[k] += par[c, 6 + k] * (delta[k] - par[c, 9 + k])
@@ -424,14 +428,16 @@ def connector_law3d(o: dict, clearance: tuple[float, ...] | None) -> tuple[int, 
     if o["objectType"] == "ConnectorCartesianSpringDamper":
         if o.get("springForceUserFunction", 0) != 0:
             return None
-        return B3_CARTESIAN, [0.0] * 6 + [*np.asarray(o["stiffness"], float), *np.asarray(o["offset"], float)]
+        return B3_CARTESIAN, [0.0] * 6 + [*np.asarray(o["stiffness"], float), *np.asarray(o["offset"], float), 0.0]
     if clearance is None or o.get("useIntrinsicFormulation") or clearance[2] != 1.0:
         return None
     for key in ("rotationMarker0", "rotationMarker1"):  # J0, J1 = the markers' own frames
         if not np.array_equal(np.asarray(o[key], float), np.eye(3)):
             return None
     k = np.asarray(o["stiffness"], float)
-    return B3_CLEARANCE, [k[0, 0], clearance[0], clearance[1], k[2, 2], k[3, 3], k[4, 4]] + [0.0] * 6
+    if k[0, 0] != k[1, 1] or np.count_nonzero(k - np.diag(np.diag(k))):  # the law: isotropic radially, diagonal
+        return None
+    return B3_CLEARANCE, [k[0, 0], clearance[0], clearance[1], k[2, 2], k[3, 3], k[4, 4]] + [0.0] * 6 + [k[5, 5]]
 
 
 def spatial_data(mbs, sides3: list, kinds: list, pars: list, pairs: list, levers: list, first: list,
@@ -460,7 +466,7 @@ def spatial_data(mbs, sides3: list, kinds: list, pars: list, pairs: list, levers
                             dtype=np.int64).reshape(-1, 2),
         "b3_first": np.array(bodies, dtype=np.int64),
         "b3_lp": np.array([[p[1] for p in pts] for pts in sides3], float).reshape(-1, 2, 3),
-        "b3_kind": np.array(kinds, dtype=np.int64), "b3_par": np.array(pars, float).reshape(-1, 12),
+        "b3_kind": np.array(kinds, dtype=np.int64), "b3_par": np.array(pars, float).reshape(-1, 13),
         "bp_idx": np.array([mbs.GetNodeODE2Index(p.node) for p in pairs], dtype=np.int64),
         "bp_seat": np.array([p.seat_m for p in pairs], float).reshape(-1, 5),
         "bp_inner": bp_inner, "bp_outer": bp_outer,

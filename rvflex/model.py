@@ -230,8 +230,6 @@ class ReducerModel:
         k = self._kinematics
         q = self.reference.copy()
         ideal_kinematics(q, float(theta_in), self.ratio, float(self.spec.cycloid.pin_count), *k)
-        src, dst = self._crank_stations
-        q[dst] = q[src]  # a beam crank's stations sit and turn with its node (all on the crank's axis)
         return q
 
     @functools.cached_property
@@ -267,7 +265,7 @@ class ReducerModel:
         return (int(sl["sun"][2]), int(sl["carrier"][2]), np.ascontiguousarray(np.asarray(self.crank_axes, float)[:nk]),
                 idx("crank", 0, nk), idx("crank", 1, nk), idx("crank", 2, nk), np.ascontiguousarray(base),
                 float(cy.eccentricity_m), phase, idx("disc", 0, nd), idx("disc", 1, nd), idx("disc", 2, nd),
-                (np.concatenate(modal) if modal else np.zeros(0)).astype(np.int64))
+                (np.concatenate(modal) if modal else np.zeros(0)).astype(np.int64), *self._crank_stations)
 
 
 def disc_mesh_spec(spec: ReducerSpec, modification=None) -> ReducerSpec:
@@ -301,8 +299,8 @@ def build_reducer(spec: ReducerSpec, errors: ErrorSpec | None = None,
 
     Spatial options (``options.spatial``) build the spatial rigid model (module docstring;
     ``spec.check_spatial`` first), its cranks rigid or beams (``options.spatial.crank``); the compiled step of
-    :mod:`rvflex.engine` solves it with rigid cranks, Exudyn's solvers behind it as for the planar model, and
-    Exudyn's solvers alone with beam cranks (the compiled step declines their segment springs).
+    :mod:`rvflex.engine` solves it either way (a beam crank's segment springs are its 3D bushings with torsion),
+    Exudyn's solvers behind it as for the planar model.
 
     Every layout takes FE discs: a disc that is disc 0 turned by a symmetry of the crank and
     pillar layout (to a whole number of teeth) shares disc 0's reduction; any other disc (three

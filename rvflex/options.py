@@ -21,8 +21,7 @@ The spatial preset (``"spatial"``) keeps every part rigid but lets each body mov
 (:class:`SpatialSettings`): the carrier on its main bearing pair, the cranks on their support pairs, the discs
 tilting against the pins, whose contact is then sliced along the face width. :func:`rvflex.model.build_reducer`
 builds it with rigid or beam cranks (``SpatialSettings.crank``); the compiled step of :mod:`rvflex.engine`
-solves it with rigid cranks (:mod:`rvflex.engine3d`), Exudyn's solvers behind it, and Exudyn's solvers with beam
-cranks.
+solves it either way (:mod:`rvflex.engine3d`), Exudyn's solvers behind it.
 
 Variants by :func:`dataclasses.replace` (e.g. more disc modes:
 ``replace(opts, discs=replace(opts.discs, n_modes=24))``) or :meth:`ModelOptions.with_fe`.

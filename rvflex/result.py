@@ -45,7 +45,8 @@ def spatial_variables(raw, dim: str, suffix: str = "") -> tuple[dict, dict]:
     Parameters
     ----------
     raw : rvflex.solve.QuasiStaticResult or rvflex.solve.TorqueStepResult
-        With ``carrier_tilt_rad``, ``carrier_shift_m``, ``disc_tilt_rad`` (None for the planar model).
+        With ``carrier_tilt_rad``, ``carrier_shift_m``, ``disc_tilt_rad``, ``crank_tilt_rad`` (None for the planar
+        model).
     dim : str
         The steps' dimension.
     suffix : str, optional
@@ -54,21 +55,25 @@ def spatial_variables(raw, dim: str, suffix: str = "") -> tuple[dict, dict]:
     Returns
     -------
     data, coords : dict
-        ``carrier_tilt`` (dim × tilt_axis, rad), ``carrier_shift`` (dim × axis, m) and ``disc_tilt``
-        (dim × disc × tilt_axis, rad), and their axis coordinates; both empty for the planar model.
+        ``carrier_tilt`` (dim × tilt_axis, rad), ``carrier_shift`` (dim × axis, m), ``disc_tilt``
+        (dim × disc × tilt_axis, rad) and ``crank_tilt`` (dim × crank, rad), and their axis coordinates; both empty
+        for the planar model.
     """
     if getattr(raw, "carrier_tilt_rad", None) is None:
         return {}, {}
-    nd = raw.disc_tilt_rad.shape[1]
+    nd, nk = raw.disc_tilt_rad.shape[1], raw.crank_tilt_rad.shape[1]
     coords = {"tilt_axis": variable(("tilt_axis",), np.array(["x", "y"]), "1", "tilt about the housing's axis"),
               "axis": variable(("axis",), np.array(["x", "y", "z"]), "1", "housing axis (z: the reducer's)"),
-              "disc": variable(("disc",), np.arange(1, nd + 1), "1", "cycloid disc number")}
+              "disc": variable(("disc",), np.arange(1, nd + 1), "1", "cycloid disc number"),
+              "crank": variable(("crank",), np.arange(1, nk + 1), "1", "crank number")}
     data = {f"carrier_tilt{suffix}": variable((dim, "tilt_axis"), raw.carrier_tilt_rad, "rad",
                                               "carrier tilt (ψx, ψy) on the main bearing pair, solved"),
             f"carrier_shift{suffix}": variable((dim, "axis"), raw.carrier_shift_m, "m",
                                                "carrier displacement at the main bearing pair's centre, solved"),
             f"disc_tilt{suffix}": variable((dim, "disc", "tilt_axis"), raw.disc_tilt_rad, "rad",
-                                           "cycloid disc tilt (ψx, ψy), solved")}
+                                           "cycloid disc tilt (ψx, ψy), solved"),
+            f"crank_tilt{suffix}": variable((dim, "crank"), raw.crank_tilt_rad, "rad",
+                                            "crank tilt: slope of the chord between its support bearings, solved")}
     return data, coords
 
 

@@ -66,7 +66,8 @@ class QuasiStaticResult:
     The spatial model (``model.spatial``) records its out-of-plane motion per step, None for the planar one:
     carrier_tilt_rad (steps, 2) the carrier's tilt (ψx, ψy) about the housing's x and y axes, carrier_shift_m
     (steps, 3) its displacement (x, y, z) at the main bearing pair's centre, disc_tilt_rad (steps, discs, 2) each
-    disc's tilt (ψx, ψy).
+    disc's tilt (ψx, ψy), crank_tilt_rad (steps, cranks) each crank's tilt: the slope of the chord between the
+    points where its two support bearings carry (a rigid crank's axis; a beam crank's support stations).
     """
 
     theta_in: np.ndarray
@@ -84,6 +85,7 @@ class QuasiStaticResult:
     carrier_tilt_rad: np.ndarray | None = None
     carrier_shift_m: np.ndarray | None = None
     disc_tilt_rad: np.ndarray | None = None
+    crank_tilt_rad: np.ndarray | None = None
 
 
 def _set_output_load(model: ReducerModel, load, fraction: float = 1.0) -> None:
@@ -111,8 +113,8 @@ def _check_output_load(model: ReducerModel, load) -> None:
 
 
 class _SpatialRecord:
-    """The spatial model's per-step out-of-plane state (carrier tilt and shift, disc tilts), read from the
-    absolute coordinates of each converged step; empty for the planar model."""
+    """The spatial model's per-step out-of-plane state (carrier tilt and shift, disc and crank tilts), read from
+    the absolute coordinates of each converged step; empty for the planar model."""
 
     def __init__(self, model: ReducerModel, n: int):
         self.on = model.spatial
@@ -124,18 +126,33 @@ class _SpatialRecord:
         self.tilt = np.full((n, 2), np.nan)
         self.shift = np.full((n, 3), np.nan)
         self.disc_tilt = np.full((n, len(self.discs), 2), np.nan)
+        # each crank's two support points: a rigid crank's node (its axis: ψx, ψy), a beam crank's support stations
+        beam = model.cranks.beam
+        self.rigid = beam is None
+        self.cranks = np.array([idx[f"crank{k}"][3:5] for k in range(len(model.cranks.nodes))] if self.rigid else
+                               [[model.mbs.GetNodeODE2Index(shaft[j]) for j in (beam.output_support,
+                                                                                beam.input_support)]
+                                for shaft in model.cranks.stations], dtype=np.int64)
+        self.crank_tilt = np.full((n, len(self.cranks)), np.nan)
 
     def record(self, j: int, q: np.ndarray) -> None:
         if self.on:
             self.shift[j] = q[self.car[:3]]
             self.tilt[j] = q[self.car[3:5]]
             self.disc_tilt[j] = q[self.discs[:, 3:5]]
+            if self.rigid:  # the axis R·e_z of Rxyz angles: (sin ψy, −sin ψx·cos ψy, cos ψx·cos ψy)
+                px, py = q[self.cranks[:, 0]], q[self.cranks[:, 1]]
+                self.crank_tilt[j] = np.hypot(np.sin(py), np.sin(px) * np.cos(py)) / (np.cos(px) * np.cos(py))
+            else:
+                a, b = self.cranks[:, 0], self.cranks[:, 1]
+                chord = np.stack([q[a + i] - q[b + i] for i in range(3)], axis=1)
+                self.crank_tilt[j] = np.hypot(chord[:, 0], chord[:, 1]) / chord[:, 2]
 
     def fields(self, m: int) -> dict:
         if not self.on:
             return {}
         return {"carrier_tilt_rad": self.tilt[:m], "carrier_shift_m": self.shift[:m],
-                "disc_tilt_rad": self.disc_tilt[:m]}
+                "disc_tilt_rad": self.disc_tilt[:m], "crank_tilt_rad": self.crank_tilt[:m]}
 
 
 def static_settings():
@@ -781,8 +798,8 @@ class TorqueStepResult:
     """Input locked, output torque stepped: torque (N·m, on the output, positive in the forward
     direction), output angle (rad; NaN for a step left out by ``skip_unsolved``), one row per step
     taken; ``compiled`` as :class:`QuasiStaticResult`'s; the spatial model's carrier_tilt_rad (steps, 2),
-    carrier_shift_m (steps, 3) and disc_tilt_rad (steps, discs, 2) as :class:`QuasiStaticResult`'s (None for the
-    planar model)."""
+    carrier_shift_m (steps, 3), disc_tilt_rad (steps, discs, 2) and crank_tilt_rad (steps, cranks) as
+    :class:`QuasiStaticResult`'s (None for the planar model)."""
 
     torque_Nm: np.ndarray
     theta_out: np.ndarray
@@ -791,6 +808,7 @@ class TorqueStepResult:
     carrier_tilt_rad: np.ndarray | None = None
     carrier_shift_m: np.ndarray | None = None
     disc_tilt_rad: np.ndarray | None = None
+    crank_tilt_rad: np.ndarray | None = None
 
 
 HYSTERESIS_FINE_FRACTIONS = (0.005, 0.01, 0.02, 0.03, 0.04)  # of T: the lost-motion points and the free play

@@ -130,7 +130,7 @@ def _reversed(run: QuasiStaticResult) -> QuasiStaticResult:
     if run.carrier_tilt_rad is None:
         return run
     return dc.replace(run, carrier_tilt_rad=run.carrier_tilt_rad[::-1], carrier_shift_m=run.carrier_shift_m[::-1],
-                      disc_tilt_rad=run.disc_tilt_rad[::-1])
+                      disc_tilt_rad=run.disc_tilt_rad[::-1], crank_tilt_rad=run.crank_tilt_rad[::-1])
 
 
 @dataclass(frozen=True, eq=False)

@@ -71,9 +71,10 @@ def test_the_records_have_their_shapes_and_the_planar_model_has_none(runs, one_w
     r, n, nd = runs["m500"], POSITIONS, rv40e.cycloid.disc_count
     assert r.carrier_tilt_rad.shape == (n, 2) and r.carrier_shift_m.shape == (n, 3)
     assert r.disc_tilt_rad.shape == (n, nd, 2)
+    assert r.crank_tilt_rad.shape == (n, rv40e.cranks.count) and np.isfinite(r.crank_tilt_rad).all()
     assert r.pin_slice_force_N.shape == (n, nd, MOMENT_SLICES, rv40e.cycloid.pin_count)
     assert np.isfinite(r.carrier_tilt_rad).all() and np.isfinite(r.disc_tilt_rad).all()
-    assert one_way[500.0].carrier_tilt_rad is None and one_way[500.0].disc_tilt_rad is None
+    assert one_way[500.0].carrier_tilt_rad is None and one_way[500.0].crank_tilt_rad is None
 
 
 def test_the_solved_tilt_is_the_pairs_a_little_stiffened_by_the_gear_train(runs, rv40e):

@@ -226,6 +226,9 @@ def test_the_free_spatial_model_winds_up_a_little_more_than_the_planar_one(unit)
     index = model.spatial_index()
     crank_tilt = max(np.hypot(*q[index[f"crank{k}"][3:5]]) for k in range(spec.cranks.count)) * ARCSEC_PER_RAD
     assert 10.0 < crank_tilt < 100.0, crank_tilt
+    # the run's record of each crank's tilt (its axis' slope) is the last state's at the last step
+    assert spatial.crank_tilt_rad.shape == (len(th), spec.cranks.count)
+    assert np.nanmax(spatial.crank_tilt_rad[-1]) * ARCSEC_PER_RAD == pytest.approx(crank_tilt, rel=1e-6)
     # a disc's slices carry unequal loads once it tilts (equal in the planar model: test_tilt.py)
     faces = spatial.pin_slice_force_N[:, 0].sum(axis=-1)
     assert np.all(np.abs(faces[:, -1] - faces[:, 0]) > 1e-3 * faces.mean())

@@ -33,7 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rvflex.diagnosis.plan import BRANCH_FRACTIONS, Layout, PlanRun
-from rvflex.spec import AngularContactPair, ReducerSpec
+from rvflex.spec import AngularContactPair, ReducerSpec, TaperedRollerPair
 from rvflex.units import ARCMIN, ARCSEC
 
 __all__ = ["ANCHOR_MIN_RATIO", "GLOBAL_SCALE_HIGH", "GLOBAL_SCALE_LOW", "Anchor", "anchor", "compliance",
@@ -167,8 +167,9 @@ def scale_stiffness(spec: ReducerSpec, s: float) -> ReducerSpec:
                             for f in dc.fields(m)})
 
     def brg(b):
-        if b is None:  # a pair geometry the spec does not give
-            return None
+        # no pair given, or the crank support rows' geometry alone (their stiffness is crank_support's, scaled)
+        if b is None or isinstance(b, TaperedRollerPair):
+            return b
         if isinstance(b, AngularContactPair):  # its stiffness is its balls' Hertz contacts: their modulus
             return dc.replace(b, material=dc.replace(b.material, youngs_modulus_Pa=b.material.youngs_modulus_Pa * s))
         return dc.replace(b, radial_stiffness_N_m=b.radial_stiffness_N_m * s, axial_stiffness_N_m=b.axial_stiffness_N_m * s,
