@@ -212,6 +212,14 @@ def _cmd_te(args: argparse.Namespace) -> int:
             f"disc {d + 1} {lo:.1f} / {hi:.1f}" for d, (lo, hi) in enumerate(ends))
               + f" (mean over the face width at most {loads['mid_line_load_N_m'].max() / 1e3:.1f}; "
                 f"{options.face_slices} slices)")
+    cranks = getattr(result.raw, "crank_tilt_rad", None)
+    if cranks is not None:  # the spatial model: each crank's tilt in its support pair, largest over the run
+        from rvflex.geometry.formulas import ARCSEC_PER_RAD
+
+        most = np.nanmax(cranks, axis=0) * ARCSEC_PER_RAD
+        doc["crank_tilt_max_arcsec"] = most.tolist()
+        print("largest crank tilt in its support pair over the run: "
+              + ", ".join(f"crank {k + 1} {t:.1f}″" for k, t in enumerate(most)))
     return emit(args, doc, result.write)
 
 

@@ -215,6 +215,12 @@ def test_te_of_the_spatial_model_under_a_moment_from_the_command_line(tmp_path, 
         assert ds["carrier_tilt"].dims == ("position", "tilt_axis") and ds["carrier_tilt"].attrs["units"] == "rad"
         assert ds["carrier_shift"].dims == ("position", "axis")
         assert ds["disc_tilt"].dims == ("position", "disc", "tilt_axis")
+        assert ds["crank_tilt"].dims == ("position", "crank")
+        # the cranks tilt tens of arcseconds in their support rows under rated torque (tests/test_spatial_model.py)
+        most = doc["crank_tilt_max_arcsec"]
+        assert float(ds["crank_tilt"].max()) * ARCSEC_PER_RAD == pytest.approx(max(most), rel=1e-9)
+        assert len(most) == 2 and all(10.0 < t < 100.0 for t in most)
+        assert f"crank 1 {most[0]:.1f}″" in text
         assert ds["pin_slice_force"].dims == ("position", "disc", "slice", "pin")
         assert float(ds["carrier_tilt"].sel(tilt_axis="x").mean()) * ARCMIN_PER_RAD == pytest.approx(
             ld["carrier_tilt_arcmin"], rel=1e-3)
