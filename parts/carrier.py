@@ -200,7 +200,7 @@ def build_spatial(mbs, spec: ReducerSpec, errors: ErrorSpec, ground_coordinate: 
         raise SpecError("errors.main_bearing_clearance_m", errors.main_bearing_clearance_m,
                         "must be 0 in the spatial model: its main bearing is the preloaded ball pair, without clearance")
     ca, half = spec.carrier, 0.5 * spec.cranks.support_span_m
-    rows = support_rows(spec).half_span_m  # the crank bores' bearings at their pressure centres
+    h = support_rows(spec).half_span_m  # where the crank bores' bearings carry (the rows' pressure centres)
     rho = spec.materials.carriers.density_kg_m3
     plate = rho * math.pi * ca.outer_radius_m**2 * ca.plate_thickness_m
     mass = 2 * plate
@@ -212,8 +212,8 @@ def build_spatial(mbs, spec: ReducerSpec, errors: ErrorSpec, ground_coordinate: 
                                                math.sin(errors.carrier_runout_phase_rad)])
     pair = add_pair_element(mbs, node, pair_model(spec.bearings.main_pair), seat_offset_m=(seat[0], seat[1]))
     axes = crank_axis_positions(spec, errors)
-    bores = tuple(int(mbs.AddMarker(MarkerBodyRigid(bodyNumber=body, localPosition=[p[0], p[1], rows]))) for p in axes)
-    inputs = tuple(int(mbs.AddMarker(MarkerBodyRigid(bodyNumber=body, localPosition=[p[0], p[1], -rows])))
+    bores = tuple(int(mbs.AddMarker(MarkerBodyRigid(bodyNumber=body, localPosition=[p[0], p[1], h]))) for p in axes)
+    inputs = tuple(int(mbs.AddMarker(MarkerBodyRigid(bodyNumber=body, localPosition=[p[0], p[1], -h])))
                    for p in axes)
     theta = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=node, coordinate=5))
     load = mbs.AddLoad(LoadCoordinate(markerNumber=theta, load=0.0))
