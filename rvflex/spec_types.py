@@ -109,6 +109,11 @@ def _int_range(name: str, value: int, lo: int, hi: int) -> None:
         raise SpecError(name, value, f"must be an integer from {lo} to {hi}")
 
 
+def _one_of(name: str, value: str, options: tuple[str, ...]) -> None:
+    if value not in options:
+        raise SpecError(name, value, f"must be one of {', '.join(options)}")
+
+
 # --------------------------------------------------------------------------- materials
 
 
@@ -384,8 +389,7 @@ class Bearing:
     reference_load_N: float | None = None
 
     def __post_init__(self) -> None:
-        if self.kind not in BEARING_KINDS:
-            raise SpecError("kind", self.kind, f"must be one of {', '.join(BEARING_KINDS)}")
+        _one_of("kind", self.kind, BEARING_KINDS)
         _range("radial_stiffness_N_m", self.radial_stiffness_N_m, 1e5, 1e12, "expected N/m, 1e5 to 1e12")
         _range("axial_stiffness_N_m", self.axial_stiffness_N_m, 1e5, 1e12, "expected N/m, 1e5 to 1e12")
         _range("tilt_stiffness_Nm_rad", self.tilt_stiffness_Nm_rad, 1e2, 1e10, "expected N·m/rad, 1e2 to 1e10")
@@ -456,8 +460,7 @@ class AngularContactPair:
     def __post_init__(self) -> None:
         if self.kind != "angular_contact_ball":
             raise SpecError("kind", self.kind, "must be 'angular_contact_ball' (the only pair kind modelled)")
-        if self.arrangement not in PAIR_ARRANGEMENTS:
-            raise SpecError("arrangement", self.arrangement, f"must be one of {', '.join(PAIR_ARRANGEMENTS)}")
+        _one_of("arrangement", self.arrangement, PAIR_ARRANGEMENTS)
         _range("pitch_diameter_m", self.pitch_diameter_m, 10 * MM, 2.0, "expected metres, 10 mm to 2 m")
         _range("ball_diameter_m", self.ball_diameter_m, 0.5 * MM, 0.1, "expected metres, 0.5 mm to 100 mm")
         if not self.ball_diameter_m < 0.25 * self.pitch_diameter_m:
@@ -520,8 +523,7 @@ class TaperedRollerPair:
     def __post_init__(self) -> None:
         if self.kind != "tapered_roller":
             raise SpecError("kind", self.kind, "must be 'tapered_roller' (the only crank support pair kind modelled)")
-        if self.arrangement not in PAIR_ARRANGEMENTS:
-            raise SpecError("arrangement", self.arrangement, f"must be one of {', '.join(PAIR_ARRANGEMENTS)}")
+        _one_of("arrangement", self.arrangement, PAIR_ARRANGEMENTS)
         _range("bore_diameter_m", self.bore_diameter_m, 2 * MM, 0.5, "expected metres, 2 mm to 500 mm")
         _range("outer_diameter_m", self.outer_diameter_m, self.bore_diameter_m, 1.0,
                "expected metres, above the bore, up to 1 m")
@@ -530,23 +532,27 @@ class TaperedRollerPair:
                f"expected metres, 0.2 mm up to the rings' radial section {ring * 1e3:g} mm")
         _range("roller_length_m", self.roller_length_m, 0.5 * MM, 0.2, "expected metres, 0.5 mm to 200 mm")
         _int_range("rollers", self.rollers, 3, 200)
-        pitch = 0.5 * math.pi * (self.bore_diameter_m + self.outer_diameter_m) / self.rollers
+        pitch = math.pi * self.pitch_diameter_m / self.rollers
         if not pitch > self.roller_diameter_m:
             raise SpecError("rollers", self.rollers,
                             f"{self.rollers} rollers of {self.roller_diameter_m * 1e3:g} mm do not fit on the "
-                            f"{0.5 * (self.bore_diameter_m + self.outer_diameter_m) * 1e3:g} mm pitch circle "
-                            f"(roller pitch {pitch * 1e3:.3f} mm)")
+                            f"{self.pitch_diameter_m * 1e3:g} mm pitch circle (roller pitch {pitch * 1e3:.3f} mm)")
         if not (isinstance(self.cup_angle_rad, (int, float)) and 0.0 < self.cup_angle_rad <= math.pi / 4):
             raise SpecError("cup_angle_rad", self.cup_angle_rad,
                             "must lie in (0, π/4] rad (tapered roller bearings: 10° to 30°, 15° is 0.2618)")
 
     @property
+    def pitch_diameter_m(self) -> float:
+        """Diameter of the circle of roller centres, d_m = (d + D)/2 of bore d and outside diameter D, m."""
+        return 0.5 * (self.bore_diameter_m + self.outer_diameter_m)
+
+    @property
     def pressure_centre_offset_m(self) -> float:
         """Axial distance of a row's pressure centre from its roller mid-plane, m: r_c·tan α, r_c the cup
-        raceway's radius at mid-roller, (d_m + D_w·cos α)/2 with the pitch diameter d_m = (d + D)/2; positive
-        outboard (back to back), negative inboard (face to face)."""
+        raceway's radius at mid-roller, (d_m + D_w·cos α)/2 with the pitch diameter d_m; positive outboard
+        (back to back), negative inboard (face to face)."""
         alpha = self.cup_angle_rad
-        r_cup = 0.25 * (self.bore_diameter_m + self.outer_diameter_m) + 0.5 * self.roller_diameter_m * math.cos(alpha)
+        r_cup = 0.5 * (self.pitch_diameter_m + self.roller_diameter_m * math.cos(alpha))
         a = r_cup * math.tan(alpha)
         return a if self.arrangement == "back_to_back" else -a
 
